@@ -1,0 +1,191 @@
+/* bbc-render: renders a glTF scene to OpenEXR. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bbc/bbc.h"
+#include "cli.h"
+
+static const char usage[] =
+    "usage: bbc-render SCENE.gltf -o OUT.exr [options]   (bbc-render --help for all)\n";
+
+static const char help[] =
+    "bbc-render: render a glTF scene to a linear RGB OpenEXR image.\n"
+    "\n"
+    "usage: bbc-render SCENE.gltf -o OUT.exr [options]\n"
+    "\n"
+    "Output:\n"
+    "  -o, --output FILE     the EXR image to write (required)\n"
+    "  --png FILE            also write an 8-bit sRGB PNG preview (tone mapped)\n"
+    "  --exposure EV         scale the PNG preview by 2^EV before tone mapping (default 0)\n"
+    "  --width N             image width in pixels (default: the camera's\n"
+    "                        extras.bbc.width; with only one of width/height given,\n"
+    "                        the other follows the camera's aspect ratio)\n"
+    "  --height N            image height in pixels (default: extras.bbc.height)\n"
+    "\n"
+    "Method:\n"
+    "  --method NAME         pt: path tracing with next-event estimation (default, and\n"
+    "                        for now the only method)\n"
+    "  --max-depth N         maximum number of path segments (default 16)\n"
+    "  --no-fresnel          glass always transmits (reflects only under total internal\n"
+    "                        reflection), as the paper assumes\n"
+    "\n"
+    "Budget (whichever is reached first; default 16 spp):\n"
+    "  --spp N               samples per pixel\n"
+    "  --time SECONDS        render for this long\n"
+    "\n"
+    "Execution:\n"
+    "  --threads N           worker threads (default: every core); the image does not\n"
+    "                        depend on it\n"
+    "  --seed K              random seed (default 0)\n"
+    "  --progress            show a progress bar (default: when stderr is a terminal)\n"
+    "  --no-progress         never show one\n"
+    "  --stats               print time, samples and rays per second to stderr\n"
+    "  --version             print versions and exit\n"
+    "  -h, --help            print this help and exit\n"
+    "\n"
+    "Units: point lights give KHR_lights_punctual intensity x color as radiant intensity\n"
+    "(W/sr); emissive triangles give emissiveFactor x emissive_strength as radiance. The\n"
+    "EXR holds the mean radiance per pixel (box filter).\n"
+    "Exit status: 0 on success, 1 on a runtime failure (bad file, I/O), 2 on bad usage.\n";
+
+typedef struct progress_state {
+  cli_progress bar;
+  double time_limit;
+} progress_state;
+
+static int on_progress(void *user, uint64_t done, uint64_t total) {
+  progress_state *state = user;
+  char detail[64];
+  double fraction;
+  if (total) {
+    fraction = (double)done / (double)total;
+    snprintf(detail, sizeof detail, "%llu/%llu spp", (unsigned long long)done,
+             (unsigned long long)total);
+  } else {
+    fraction = (cli_now() - state->bar.start) / state->time_limit;
+    snprintf(detail, sizeof detail, "%llu spp", (unsigned long long)done);
+  }
+  cli_progress_update(&state->bar, fraction, detail);
+  return 0;
+}
+
+int main(int argc, char **argv) {
+  cli_tool = "bbc-render";
+  cli_args a = {argc, argv, 1, usage};
+  const char *scene_path = NULL, *output = NULL, *png = NULL, *value = NULL;
+  bbc_render_options options;
+  memset(&options, 0, sizeof options);
+  double exposure = 0;
+  long long width = 0, height = 0;
+  int progress = -1, stats = 0;
+
+  while (a.i < argc) {
+    const char *arg = argv[a.i];
+    if (cli_flag(&a, "-h") || cli_flag(&a, "--help")) {
+      fputs(help, stdout);
+      return 0;
+    } else if (cli_flag(&a, "--version")) {
+      printf("bbc-render %s (libbbc %s, .bbc format %d.%d)\n", bbc_version_string(),
+             bbc_version_string(), BBC_FORMAT_VERSION_MAJOR, BBC_FORMAT_VERSION_MINOR);
+      return 0;
+    } else if (cli_option(&a, "-o", &value) || cli_option(&a, "--output", &value)) {
+      output = value;
+    } else if (cli_option(&a, "--png", &value)) {
+      png = value;
+    } else if (cli_option(&a, "--exposure", &value)) {
+      exposure = cli_parse_double(&a, "--exposure", value, -64, 64);
+    } else if (cli_option(&a, "--width", &value)) {
+      width = cli_parse_int(&a, "--width", value, 1, 16384);
+    } else if (cli_option(&a, "--height", &value)) {
+      height = cli_parse_int(&a, "--height", value, 1, 16384);
+    } else if (cli_option(&a, "--method", &value)) {
+      if (strcmp(value, "pt") != 0)
+        cli_usage_error(usage, "--method: unknown method '%s' (available: pt)", value);
+    } else if (cli_option(&a, "--max-depth", &value)) {
+      options.max_depth = (uint32_t)cli_parse_int(&a, "--max-depth", value, 1, 1024);
+    } else if (cli_flag(&a, "--no-fresnel")) {
+      options.no_fresnel = 1;
+    } else if (cli_option(&a, "--spp", &value)) {
+      options.spp = (uint32_t)cli_parse_int(&a, "--spp", value, 1, 1 << 24);
+    } else if (cli_option(&a, "--time", &value)) {
+      options.time_limit = cli_parse_double(&a, "--time", value, 1e-3, 1e7);
+    } else if (cli_option(&a, "--threads", &value)) {
+      options.threads = (int)cli_parse_int(&a, "--threads", value, 1, 1024);
+    } else if (cli_option(&a, "--seed", &value)) {
+      options.seed = (uint64_t)cli_parse_int(&a, "--seed", value, 0, INT64_MAX);
+    } else if (cli_flag(&a, "--progress")) {
+      progress = 1;
+    } else if (cli_flag(&a, "--no-progress")) {
+      progress = 0;
+    } else if (cli_flag(&a, "--stats")) {
+      stats = 1;
+    } else if (arg[0] == '-' && arg[1] != '\0') {
+      cli_usage_error(usage, "unknown option '%s'", arg);
+    } else if (!scene_path) {
+      scene_path = arg;
+      a.i++;
+    } else {
+      cli_usage_error(usage, "unexpected argument '%s'", arg);
+    }
+  }
+  if (!scene_path) cli_usage_error(usage, "no scene given");
+  if (!output) cli_usage_error(usage, "no output given (-o OUT.exr)");
+
+  bbc_scene_options scene_options = {cli_print_message, cli_print_warning, NULL};
+  bbc_scene *scene = NULL;
+  if (bbc_scene_load(&scene, scene_path, &scene_options) != BBC_OK) return 1;
+
+  const bbc_camera *camera = &scene->camera;
+  if (width && !height) height = (long long)(width / camera->aspect + 0.5);
+  if (height && !width) width = (long long)(height * camera->aspect + 0.5);
+  if (!width) width = camera->width;
+  if (!height) height = camera->height;
+  if (width < 1) width = 1;
+  if (height < 1) height = 1;
+
+  bbc_accel *accel = NULL;
+  bbc_image *image = NULL;
+  int status = 1;
+  if (bbc_accel_create(&accel, scene, cli_print_message, NULL) != BBC_OK) {
+    fprintf(stderr, "bbc-render: %s: cannot build the ray-tracing structure\n", scene_path);
+    goto done;
+  }
+  if (bbc_image_create(&image, (uint32_t)width, (uint32_t)height) != BBC_OK) {
+    fprintf(stderr, "bbc-render: cannot allocate a %lldx%lld image\n", width, height);
+    goto done;
+  }
+
+  progress_state state;
+  state.time_limit = options.time_limit;
+  cli_progress_begin(&state.bar, "rendering", progress);
+  options.progress = on_progress;
+  options.progress_user = &state;
+  bbc_render_stats render_stats;
+  bbc_result r = bbc_render(scene, accel, &options, image, &render_stats);
+  cli_progress_end(&state.bar);
+  if (r != BBC_OK) {
+    fprintf(stderr, "bbc-render: rendering failed: %s\n", bbc_result_string(r));
+    goto done;
+  }
+  if (bbc_image_write_exr(image, output, cli_print_message, NULL) != BBC_OK) goto done;
+  if (png && bbc_image_write_png(image, png, exposure, 1, cli_print_message, NULL) != BBC_OK)
+    goto done;
+  if (stats) {
+    double rays_per_s = render_stats.seconds > 0 ? render_stats.rays / render_stats.seconds : 0;
+    fprintf(stderr,
+            "time         %.3f s\n"
+            "image        %lldx%lld, %u spp, %llu samples\n"
+            "rays         %llu (%.3g Mrays/s, %.3g Mrays/s per thread, %d threads)\n",
+            render_stats.seconds, width, height, render_stats.spp,
+            (unsigned long long)render_stats.samples, (unsigned long long)render_stats.rays,
+            rays_per_s * 1e-6, rays_per_s * 1e-6 / render_stats.threads,
+            render_stats.threads);
+  }
+  status = 0;
+done:
+  bbc_image_free(image);
+  bbc_accel_free(accel);
+  bbc_scene_free(scene);
+  return status;
+}

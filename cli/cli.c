@@ -1,0 +1,142 @@
+#define _POSIX_C_SOURCE 200809L
+#include "cli.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+const char *cli_tool = "bbc";
+
+void cli_usage_error(const char *usage, const char *fmt, ...) {
+  va_list ap;
+  fprintf(stderr, "%s: ", cli_tool);
+  va_start(ap, fmt);
+  vfprintf(stderr, fmt, ap);
+  va_end(ap);
+  fprintf(stderr, "\n%s", usage);
+  exit(2);
+}
+
+void cli_fail(const char *fmt, ...) {
+  va_list ap;
+  fprintf(stderr, "%s: ", cli_tool);
+  va_start(ap, fmt);
+  vfprintf(stderr, fmt, ap);
+  va_end(ap);
+  fputc('\n', stderr);
+  exit(1);
+}
+
+void cli_print_message(void *user, bbc_result code, const char *message) {
+  (void)user;
+  (void)code;
+  fprintf(stderr, "%s: %s\n", cli_tool, message);
+}
+
+void cli_print_warning(void *user, bbc_result code, const char *message) {
+  (void)user;
+  (void)code;
+  fprintf(stderr, "%s: warning: %s\n", cli_tool, message);
+}
+
+int cli_flag(cli_args *a, const char *name) {
+  if (strcmp(a->argv[a->i], name) != 0) return 0;
+  a->i++;
+  return 1;
+}
+
+int cli_option(cli_args *a, const char *name, const char **value) {
+  const char *arg = a->argv[a->i];
+  size_t n = strlen(name);
+  if (strncmp(arg, name, n) != 0) return 0;
+  if (arg[n] == '=') {
+    *value = arg + n + 1;
+    a->i++;
+    return 1;
+  }
+  if (arg[n] != '\0') return 0;
+  if (a->i + 1 >= a->argc) cli_usage_error(a->usage, "%s needs a value", name);
+  *value = a->argv[a->i + 1];
+  a->i += 2;
+  return 1;
+}
+
+double cli_parse_double(const cli_args *a, const char *name, const char *text, double lo,
+                        double hi) {
+  char *end = NULL;
+  errno = 0;
+  double v = strtod(text, &end);
+  if (end == text || *end != '\0' || errno == ERANGE || !isfinite(v))
+    cli_usage_error(a->usage, "%s: '%s' is not a number", name, text);
+  if (v < lo || v > hi)
+    cli_usage_error(a->usage, "%s: %s is out of range [%g, %g]", name, text, lo, hi);
+  return v;
+}
+
+long long cli_parse_int(const cli_args *a, const char *name, const char *text, long long lo,
+                        long long hi) {
+  char *end = NULL;
+  errno = 0;
+  long long v = strtoll(text, &end, 10);
+  if (end == text || *end != '\0' || errno == ERANGE)
+    cli_usage_error(a->usage, "%s: '%s' is not an integer", name, text);
+  if (v < lo || v > hi)
+    cli_usage_error(a->usage, "%s: %s is out of range [%lld, %lld]", name, text, lo, hi);
+  return v;
+}
+
+double cli_now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void format_duration(char *out, size_t size, double seconds) {
+  if (!(seconds >= 0) || seconds > 1e7) {
+    snprintf(out, size, "--:--");
+    return;
+  }
+  long s = (long)(seconds + 0.5);
+  if (s >= 3600) snprintf(out, size, "%ld:%02ld:%02ld", s / 3600, (s / 60) % 60, s % 60);
+  else snprintf(out, size, "%02ld:%02ld", s / 60, s % 60);
+}
+
+void cli_progress_begin(cli_progress *p, const char *label, int enabled) {
+  p->enabled = enabled < 0 ? isatty(STDERR_FILENO) : enabled;
+  p->label = label;
+  p->start = cli_now();
+  p->last_draw = -1.0;
+  p->drawn = 0;
+}
+
+void cli_progress_update(cli_progress *p, double fraction, const char *detail) {
+  if (!p->enabled) return;
+  double now = cli_now();
+  if (fraction < 1.0 && p->last_draw >= 0 && now - p->last_draw < 0.2) return;
+  p->last_draw = now;
+  if (fraction < 0) fraction = 0;
+  if (fraction > 1) fraction = 1;
+  double elapsed = now - p->start;
+  char el[32], eta[32];
+  format_duration(el, sizeof el, elapsed);
+  format_duration(eta, sizeof eta, fraction > 0 ? elapsed * (1.0 - fraction) / fraction : -1);
+  enum { WIDTH = 30 };
+  char bar[WIDTH + 1];
+  int filled = (int)(fraction * WIDTH);
+  for (int i = 0; i < WIDTH; i++) bar[i] = i < filled ? '#' : '.';
+  bar[WIDTH] = '\0';
+  fprintf(stderr, "\r%s [%s] %3d%%  %s elapsed, ETA %s  %s\033[K", p->label, bar,
+          (int)(fraction * 100.0), el, eta, detail ? detail : "");
+  fflush(stderr);
+  p->drawn = 1;
+}
+
+void cli_progress_end(cli_progress *p) {
+  if (p->enabled && p->drawn) fputc('\n', stderr);
+  p->drawn = 0;
+}

@@ -1,0 +1,62 @@
+/* Helpers shared by the command-line tools (not part of libbbc): strict argument
+ * parsing in the STYLE.md conventions, error reporting and a progress bar. */
+#ifndef BBC_CLI_H
+#define BBC_CLI_H
+
+#include <stdint.h>
+
+#include "bbc/common.h"
+
+/* The tool's name, used as the prefix of every message. */
+extern const char *cli_tool;
+
+/* Prints "tool: <message>" and the short usage to stderr, then exits with status 2. */
+_Noreturn void cli_usage_error(const char *usage, const char *fmt, ...)
+    __attribute__((format(printf, 2, 3)));
+/* Prints "tool: <message>" to stderr and exits with status 1. */
+_Noreturn void cli_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+
+/* A message callback for libbbc that prints "tool: <message>" to stderr. */
+void cli_print_message(void *user, bbc_result code, const char *message);
+/* The same for warnings: "tool: warning: <message>". */
+void cli_print_warning(void *user, bbc_result code, const char *message);
+
+/* Argument cursor: matches "--name value" and "--name=value". */
+typedef struct cli_args {
+  int argc;
+  char **argv;
+  int i;
+  const char *usage;
+} cli_args;
+
+/* 1 if argv[i] is the flag (no value), advancing past it. */
+int cli_flag(cli_args *a, const char *name);
+/* 1 if argv[i] is the option; *value receives its value (a missing value is a usage
+ * error). */
+int cli_option(cli_args *a, const char *name, const char **value);
+
+/* Strict number parsing: the whole string must be a number in [lo, hi]; otherwise a
+ * usage error naming the option. */
+double cli_parse_double(const cli_args *a, const char *name, const char *text, double lo,
+                        double hi);
+long long cli_parse_int(const cli_args *a, const char *name, const char *text, long long lo,
+                        long long hi);
+
+/* A progress bar on stderr: shown only when enabled, redrawn at most five times a
+ * second, with percent, elapsed time and ETA. */
+typedef struct cli_progress {
+  int enabled;
+  const char *label;
+  double start, last_draw;
+  int drawn;
+} cli_progress;
+
+/* enabled: 1 on, 0 off, -1 when stderr is a terminal. */
+void cli_progress_begin(cli_progress *p, const char *label, int enabled);
+/* fraction in [0, 1]; detail is an optional short text such as "12/64 spp". */
+void cli_progress_update(cli_progress *p, double fraction, const char *detail);
+void cli_progress_end(cli_progress *p);
+
+double cli_now(void);
+
+#endif

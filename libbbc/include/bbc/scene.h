@@ -1,0 +1,128 @@
+/* Scenes: triangles in world space with materials, roles, lights and a camera, loaded
+ * from glTF 2.0 (.gltf or .glb).
+ *
+ * A bbc_scene is a plain struct (in the manner of cgltf): every field is read-only to
+ * the caller, the whole object is owned by whoever loaded it and released with
+ * bbc_scene_free. It is immutable after loading, so any number of threads may read it
+ * at once. */
+#ifndef BBC_SCENE_H
+#define BBC_SCENE_H
+
+#include "bbc/common.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum bbc_material_type {
+  BBC_MATERIAL_DIFFUSE = 0,    /* Lambertian, albedo = base_color */
+  BBC_MATERIAL_MIRROR = 1,     /* perfect conductor, reflectance = base_color */
+  BBC_MATERIAL_DIELECTRIC = 2  /* perfectly smooth glass/water with index ior */
+} bbc_material_type;
+
+typedef struct bbc_material {
+  char name[64];
+  bbc_material_type type;
+  float base_color[3]; /* linear RGB */
+  float ior;           /* dielectrics only; 1.5 when absent */
+  float emission[3];   /* emitted radiance (W/sr/m^2); zero for non-emitters */
+} bbc_material;
+
+/* What a mesh does for caustics: casters are the specular surfaces light is bounced
+ * through, receivers carry the caustic (and its cache grid), "none" is only traced. */
+typedef enum bbc_role {
+  BBC_ROLE_CASTER = 0,
+  BBC_ROLE_RECEIVER = 1,
+  BBC_ROLE_NONE = 2
+} bbc_role;
+
+/* One glTF primitive, flattened to world space. Its vertices are
+ * [first_vertex, first_vertex + vertex_count) and its triangles
+ * [first_triangle, first_triangle + triangle_count) of the scene arrays. */
+typedef struct bbc_mesh {
+  char name[64];
+  uint32_t first_vertex, vertex_count;
+  uint32_t first_triangle, triangle_count;
+  uint32_t material;
+  bbc_role role;
+  int has_normals; /* vertex normals from the file; otherwise the flat normal is stored */
+  int has_uvs;     /* TEXCOORD_0 from the file; otherwise uvs are zero */
+} bbc_mesh;
+
+/* A point light: radiant intensity (W/sr) per RGB channel, glTF intensity x color. */
+typedef struct bbc_point_light {
+  bbc_vec3 position;
+  float intensity[3];
+} bbc_point_light;
+
+/* A pinhole camera looking along -w with up v and right u (orthonormal, world space). */
+typedef struct bbc_camera {
+  bbc_vec3 position;
+  bbc_vec3 u, v, w;
+  double yfov;   /* vertical field of view, radians */
+  double aspect; /* width / height of the film */
+  uint32_t width, height;
+} bbc_camera;
+
+typedef struct bbc_scene {
+  char path[1024]; /* the file it was loaded from */
+
+  /* Vertices in world space. positions/normals: 3 floats each; uvs: 2 floats each.
+   * Normals are unit length (vertex normals, or the triangle's flat normal when the
+   * mesh has none; vertices of flat meshes are not shared between triangles). */
+  uint32_t vertex_count;
+  float *positions;
+  float *normals;
+  float *uvs;
+
+  /* Triangles: 3 vertex indices each (into the scene arrays), and the mesh each one
+   * belongs to. The order is that of the file (meshes in node order). */
+  uint32_t triangle_count;
+  uint32_t *indices;
+  uint32_t *triangle_mesh;
+
+  uint32_t mesh_count;
+  bbc_mesh *meshes;
+  uint32_t material_count;
+  bbc_material *materials;
+
+  uint32_t point_light_count;
+  bbc_point_light *point_lights;
+
+  /* Emissive triangles (area lights), with the cumulative area-times-power
+   * distribution used to sample them. */
+  uint32_t emitter_count;
+  uint32_t *emitters;       /* triangle indices */
+  double *emitter_cdf;      /* emitter_count entries, last one 1 */
+  double emitter_power;     /* sum of area x mean radiance x pi */
+
+  bbc_camera camera;
+} bbc_scene;
+
+typedef struct bbc_scene_options {
+  bbc_message_fn error_fn;   /* optional: details of a failure */
+  bbc_message_fn warning_fn; /* optional: e.g. "material X treated as diffuse" */
+  void *user;                /* passed to both callbacks */
+} bbc_scene_options;
+
+/* Loads a .gltf or .glb file. On success *out owns the scene; on failure *out is NULL,
+ * the result says what went wrong (BBC_ERR_IO, BBC_ERR_GLTF, BBC_ERR_SCENE,
+ * BBC_ERR_OUT_OF_MEMORY) and error_fn gets one line naming the file and the problem.
+ * options may be NULL. */
+BBC_API bbc_result bbc_scene_load(bbc_scene **out, const char *path,
+                                  const bbc_scene_options *options);
+
+/* Releases a scene; NULL is allowed. */
+BBC_API void bbc_scene_free(bbc_scene *scene);
+
+/* The material of a triangle. */
+static inline const bbc_material *bbc_scene_triangle_material(const bbc_scene *scene,
+                                                               uint32_t triangle) {
+  return &scene->materials[scene->meshes[scene->triangle_mesh[triangle]].material];
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,319 @@
+/* The path tracer (Kajiya-style, unidirectional) with next-event estimation.
+ *
+ * Light reaches the camera along three kinds of paths, each counted exactly once:
+ * - emitters seen directly or through specular bounces (an emitter hit right after a
+ *   camera or specular vertex);
+ * - light arriving at a diffuse vertex straight from a light (next-event estimation in
+ *   shade_diffuse_vertex; an emitter hit after a diffuse bounce is therefore ignored);
+ * - light arriving at a diffuse vertex through specular vertices from an area light
+ *   (found by the specular bounces that follow). From point lights such caustic paths
+ *   cannot be found by path tracing at all: that is the caustic estimator's job, and
+ *   shade_diffuse_vertex is where it plugs in. */
+#include "bbc/render.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <omp.h>
+
+#include "rng_internal.h"
+#include "vec_internal.h"
+
+#define BBC_PI 3.14159265358979323846
+
+typedef struct render_ctx {
+  const bbc_scene *scene;
+  const bbc_accel *accel;
+  uint32_t max_depth;
+  int no_fresnel;
+} render_ctx;
+
+/* A surface point where a ray hit: normals oriented so that ns and ng agree. */
+typedef struct surface {
+  bbc_vec3 p;
+  bbc_vec3 ng; /* unit geometric normal */
+  bbc_vec3 ns; /* unit shading normal (interpolated vertex normal) */
+  uint32_t triangle;
+  const bbc_material *material;
+} surface;
+
+static surface surface_at(const bbc_scene *scene, const bbc_hit *hit) {
+  const uint32_t *idx = scene->indices + 3 * (size_t)hit->triangle;
+  bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)idx[0]);
+  bbc_vec3 p1 = v3_load(scene->positions + 3 * (size_t)idx[1]);
+  bbc_vec3 p2 = v3_load(scene->positions + 3 * (size_t)idx[2]);
+  bbc_vec3 n0 = v3_load(scene->normals + 3 * (size_t)idx[0]);
+  bbc_vec3 n1 = v3_load(scene->normals + 3 * (size_t)idx[1]);
+  bbc_vec3 n2 = v3_load(scene->normals + 3 * (size_t)idx[2]);
+  double w = 1.0 - hit->u - hit->v;
+  surface s;
+  s.p = v3_add(v3_add(v3_scale(p0, w), v3_scale(p1, hit->u)), v3_scale(p2, hit->v));
+  s.ng = v3_normalize(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
+  s.ns = v3_normalize(v3_add(v3_add(v3_scale(n0, w), v3_scale(n1, hit->u)),
+                             v3_scale(n2, hit->v)));
+  /* The vertex normals say which side is the front; the winding may disagree. */
+  if (v3_dot(s.ng, s.ns) < 0) s.ng = v3_neg(s.ng);
+  s.triangle = hit->triangle;
+  s.material = bbc_scene_triangle_material(scene, hit->triangle);
+  return s;
+}
+
+/* The origin of a ray leaving p in direction dir, pushed off the surface along the
+ * geometric normal to the side dir goes to, so it does not hit its own triangle. */
+static bbc_vec3 offset_origin(bbc_vec3 p, bbc_vec3 ng, bbc_vec3 dir) {
+  double eps = 2e-5 * (1.0 + v3_max_abs(p));
+  return v3_madd(p, ng, v3_dot(dir, ng) > 0 ? eps : -eps);
+}
+
+static bbc_vec3 reflect(bbc_vec3 d, bbc_vec3 n) { return v3_madd(d, n, -2.0 * v3_dot(d, n)); }
+
+/* Fresnel reflectance of a smooth dielectric boundary for unpolarised light, given the
+ * cosines on both sides and eta = n_incident / n_transmitted. */
+static double fresnel_dielectric(double cos_i, double cos_t, double eta) {
+  double rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+  double rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+  return 0.5 * (rs * rs + rp * rp);
+}
+
+/* Picks an emissive triangle by its share of power (bisection on the CDF). */
+static uint32_t pick_emitter(const bbc_scene *scene, double u, double *probability) {
+  uint32_t lo = 0, hi = scene->emitter_count - 1;
+  while (lo < hi) {
+    uint32_t mid = (lo + hi) / 2;
+    if (scene->emitter_cdf[mid] > u) hi = mid;
+    else lo = mid + 1;
+  }
+  *probability = scene->emitter_cdf[lo] - (lo ? scene->emitter_cdf[lo - 1] : 0.0);
+  return lo;
+}
+
+/* Light arriving at the diffuse point s straight from the lights, reflected toward the
+ * previous vertex: next-event estimation for every point light and one sampled point on
+ * an area light. The returned radiance still has to be multiplied by the path's
+ * throughput. */
+static bbc_vec3 shade_diffuse_vertex(const render_ctx *ctx, const surface *s, bbc_rng *rng,
+                                     uint64_t *rays) {
+  const bbc_scene *scene = ctx->scene;
+  const float *albedo = s->material->base_color;
+  bbc_vec3 sum = v3(0, 0, 0);
+
+  for (uint32_t i = 0; i < scene->point_light_count; i++) {
+    const bbc_point_light *light = &scene->point_lights[i];
+    bbc_vec3 to_light = v3_sub(light->position, s->p);
+    double dist2 = v3_dot(to_light, to_light);
+    double cos_s = v3_dot(s->ns, to_light);
+    if (!(cos_s > 0) || v3_dot(s->ng, to_light) <= 0) continue;
+    cos_s /= sqrt(dist2);
+    bbc_vec3 origin = offset_origin(s->p, s->ng, to_light);
+    (*rays)++;
+    if (bbc_accel_occluded(ctx->accel, origin, v3_sub(light->position, origin), 0.0, 1.0 - 1e-6))
+      continue;
+    double g = cos_s / dist2;
+    sum = v3_add(sum, v3(light->intensity[0] * g, light->intensity[1] * g,
+                         light->intensity[2] * g));
+  }
+
+  if (scene->emitter_count > 0) {
+    double probability;
+    uint32_t e = scene->emitters[pick_emitter(scene, bbc_rng_next(rng), &probability)];
+    double r1 = sqrt(bbc_rng_next(rng)), r2 = bbc_rng_next(rng);
+    const uint32_t *idx = scene->indices + 3 * (size_t)e;
+    bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)idx[0]);
+    bbc_vec3 p1 = v3_load(scene->positions + 3 * (size_t)idx[1]);
+    bbc_vec3 p2 = v3_load(scene->positions + 3 * (size_t)idx[2]);
+    bbc_vec3 q = v3_add(v3_add(v3_scale(p0, 1.0 - r1), v3_scale(p1, r1 * (1.0 - r2))),
+                        v3_scale(p2, r1 * r2));
+    bbc_vec3 cross = v3_cross(v3_sub(p1, p0), v3_sub(p2, p0));
+    double area = 0.5 * v3_length(cross);
+    bbc_hit at = {0, e, r1 * (1.0 - r2), r1 * r2};
+    surface light = surface_at(scene, &at);
+    bbc_vec3 to_light = v3_sub(q, s->p);
+    double dist2 = v3_dot(to_light, to_light);
+    double dist = sqrt(dist2);
+    double cos_s = v3_dot(s->ns, to_light) / dist;
+    double cos_l = -v3_dot(light.ns, to_light) / dist;
+    if (cos_s > 0 && cos_l > 0 && v3_dot(s->ng, to_light) > 0 && probability > 0) {
+      bbc_vec3 origin = offset_origin(s->p, s->ng, to_light);
+      bbc_vec3 target = offset_origin(q, light.ng, v3_neg(to_light));
+      (*rays)++;
+      if (!bbc_accel_occluded(ctx->accel, origin, v3_sub(target, origin), 0.0, 1.0 - 1e-6)) {
+        const float *le = light.material->emission;
+        double g = cos_s * cos_l / dist2 * area / probability;
+        sum = v3_add(sum, v3(le[0] * g, le[1] * g, le[2] * g));
+      }
+    }
+  }
+  return v3(sum.x * albedo[0] / BBC_PI, sum.y * albedo[1] / BBC_PI, sum.z * albedo[2] / BBC_PI);
+}
+
+/* The radiance arriving at the camera along one path started in direction dir. */
+static bbc_vec3 trace_path(const render_ctx *ctx, bbc_vec3 origin, bbc_vec3 dir, bbc_rng *rng,
+                           uint64_t *rays) {
+  const bbc_scene *scene = ctx->scene;
+  bbc_vec3 radiance = v3(0, 0, 0);
+  bbc_vec3 throughput = v3(1, 1, 1);
+  int count_emission = 1; /* camera ray or specular bounce: an emitter hit counts */
+  for (uint32_t depth = 0; depth < ctx->max_depth; depth++) {
+    bbc_hit hit;
+    (*rays)++;
+    if (!bbc_accel_intersect(ctx->accel, origin, dir, 0.0, DBL_MAX, &hit)) break;
+    surface s = surface_at(scene, &hit);
+    const bbc_material *m = s.material;
+    int front = v3_dot(dir, s.ng) < 0;
+
+    if (count_emission && front) {
+      radiance = v3_add(radiance, v3(throughput.x * m->emission[0],
+                                     throughput.y * m->emission[1],
+                                     throughput.z * m->emission[2]));
+    }
+
+    if (m->type == BBC_MATERIAL_DIFFUSE) {
+      /* Diffuse surfaces are two-sided: face the normals toward the incoming ray. */
+      if (!front) {
+        s.ng = v3_neg(s.ng);
+        s.ns = v3_neg(s.ns);
+      }
+      /* The connection to a light is one more segment: a path of depth + 2 segments. */
+      if (depth + 2 <= ctx->max_depth) {
+        bbc_vec3 direct = shade_diffuse_vertex(ctx, &s, rng, rays);
+        radiance = v3_add(radiance, v3(throughput.x * direct.x, throughput.y * direct.y,
+                                       throughput.z * direct.z));
+      }
+      /* Cosine-weighted sampling: the pdf cancels cos/pi, leaving the albedo. */
+      double r = sqrt(bbc_rng_next(rng)), phi = 2.0 * BBC_PI * bbc_rng_next(rng);
+      bbc_vec3 t, b;
+      v3_basis(s.ns, &t, &b);
+      double z = sqrt(fmax(0.0, 1.0 - r * r));
+      dir = v3_add(v3_add(v3_scale(t, r * cos(phi)), v3_scale(b, r * sin(phi))),
+                   v3_scale(s.ns, z));
+      if (v3_dot(dir, s.ng) <= 0) break; /* below the geometric surface */
+      throughput = v3(throughput.x * m->base_color[0], throughput.y * m->base_color[1],
+                      throughput.z * m->base_color[2]);
+      count_emission = 0;
+    } else if (m->type == BBC_MATERIAL_MIRROR) {
+      bbc_vec3 n = front ? s.ns : v3_neg(s.ns);
+      bbc_vec3 ng = front ? s.ng : v3_neg(s.ng);
+      dir = reflect(dir, n);
+      if (v3_dot(dir, ng) <= 0) break; /* shading normal sent it into the surface */
+      throughput = v3(throughput.x * m->base_color[0], throughput.y * m->base_color[1],
+                      throughput.z * m->base_color[2]);
+      count_emission = 1;
+    } else {
+      double eta = front ? 1.0 / m->ior : m->ior;
+      bbc_vec3 n = front ? s.ns : v3_neg(s.ns);
+      bbc_vec3 ng = front ? s.ng : v3_neg(s.ng);
+      double cos_i = -v3_dot(dir, n);
+      if (cos_i <= 0) break;
+      double sin2_t = eta * eta * (1.0 - cos_i * cos_i);
+      int reflect_it;
+      double cos_t = 0;
+      if (sin2_t >= 1.0) {
+        reflect_it = 1; /* total internal reflection */
+      } else {
+        cos_t = sqrt(1.0 - sin2_t);
+        double f = ctx->no_fresnel ? 0.0 : fresnel_dielectric(cos_i, cos_t, eta);
+        reflect_it = bbc_rng_next(rng) < f;
+      }
+      if (reflect_it) {
+        dir = reflect(dir, n);
+        if (v3_dot(dir, ng) <= 0) break;
+      } else {
+        dir = v3_normalize(v3_add(v3_scale(dir, eta), v3_scale(n, eta * cos_i - cos_t)));
+        if (v3_dot(dir, ng) >= 0) break;
+        /* Radiance is scaled by (n_t / n_i)^2 across the boundary; along a camera path
+         * the factor is its inverse, eta^2. */
+        throughput = v3_scale(throughput, eta * eta);
+      }
+      count_emission = 1;
+    }
+    origin = offset_origin(s.p, s.ng, dir);
+
+    if (depth >= 3) { /* Russian roulette */
+      double q = fmin(0.95, fmax(throughput.x, fmax(throughput.y, throughput.z)));
+      if (bbc_rng_next(rng) >= q) break;
+      throughput = v3_scale(throughput, 1.0 / q);
+    }
+  }
+  return radiance;
+}
+
+bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
+                      const bbc_render_options *options, bbc_image *image,
+                      bbc_render_stats *stats) {
+  bbc_render_options opts;
+  memset(&opts, 0, sizeof opts);
+  if (options) opts = *options;
+  if (!scene || !accel || !image) return BBC_ERR_INVALID_ARGUMENT;
+  if (opts.time_limit < 0 || !isfinite(opts.time_limit)) return BBC_ERR_INVALID_ARGUMENT;
+  uint32_t planned = opts.spp ? opts.spp : (opts.time_limit > 0 ? UINT32_MAX : 16);
+  render_ctx ctx = {scene, accel, opts.max_depth ? opts.max_depth : 16, opts.no_fresnel};
+  int threads = opts.threads > 0 ? opts.threads : omp_get_max_threads();
+  const uint32_t width = image->width, height = image->height;
+  const size_t pixels = (size_t)width * height;
+  double *sum = calloc(pixels * 3, sizeof *sum);
+  if (!sum) return BBC_ERR_OUT_OF_MEMORY;
+
+  bbc_result result = BBC_OK;
+  uint64_t rays = 0;
+  uint32_t done = 0, pass = 1;
+  double start = omp_get_wtime();
+  while (done < planned) {
+    uint32_t first = done, last = done + (pass < planned - done ? pass : planned - done);
+    double pass_start = omp_get_wtime();
+    uint64_t pass_rays = 0;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(+ : pass_rays)
+    for (uint32_t y = 0; y < height; y++) {
+      for (uint32_t x = 0; x < width; x++) {
+        size_t pixel = (size_t)y * width + x;
+        double *acc = sum + 3 * pixel;
+        for (uint32_t k = first; k < last; k++) {
+          bbc_rng rng = bbc_rng_make(opts.seed, pixel, k);
+          double px = x + bbc_rng_next(&rng), py = y + bbc_rng_next(&rng);
+          bbc_vec3 origin, dir;
+          bbc_camera_ray(&scene->camera, width, height, px, py, &origin, &dir);
+          bbc_vec3 l = trace_path(&ctx, origin, dir, &rng, &pass_rays);
+          /* A non-finite sample would poison the pixel forever; it can only come from
+           * a degenerate triangle, so drop it. */
+          if (isfinite(l.x) && isfinite(l.y) && isfinite(l.z)) {
+            acc[0] += l.x;
+            acc[1] += l.y;
+            acc[2] += l.z;
+          }
+        }
+      }
+    }
+    rays += pass_rays;
+    done = last;
+    double now = omp_get_wtime();
+    double per_spp = (now - pass_start) / (last - first);
+    if (opts.progress &&
+        opts.progress(opts.progress_user, done, planned == UINT32_MAX ? 0 : planned)) {
+      result = BBC_ERR_CANCELLED;
+      break;
+    }
+    /* Size the next pass to take about half a second, and stop before the time limit
+     * would be overrun by it. */
+    double target = 0.5;
+    if (opts.time_limit > 0) {
+      double left = opts.time_limit - (now - start);
+      if (left < per_spp) break;
+      if (target > left) target = left;
+    }
+    double next = per_spp > 0 ? floor(target / per_spp) : 1.0;
+    pass = next < 1 ? 1 : next > 1e6 ? 1000000 : (uint32_t)next;
+  }
+
+  double scale = done ? 1.0 / done : 0.0;
+  for (size_t i = 0; i < pixels * 3; i++) image->rgb[i] = (float)(sum[i] * scale);
+  free(sum);
+  if (stats) {
+    stats->seconds = omp_get_wtime() - start;
+    stats->spp = done;
+    stats->samples = (uint64_t)done * pixels;
+    stats->rays = rays;
+    stats->threads = threads;
+  }
+  return result;
+}

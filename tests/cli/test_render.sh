@@ -1,0 +1,103 @@
+#!/bin/sh
+# Command-line behaviour of bbc-render, bbc-precompute and bbc-inspect: help, exit
+# codes, messages and outputs. Each test_<name> function is one ctest entry.
+set -u
+RENDER="$BBC_BIN/bbc-render/bbc-render"
+PRECOMPUTE="$BBC_BIN/bbc-precompute/bbc-precompute"
+INSPECT="$BBC_BIN/bbc-inspect/bbc-inspect"
+SCENE="$BBC_TEST_SCENES/glass-sphere.gltf"
+TMP=$(mktemp -d)
+trap 'rm -rf "$TMP"' EXIT
+
+fail() { echo "FAILED: $*" >&2; exit 1; }
+
+# expect_status CODE COMMAND...: runs the command, stdout/stderr to $TMP/out, $TMP/err.
+expect_status() {
+  want=$1; shift
+  "$@" >"$TMP/out" 2>"$TMP/err"
+  got=$?
+  [ "$got" -eq "$want" ] || { cat "$TMP/err" >&2; fail "$* exited $got, expected $want"; }
+}
+
+test_help_documents_every_flag() {
+  expect_status 0 "$RENDER" --help
+  for flag in --output --png --exposure --width --height --method --max-depth --no-fresnel \
+              --spp --time --threads --seed --progress --no-progress --stats --version --help; do
+    grep -q -- "$flag" "$TMP/out" || fail "--help does not mention $flag"
+  done
+  [ -s "$TMP/err" ] && fail "--help wrote to stderr"
+  return 0
+}
+
+test_version() {
+  expect_status 0 "$RENDER" --version
+  grep -q "bbc-render" "$TMP/out" || fail "no version line"
+}
+
+test_unknown_flag_exits_2() {
+  expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --bogus
+  grep -q "^bbc-render: unknown option '--bogus'" "$TMP/err" || fail "message: $(cat "$TMP/err")"
+  grep -q "usage:" "$TMP/err" || fail "no usage"
+}
+
+test_bad_numbers_exit_2() {
+  expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --spp 12x
+  expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --spp 0
+  expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --time nan
+  expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --threads=-1
+  expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --spp
+  expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --method magic
+  expect_status 2 "$RENDER" "$SCENE"
+  expect_status 2 "$RENDER" -o "$TMP/x.exr"
+  [ -e "$TMP/x.exr" ] && fail "an output was written"
+  return 0
+}
+
+test_missing_scene_exits_1() {
+  expect_status 1 "$RENDER" "$TMP/none.gltf" -o "$TMP/x.exr"
+  grep -q "none.gltf" "$TMP/err" || fail "message does not name the file"
+  [ "$(wc -l < "$TMP/err")" -eq 1 ] || fail "more than one line: $(cat "$TMP/err")"
+  [ -e "$TMP/x.exr" ] && fail "an output was written"
+  return 0
+}
+
+test_malformed_scene_exits_1() {
+  printf '{"asset": {"version": "2.0"}, "nodes": [' > "$TMP/bad.gltf"
+  expect_status 1 "$RENDER" "$TMP/bad.gltf" -o "$TMP/x.exr"
+  grep -q "bad.gltf" "$TMP/err" || fail "message does not name the file"
+  [ -e "$TMP/x.exr" ] && fail "an output was written"
+  return 0
+}
+
+test_unwritable_output_exits_1() {
+  expect_status 1 "$RENDER" "$SCENE" -o "$TMP/no/such/dir/x.exr" --spp 1 --width 8
+  grep -q "x.exr" "$TMP/err" || fail "message does not name the file"
+}
+
+test_renders_exr_and_png() {
+  expect_status 0 "$RENDER" "$SCENE" -o "$TMP/a.exr" --png "$TMP/a.png" --spp 2 --width 40 \
+    --stats --no-progress
+  [ -s "$TMP/a.exr" ] || fail "no EXR"
+  head -c 4 "$TMP/a.exr" | od -An -tx1 | grep -q "76 2f 31 01" || fail "not an EXR"
+  head -c 8 "$TMP/a.png" | od -An -c | grep -q "P   N   G" || fail "not a PNG"
+  grep -q "rays" "$TMP/err" || fail "--stats printed no rays"
+  [ -s "$TMP/out" ] && fail "stdout is not empty"
+  ls "$TMP" | grep -q tmp && fail "a temporary file was left behind"
+  return 0
+}
+
+test_equals_form_and_thread_independence() {
+  expect_status 0 "$RENDER" "$SCENE" --output="$TMP/a.exr" --spp=3 --width=24 --threads=1
+  expect_status 0 "$RENDER" "$SCENE" -o "$TMP/b.exr" --spp 3 --width 24 --threads 2
+  cmp -s "$TMP/a.exr" "$TMP/b.exr" || fail "images differ between 1 and 2 threads"
+}
+
+test_placeholder_tools_document_themselves() {
+  expect_status 0 "$PRECOMPUTE" --help
+  grep -q "usage" "$TMP/out" || fail "bbc-precompute --help"
+  expect_status 0 "$INSPECT" --help
+  grep -q "usage" "$TMP/out" || fail "bbc-inspect --help"
+  expect_status 2 "$PRECOMPUTE" "$SCENE"
+}
+
+"test_$1"
