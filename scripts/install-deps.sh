@@ -2,8 +2,8 @@
 # Installs the Debian packages bbc needs to build and test (run as root). Skips apt
 # entirely when everything is already there.
 set -eu
-PACKAGES="build-essential cmake pkg-config libembree-dev libopenexr-dev libzstd-dev \
-libtinygltf-dev nlohmann-json3-dev libstb-dev zlib1g-dev"
+PACKAGES="build-essential cmake libembree-dev libopenexr-dev libzstd-dev libtinygltf-dev \
+zlib1g-dev"
 missing=""
 for p in $PACKAGES; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"

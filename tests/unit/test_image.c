@@ -1,4 +1,5 @@
 /* EXR and PNG output, EXR input and the relMSE metric. */
+#define _POSIX_C_SOURCE 200809L
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>

@@ -1,0 +1,143 @@
+/* A C view of a glTF 2.0 file, produced by the library's one C++ file (gltf_shim.cpp),
+ * which wraps tinygltf so that no C++ type or exception ever reaches C code.
+ *
+ * The interface follows cgltf: a zero-initialised options struct means the defaults,
+ * the parsed data comes back through an out-parameter, every call that can fail
+ * returns a bbc_result and sends one line naming the file and the problem to
+ * error_fn, and bbc__gltf_free accepts NULL.
+ *
+ * The view is already flattened the way bbc wants it: the node tree of the default
+ * scene is walked once, each mesh primitive reached is listed with its node's world
+ * matrix, and its attributes are copied into tightly packed float arrays and 32-bit
+ * indices. Everything is checked against the buffers before it is read, so a consumer
+ * may trust every count, index and pointer. What the shim does not judge is whether
+ * the content suits bbc (primitive modes, material models, light types, finite
+ * positions); that is scene.c's job. */
+#ifndef BBC_GLTF_SHIM_INTERNAL_H
+#define BBC_GLTF_SHIM_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "bbc/common.h"
+#include "bbc/scene.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* glTF stores matrices column-major: element (row r, column c) is m[4 * c + r]. */
+typedef struct bbc__gltf_primitive {
+  double world[16];      /* the node's world matrix (all ancestors applied) */
+  const char *node_name; /* never NULL; "" when the node has no name */
+  const char *mesh_name; /* never NULL; "" when the mesh has no name */
+  uint32_t node_index;   /* indices into the file's arrays, for messages */
+  uint32_t mesh_index;
+  uint32_t primitive_index; /* within its mesh */
+  int mode;                 /* glTF primitive mode as written: 4 means triangles */
+  int32_t material;         /* index into bbc__gltf_data.materials, or -1 for none */
+  const char *role;         /* the node's extras.bbc.role; NULL when absent, and
+                               "<not a string>" when present with another JSON type */
+  uint32_t vertex_count;
+  const float *positions;  /* 3 floats per vertex; NULL only when vertex_count is 0 */
+  const float *normals;    /* 3 floats per vertex, or NULL without NORMAL */
+  const float *uvs;        /* 2 floats per vertex, or NULL without TEXCOORD_0 */
+  uint32_t index_count;    /* for non-indexed primitives, equal to vertex_count */
+  const uint32_t *indices; /* each < vertex_count; 0, 1, 2, ... when non-indexed */
+} bbc__gltf_primitive;
+
+/* The factors of a glTF material, with the defaults of the specification filled in
+ * for anything absent. Textures are ignored. */
+typedef struct bbc__gltf_material {
+  const char *name;         /* never NULL; "" when unnamed */
+  double base_color[4];     /* pbrMetallicRoughness.baseColorFactor, default 1 */
+  double metallic;          /* metallicFactor, default 1 */
+  double roughness;         /* roughnessFactor, default 1 */
+  double transmission;      /* KHR_materials_transmission.transmissionFactor, default 0 */
+  double thickness;         /* KHR_materials_volume.thicknessFactor, default 0 */
+  double ior;               /* KHR_materials_ior.ior, default 1.5 */
+  double emissive[3];       /* emissiveFactor, default 0 */
+  double emissive_strength; /* KHR_materials_emissive_strength, default 1 */
+} bbc__gltf_material;
+
+/* A KHR_lights_punctual light placed by a node of the default scene. */
+typedef struct bbc__gltf_light {
+  const char *name; /* never NULL; the light's name, else the node's, else "" */
+  const char *type; /* never NULL: "point", "spot", "directional" or as written */
+  uint32_t node_index;
+  double position[3]; /* world position of the node's origin */
+  double color[3];    /* default 1 */
+  double intensity;   /* default 1 */
+} bbc__gltf_light;
+
+/* The first node with a camera reached in a depth-first walk of the default scene
+ * (roots in order, children in order, a node before its children). */
+typedef struct bbc__gltf_camera {
+  const char *name; /* never NULL; the camera's name, else the node's, else "" */
+  const char *type; /* never NULL: "perspective", "orthographic" or as written */
+  uint32_t node_index;
+  double world[16];    /* the node's world matrix; the camera looks along -z */
+  double yfov;         /* perspective.yfov, radians */
+  double aspect_ratio; /* perspective.aspectRatio; 0 when absent */
+  int has_width;       /* the node's extras.bbc.width is present */
+  int has_height;      /* the node's extras.bbc.height is present */
+  double width;        /* its value; NaN when present but not a number */
+  double height;
+} bbc__gltf_camera;
+
+/* The whole view. Every pointer in it, including those inside the arrays, is owned by
+ * the view and stays valid until bbc__gltf_free. It is immutable, so any number of
+ * threads may read it at once. */
+typedef struct bbc__gltf_data {
+  uint32_t primitive_count;
+  bbc__gltf_primitive *primitives; /* in node order, then primitive order */
+  uint32_t material_count;
+  bbc__gltf_material *materials; /* all materials of the file, in file order */
+  uint32_t light_count;
+  bbc__gltf_light *lights; /* lights placed by nodes, in node order */
+  int has_camera;
+  bbc__gltf_camera camera; /* zero unless has_camera */
+  void *internal;          /* storage behind the pointers above */
+} bbc__gltf_data;
+
+typedef struct bbc__gltf_options {
+  bbc_message_fn error_fn; /* optional: the one-line reason for a failure */
+  void *user;              /* passed to error_fn */
+} bbc__gltf_options;
+
+/* Parses a .gltf or .glb file; which of the two is decided by the first four bytes
+ * ("glTF" means binary), never by the extension. External buffers are looked up
+ * beside the file; images are never decoded (bbc uses no textures), so missing or
+ * broken image files do no harm.
+ *
+ * Returns BBC_OK and sets *out, or sets *out to NULL and returns BBC_ERR_IO (cannot
+ * read the file), BBC_ERR_GLTF (malformed JSON or GLB, missing or short buffer, bad
+ * references, data outside its buffer, out-of-range indices, a node hierarchy that
+ * is not a tree), BBC_ERR_SCENE (valid glTF using a feature bbc cannot represent:
+ * non-float attributes, sparse accessors, an unknown required extension, no scene)
+ * or BBC_ERR_OUT_OF_MEMORY, after one call of error_fn whose message starts with the
+ * path. out and path must not be NULL (BBC_ERR_INVALID_ARGUMENT); options may be. */
+bbc_result bbc__gltf_parse(bbc__gltf_data **out, const char *path,
+                           const bbc__gltf_options *options);
+
+/* The same from memory, for tests and fuzzers. name is used in messages only.
+ * External buffers (uri that is not a data URI) are looked up in base_dir; when
+ * base_dir is NULL they are refused, so parsing never touches the file system. */
+bbc_result bbc__gltf_parse_memory(bbc__gltf_data **out, const void *bytes, size_t size,
+                                  const char *name, const char *base_dir,
+                                  const bbc__gltf_options *options);
+
+/* Releases a view; NULL is allowed. */
+void bbc__gltf_free(bbc__gltf_data *data);
+
+/* Loads a scene from memory with the semantics of bbc_scene_load (scene.c), for the
+ * fuzzer and tests that must not depend on files. name stands in for the path in
+ * messages and in scene->path; base_dir is as for bbc__gltf_parse_memory. */
+bbc_result bbc__scene_load_memory(bbc_scene **out, const void *bytes, size_t size, const char *name,
+                                  const char *base_dir, const bbc_scene_options *options);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,603 @@
+/* Scene loading: turns the C view of a glTF file (gltf_shim.cpp) into a bbc_scene of
+ * world-space triangles with bbc's materials, roles, lights and camera.
+ *
+ * The shim guarantees that every count, index and pointer it returns is consistent;
+ * this file judges whether the content is something bbc can render (triangles only,
+ * finite positions, a light, a camera) and reports the first problem it finds. */
+#include "bbc/scene.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "gltf_shim_internal.h"
+
+#define PI 3.14159265358979323846
+
+/* Film sizes outside this range are certainly typing mistakes, and staying below it
+ * keeps width * height far from overflowing anything downstream. */
+#define MAX_FILM_SIZE 65536
+
+typedef struct loader {
+  const char *path; /* what messages call the file */
+  bbc_message_fn error_fn, warning_fn;
+  void *user;
+} loader;
+
+static void send(bbc_message_fn fn, void *user, bbc_result code, const char *path, const char *fmt,
+                 va_list ap) {
+  char line[1024];
+  int n = snprintf(line, sizeof line, "%s: ", path);
+  if (n < 0 || (size_t)n >= sizeof line) n = 0;
+  vsnprintf(line + n, sizeof line - (size_t)n, fmt, ap);
+  /* Names come from the file and may hold anything; the message must stay one line. */
+  for (char *c = line; *c; c++)
+    if ((unsigned char)*c < 0x20 || *c == 0x7f) *c = '?';
+  fn(user, code, line);
+}
+
+/* Reports a failure through error_fn and returns its code. */
+static bbc_result fail(const loader *ld, bbc_result code, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static bbc_result fail(const loader *ld, bbc_result code, const char *fmt, ...) {
+  if (ld->error_fn) {
+    va_list ap;
+    va_start(ap, fmt);
+    send(ld->error_fn, ld->user, code, ld->path, fmt, ap);
+    va_end(ap);
+  }
+  return code;
+}
+
+static void warn(const loader *ld, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void warn(const loader *ld, const char *fmt, ...) {
+  if (ld->warning_fn) {
+    va_list ap;
+    va_start(ap, fmt);
+    send(ld->warning_fn, ld->user, BBC_OK, ld->path, fmt, ap);
+    va_end(ap);
+  }
+}
+
+/* Copies a name into a fixed 64-byte field, cutting it on a UTF-8 character boundary
+ * when it is too long. */
+static void copy_name(char dst[64], const char *src) {
+  size_t n = strlen(src);
+  if (n > 63) {
+    n = 63;
+    while (n > 0 && ((unsigned char)src[n] & 0xC0) == 0x80) n--;
+  }
+  memcpy(dst, src, n);
+  dst[n] = '\0';
+}
+
+/* Zeroed memory for count elements; never NULL for count 0, so a NULL result always
+ * means out of memory. */
+static void *alloc(size_t count, size_t size) {
+  return calloc(count ? count : 1, size);
+}
+
+static int finite3(const double v[3]) {
+  return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
+}
+
+static double dot3(const double a[3], const double b[3]) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void cross3(const double a[3], const double b[3], double c[3]) {
+  c[0] = a[1] * b[2] - a[2] * b[1];
+  c[1] = a[2] * b[0] - a[0] * b[2];
+  c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* Normalises v in place; returns 0 (leaving v unchanged) when it has no direction. */
+static int normalize3(double v[3]) {
+  double len = sqrt(dot3(v, v));
+  if (!(len > 0.0) || !isfinite(len)) return 0;
+  v[0] /= len;
+  v[1] /= len;
+  v[2] /= len;
+  return 1;
+}
+
+/* An affine transform split out of a column-major glTF matrix: p' = a p + t, and the
+ * normal matrix (a^-1)^T, computed as the cofactor matrix divided by the determinant. */
+typedef struct xform {
+  double a[3][3], t[3];
+  double normal[3][3];
+  double det;
+} xform;
+
+static int make_xform(const double m[16], xform *x) {
+  for (int r = 0; r < 3; r++) {
+    for (int c = 0; c < 3; c++) x->a[r][c] = m[4 * c + r];
+    x->t[r] = m[12 + r];
+  }
+  double(*a)[3] = x->a;
+  double cof[3][3];
+  for (int r = 0; r < 3; r++)
+    for (int c = 0; c < 3; c++) {
+      int r1 = (r + 1) % 3, r2 = (r + 2) % 3, c1 = (c + 1) % 3, c2 = (c + 2) % 3;
+      cof[r][c] = a[r1][c1] * a[r2][c2] - a[r1][c2] * a[r2][c1];
+    }
+  x->det = a[0][0] * cof[0][0] + a[0][1] * cof[0][1] + a[0][2] * cof[0][2];
+  if (!(x->det != 0.0) || !isfinite(x->det) || !finite3(x->t)) return 0;
+  for (int r = 0; r < 3; r++)
+    for (int c = 0; c < 3; c++) x->normal[r][c] = cof[r][c] / x->det;
+  return 1;
+}
+
+static void apply(const double m[3][3], const double offset[3], const float in[3], double out[3]) {
+  for (int r = 0; r < 3; r++)
+    out[r] = m[r][0] * in[0] + m[r][1] * in[1] + m[r][2] * in[2] + (offset ? offset[r] : 0.0);
+}
+
+/* Whether a double survives conversion to a finite float (false for NaN); tested
+ * before converting, because converting an out-of-range value is undefined in C. */
+static int fits_float(double v) {
+  return fabs(v) <= FLT_MAX;
+}
+
+static int finite_float3(const double v[3]) {
+  return fits_float(v[0]) && fits_float(v[1]) && fits_float(v[2]);
+}
+
+static const char *material_label(const bbc__gltf_material *m, uint32_t index, char *buf,
+                                  size_t size) {
+  if (m->name[0])
+    snprintf(buf, size, "material \"%s\"", m->name);
+  else
+    snprintf(buf, size, "material %u", index);
+  return buf;
+}
+
+/* The classification is exact on purpose: bbc renders only ideal surfaces, and a
+ * slightly rough mirror is not a mirror. */
+static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32_t index,
+                           bbc_material *m) {
+  char label[128];
+  material_label(g, index, label, sizeof label);
+  if (g->name[0])
+    copy_name(m->name, g->name);
+  else
+    snprintf(m->name, sizeof m->name, "material %u", index);
+
+  double emission[3];
+  for (int k = 0; k < 3; k++) {
+    if (!fits_float(g->base_color[k]) || g->base_color[k] < 0.0)
+      return fail(ld, BBC_ERR_SCENE, "%s: baseColorFactor must be finite and non-negative", label);
+    emission[k] = g->emissive[k] * g->emissive_strength;
+    if (!fits_float(emission[k]) || emission[k] < 0.0)
+      return fail(ld, BBC_ERR_SCENE,
+                  "%s: emissiveFactor x emissiveStrength must be finite and non-negative", label);
+    m->base_color[k] = (float)g->base_color[k];
+    m->emission[k] = (float)emission[k];
+  }
+  m->ior = 1.5f;
+
+  if (g->metallic == 1.0 && g->roughness == 0.0) {
+    m->type = BBC_MATERIAL_MIRROR;
+  } else if (g->metallic == 0.0 && g->transmission == 1.0 && g->thickness > 0.0 &&
+             g->roughness == 0.0) {
+    if (!fits_float(g->ior) || !(g->ior > 0.0))
+      return fail(ld, BBC_ERR_SCENE, "%s: ior %g is not a positive number", label, g->ior);
+    m->type = BBC_MATERIAL_DIELECTRIC;
+    m->ior = (float)g->ior;
+  } else if (g->metallic == 0.0 && g->transmission == 0.0) {
+    m->type = BBC_MATERIAL_DIFFUSE;
+  } else {
+    m->type = BBC_MATERIAL_DIFFUSE;
+    warn(ld,
+         "%s (metallic %g, roughness %g, transmission %g, thickness %g) is neither diffuse, "
+         "an ideal mirror nor a smooth dielectric; it is treated as diffuse",
+         label, g->metallic, g->roughness, g->transmission, g->thickness);
+  }
+  return BBC_OK;
+}
+
+static const char *mesh_label(const bbc__gltf_primitive *p, char *buf, size_t size) {
+  /* The same wording as the shim's messages, so one mesh is always named alike. */
+  if (p->mesh_name[0])
+    snprintf(buf, size, "mesh %u (\"%s\") primitive %u", p->mesh_index, p->mesh_name,
+             p->primitive_index);
+  else
+    snprintf(buf, size, "mesh %u primitive %u", p->mesh_index, p->primitive_index);
+  return buf;
+}
+
+static const char *mode_name(int mode) {
+  static const char *const names[] = {"points",    "lines",          "line loop",   "line strip",
+                                      "triangles", "triangle strip", "triangle fan"};
+  return mode >= 0 && mode < 7 ? names[mode] : "unknown";
+}
+
+/* Fills scene mesh mesh_index from one primitive: its world-space vertices and
+ * triangles go at the ends of the scene arrays, whose fill levels are the counters. */
+static bbc_result add_mesh(const loader *ld, const bbc__gltf_primitive *p, bbc_scene *s,
+                           uint32_t mesh_index, uint32_t material, bbc_role role,
+                           uint32_t *next_vertex, uint32_t *next_triangle) {
+  char label[256];
+  mesh_label(p, label, sizeof label);
+  xform x;
+  if (!make_xform(p->world, &x))
+    return fail(ld, BBC_ERR_SCENE, "%s: node %u has a singular or non-finite transform", label,
+                p->node_index);
+  /* A mirroring transform turns counter-clockwise triangles clockwise (glTF 2.0, section
+   * 3.7.2.1); swapping two corners keeps the winding consistent with the normals. */
+  int flip = x.det < 0.0;
+
+  for (uint32_t v = 0; v < p->vertex_count; v++) {
+    double w[3];
+    apply(x.a, x.t, &p->positions[3 * (size_t)v], w);
+    if (!finite_float3(w))
+      return fail(ld, BBC_ERR_SCENE, "%s: vertex %u has a NaN or infinite position", label, v);
+  }
+
+  bbc_mesh *mesh = &s->meshes[mesh_index];
+  if (p->mesh_name[0])
+    copy_name(mesh->name, p->mesh_name);
+  else if (p->node_name[0])
+    copy_name(mesh->name, p->node_name);
+  else
+    snprintf(mesh->name, sizeof mesh->name, "mesh %u", p->mesh_index);
+  mesh->first_vertex = *next_vertex;
+  mesh->first_triangle = *next_triangle;
+  mesh->triangle_count = p->index_count / 3;
+  mesh->material = material;
+  mesh->role = role;
+  mesh->has_normals = p->normals != NULL;
+  mesh->has_uvs = p->uvs != NULL;
+
+  uint32_t base = *next_vertex;
+  for (uint32_t t = 0; t < mesh->triangle_count; t++) {
+    uint32_t corner[3] = {p->indices[3 * (size_t)t], p->indices[3 * (size_t)t + 1],
+                          p->indices[3 * (size_t)t + 2]};
+    if (flip) {
+      uint32_t tmp = corner[1];
+      corner[1] = corner[2];
+      corner[2] = tmp;
+    }
+    size_t tri = (size_t)*next_triangle + t;
+    s->triangle_mesh[tri] = mesh_index;
+    if (p->normals) {
+      for (int k = 0; k < 3; k++) s->indices[3 * tri + (size_t)k] = base + corner[k];
+      continue;
+    }
+    /* Without normals every triangle gets its own three vertices, so that each can
+     * carry the triangle's flat normal. */
+    double w[3][3], e1[3], e2[3], n[3];
+    for (int k = 0; k < 3; k++) {
+      uint32_t dst = base + 3 * t + (uint32_t)k;
+      apply(x.a, x.t, &p->positions[3 * (size_t)corner[k]], w[k]);
+      for (int c = 0; c < 3; c++) s->positions[3 * (size_t)dst + c] = (float)w[k][c];
+      for (int c = 0; c < 2; c++)
+        s->uvs[2 * (size_t)dst + c] = p->uvs ? p->uvs[2 * (size_t)corner[k] + c] : 0.0f;
+      s->indices[3 * tri + (size_t)k] = dst;
+    }
+    for (int c = 0; c < 3; c++) {
+      e1[c] = w[1][c] - w[0][c];
+      e2[c] = w[2][c] - w[0][c];
+    }
+    cross3(e1, e2, n);
+    if (!normalize3(n)) {
+      /* A degenerate triangle has no area, so no ray ever hits it and its normal is
+       * never used; any unit vector keeps the promise that normals are unit length. */
+      n[0] = 0.0;
+      n[1] = 0.0;
+      n[2] = 1.0;
+    }
+    for (int k = 0; k < 3; k++)
+      for (int c = 0; c < 3; c++)
+        s->normals[3 * ((size_t)base + 3 * t + (size_t)k) + c] = (float)n[c];
+  }
+
+  if (p->normals) {
+    for (uint32_t v = 0; v < p->vertex_count; v++) {
+      size_t dst = (size_t)base + v;
+      double w[3], n[3];
+      apply(x.a, x.t, &p->positions[3 * (size_t)v], w);
+      apply(x.normal, NULL, &p->normals[3 * (size_t)v], n);
+      if (!normalize3(n))
+        return fail(ld, BBC_ERR_SCENE, "%s: vertex %u has a zero or non-finite normal", label, v);
+      for (int c = 0; c < 3; c++) {
+        s->positions[3 * dst + c] = (float)w[c];
+        s->normals[3 * dst + c] = (float)n[c];
+      }
+      for (int c = 0; c < 2; c++) s->uvs[2 * dst + c] = p->uvs ? p->uvs[2 * (size_t)v + c] : 0.0f;
+    }
+    mesh->vertex_count = p->vertex_count;
+  } else {
+    mesh->vertex_count = 3 * mesh->triangle_count;
+  }
+  *next_vertex += mesh->vertex_count;
+  *next_triangle += mesh->triangle_count;
+  return BBC_OK;
+}
+
+static bbc_result parse_role(const loader *ld, const bbc__gltf_primitive *p, bbc_material_type type,
+                             bbc_role *role) {
+  if (!p->role) {
+    *role = type == BBC_MATERIAL_DIFFUSE ? BBC_ROLE_RECEIVER : BBC_ROLE_CASTER;
+  } else if (strcmp(p->role, "caster") == 0) {
+    *role = BBC_ROLE_CASTER;
+  } else if (strcmp(p->role, "receiver") == 0) {
+    *role = BBC_ROLE_RECEIVER;
+  } else if (strcmp(p->role, "none") == 0) {
+    *role = BBC_ROLE_NONE;
+  } else {
+    if (p->node_name[0])
+      return fail(ld, BBC_ERR_SCENE,
+                  "node \"%s\": extras.bbc.role \"%s\" is not caster, receiver or none",
+                  p->node_name, p->role);
+    return fail(ld, BBC_ERR_SCENE,
+                "node %u: extras.bbc.role \"%s\" is not caster, receiver or none", p->node_index,
+                p->role);
+  }
+  return BBC_OK;
+}
+
+static bbc_result load_geometry(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
+  /* Materials: those of the file, then a default one for primitives without. */
+  int need_default = 0;
+  for (uint32_t i = 0; i < g->primitive_count; i++) need_default |= g->primitives[i].material < 0;
+  s->material_count = g->material_count + (need_default ? 1u : 0u);
+  s->materials = alloc(s->material_count, sizeof *s->materials);
+  if (!s->materials) return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
+  for (uint32_t i = 0; i < g->material_count; i++) {
+    bbc_result r = classify(ld, &g->materials[i], i, &s->materials[i]);
+    if (r != BBC_OK) return r;
+  }
+  if (need_default) {
+    bbc_material *m = &s->materials[g->material_count];
+    copy_name(m->name, "default");
+    m->type = BBC_MATERIAL_DIFFUSE;
+    m->base_color[0] = m->base_color[1] = m->base_color[2] = 0.8f;
+    m->ior = 1.5f;
+  }
+
+  /* Sizes first, so that every array is allocated once. */
+  uint64_t vertices = 0, triangles = 0;
+  for (uint32_t i = 0; i < g->primitive_count; i++) {
+    const bbc__gltf_primitive *p = &g->primitives[i];
+    char label[256];
+    if (p->mode != 4)
+      return fail(ld, BBC_ERR_SCENE, "%s has mode %d (%s); only triangles (mode 4) are supported",
+                  mesh_label(p, label, sizeof label), p->mode, mode_name(p->mode));
+    if (p->index_count % 3 != 0)
+      return fail(ld, BBC_ERR_GLTF, "%s: %u indices do not make whole triangles",
+                  mesh_label(p, label, sizeof label), p->index_count);
+    triangles += p->index_count / 3;
+    vertices += p->normals ? p->vertex_count : p->index_count;
+  }
+  if (triangles == 0)
+    return fail(ld, BBC_ERR_SCENE, "no triangles: the default scene has no triangle mesh");
+  if (vertices > UINT32_MAX || triangles > UINT32_MAX / 3)
+    return fail(ld, BBC_ERR_SCENE, "too many vertices or triangles for 32-bit indices");
+
+  s->vertex_count = (uint32_t)vertices;
+  s->triangle_count = (uint32_t)triangles;
+  s->mesh_count = g->primitive_count;
+  s->positions = alloc(3 * (size_t)vertices, sizeof(float));
+  s->normals = alloc(3 * (size_t)vertices, sizeof(float));
+  s->uvs = alloc(2 * (size_t)vertices, sizeof(float));
+  s->indices = alloc(3 * (size_t)triangles, sizeof(uint32_t));
+  s->triangle_mesh = alloc((size_t)triangles, sizeof(uint32_t));
+  s->meshes = alloc(s->mesh_count, sizeof *s->meshes);
+  if (!s->positions || !s->normals || !s->uvs || !s->indices || !s->triangle_mesh || !s->meshes)
+    return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory for %llu vertices",
+                (unsigned long long)vertices);
+
+  uint32_t next_vertex = 0, next_triangle = 0;
+  for (uint32_t i = 0; i < g->primitive_count; i++) {
+    const bbc__gltf_primitive *p = &g->primitives[i];
+    uint32_t material = p->material < 0 ? g->material_count : (uint32_t)p->material;
+    bbc_role role = BBC_ROLE_NONE;
+    bbc_result r = parse_role(ld, p, s->materials[material].type, &role);
+    if (r == BBC_OK) r = add_mesh(ld, p, s, i, material, role, &next_vertex, &next_triangle);
+    if (r != BBC_OK) return r;
+  }
+  return BBC_OK;
+}
+
+static bbc_result load_lights(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
+  s->point_lights = alloc(g->light_count, sizeof *s->point_lights);
+  if (!s->point_lights) return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
+  uint32_t ignored = 0;
+  for (uint32_t i = 0; i < g->light_count; i++) {
+    const bbc__gltf_light *l = &g->lights[i];
+    if (strcmp(l->type, "point") != 0) {
+      warn(ld,
+           "light \"%s\" (node %u) is a %s light and is ignored; only point lights are "
+           "supported",
+           l->name, l->node_index, l->type);
+      ignored++;
+      continue;
+    }
+    bbc_point_light *out = &s->point_lights[s->point_light_count++];
+    double power[3];
+    for (int k = 0; k < 3; k++) power[k] = l->intensity * l->color[k];
+    if (!finite3(l->position))
+      return fail(ld, BBC_ERR_SCENE, "light \"%s\" (node %u) has a non-finite position", l->name,
+                  l->node_index);
+    if (!finite_float3(power) || power[0] < 0.0 || power[1] < 0.0 || power[2] < 0.0)
+      return fail(ld, BBC_ERR_SCENE,
+                  "light \"%s\" (node %u): intensity x color must be finite and non-negative",
+                  l->name, l->node_index);
+    out->position = (bbc_vec3){l->position[0], l->position[1], l->position[2]};
+    for (int k = 0; k < 3; k++) out->intensity[k] = (float)power[k];
+  }
+
+  /* Area lights: every emissive triangle, sampled in proportion to its power. */
+  uint32_t emissive = 0;
+  for (uint32_t t = 0; t < s->triangle_count; t++) {
+    const float *e = bbc_scene_triangle_material(s, t)->emission;
+    emissive += (e[0] > 0.0f || e[1] > 0.0f || e[2] > 0.0f);
+  }
+  s->emitters = alloc(emissive, sizeof *s->emitters);
+  s->emitter_cdf = alloc(emissive, sizeof *s->emitter_cdf);
+  if (!s->emitters || !s->emitter_cdf) return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
+  double total = 0.0;
+  for (uint32_t t = 0; t < s->triangle_count && emissive > 0; t++) {
+    const float *e = bbc_scene_triangle_material(s, t)->emission;
+    double mean = ((double)e[0] + e[1] + e[2]) / 3.0;
+    if (!(mean > 0.0)) continue;
+    double p[3][3], e1[3], e2[3], n[3];
+    for (int k = 0; k < 3; k++)
+      for (int c = 0; c < 3; c++)
+        p[k][c] = s->positions[3 * (size_t)s->indices[3 * (size_t)t + k] + c];
+    for (int c = 0; c < 3; c++) {
+      e1[c] = p[1][c] - p[0][c];
+      e2[c] = p[2][c] - p[0][c];
+    }
+    cross3(e1, e2, n);
+    double weight = 0.5 * sqrt(dot3(n, n)) * mean;
+    /* A degenerate emitter emits nothing and must never be sampled. */
+    if (!(weight > 0.0)) continue;
+    total += weight;
+    s->emitters[s->emitter_count] = t;
+    s->emitter_cdf[s->emitter_count] = total;
+    s->emitter_count++;
+  }
+  for (uint32_t i = 0; i < s->emitter_count; i++) s->emitter_cdf[i] /= total;
+  if (s->emitter_count > 0) s->emitter_cdf[s->emitter_count - 1] = 1.0;
+  s->emitter_power = total * PI;
+
+  if (s->point_light_count == 0 && s->emitter_count == 0)
+    return fail(ld, BBC_ERR_SCENE,
+                "no light: the scene has neither a point light nor an emissive triangle%s",
+                ignored ? " (spot and directional lights are not supported)" : "");
+  return BBC_OK;
+}
+
+static bbc_result film_size(const loader *ld, const bbc__gltf_camera *c, int has, double value,
+                            const char *key, uint32_t fallback, uint32_t *out) {
+  if (!has) {
+    *out = fallback;
+    return BBC_OK;
+  }
+  if (!(value >= 1.0 && value <= MAX_FILM_SIZE && value == floor(value)))
+    return fail(ld, BBC_ERR_SCENE, "camera \"%s\": extras.bbc.%s must be an integer from 1 to %d",
+                c->name, key, MAX_FILM_SIZE);
+  *out = (uint32_t)value;
+  return BBC_OK;
+}
+
+static bbc_result load_camera(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
+  if (!g->has_camera)
+    return fail(ld, BBC_ERR_SCENE, "no camera: no node of the default scene has a camera");
+  const bbc__gltf_camera *c = &g->camera;
+  bbc_camera *out = &s->camera;
+  if (strcmp(c->type, "perspective") != 0)
+    return fail(ld, BBC_ERR_SCENE, "camera \"%s\" is %s; only perspective cameras are supported",
+                c->name, c->type);
+  if (!(c->yfov > 0.0 && c->yfov < PI))
+    return fail(ld, BBC_ERR_SCENE, "camera \"%s\": yfov %g is not in (0, pi)", c->name, c->yfov);
+  bbc_result r = film_size(ld, c, c->has_width, c->width, "width", 640, &out->width);
+  if (r == BBC_OK) r = film_size(ld, c, c->has_height, c->height, "height", 480, &out->height);
+  if (r != BBC_OK) return r;
+  out->yfov = c->yfov;
+  if (c->aspect_ratio == 0.0) {
+    /* tinygltf reports an absent aspectRatio as 0, which the glTF schema forbids. */
+    out->aspect = (double)out->width / (double)out->height;
+  } else if (c->aspect_ratio > 0.0 && isfinite(c->aspect_ratio)) {
+    out->aspect = c->aspect_ratio;
+  } else {
+    return fail(ld, BBC_ERR_SCENE, "camera \"%s\": aspectRatio %g is not positive", c->name,
+                c->aspect_ratio);
+  }
+
+  /* The camera frame is the node's rotation: x right, y up, looking along -z. Any
+   * scale is removed, and a shear is squeezed out by Gram-Schmidt so u, v, w are
+   * orthonormal and right-handed whatever the matrix holds. */
+  const double *m = c->world;
+  double position[3] = {m[12], m[13], m[14]};
+  double x[3] = {m[0], m[1], m[2]}, z[3] = {m[8], m[9], m[10]}, y[3];
+  int ok = finite3(position) && normalize3(z);
+  if (ok) {
+    double d = dot3(x, z);
+    for (int k = 0; k < 3; k++) x[k] -= d * z[k];
+    ok = normalize3(x);
+  }
+  if (!ok)
+    return fail(ld, BBC_ERR_SCENE, "camera \"%s\" (node %u) has a degenerate transform", c->name,
+                c->node_index);
+  cross3(z, x, y);
+  out->position = (bbc_vec3){position[0], position[1], position[2]};
+  out->u = (bbc_vec3){x[0], x[1], x[2]};
+  out->v = (bbc_vec3){y[0], y[1], y[2]};
+  out->w = (bbc_vec3){z[0], z[1], z[2]};
+  return BBC_OK;
+}
+
+/* Builds the scene from the view; on failure *out stays NULL. */
+static bbc_result build(bbc_scene **out, const loader *ld, const bbc__gltf_data *g) {
+  bbc_scene *s = calloc(1, sizeof *s);
+  if (!s) return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
+  /* The path is informational; a longer one is kept cut rather than refused. */
+  snprintf(s->path, sizeof s->path, "%s", ld->path);
+  bbc_result r = load_geometry(ld, g, s);
+  if (r == BBC_OK) r = load_lights(ld, g, s);
+  if (r == BBC_OK) r = load_camera(ld, g, s);
+  if (r != BBC_OK) {
+    bbc_scene_free(s);
+    return r;
+  }
+  *out = s;
+  return BBC_OK;
+}
+
+static loader make_loader(const char *path, const bbc_scene_options *options) {
+  loader ld = {path, NULL, NULL, NULL};
+  if (options) {
+    ld.error_fn = options->error_fn;
+    ld.warning_fn = options->warning_fn;
+    ld.user = options->user;
+  }
+  return ld;
+}
+
+bbc_result bbc_scene_load(bbc_scene **out, const char *path, const bbc_scene_options *options) {
+  loader ld = make_loader(path ? path : "(null)", options);
+  if (out) *out = NULL;
+  if (!out || !path)
+    return fail(&ld, BBC_ERR_INVALID_ARGUMENT, "bbc_scene_load needs an output and a path");
+  bbc__gltf_options gopts = {ld.error_fn, ld.user};
+  bbc__gltf_data *g = NULL;
+  bbc_result r = bbc__gltf_parse(&g, path, &gopts);
+  if (r == BBC_OK) r = build(out, &ld, g);
+  bbc__gltf_free(g);
+  return r;
+}
+
+bbc_result bbc__scene_load_memory(bbc_scene **out, const void *bytes, size_t size, const char *name,
+                                  const char *base_dir, const bbc_scene_options *options) {
+  loader ld = make_loader(name ? name : "(memory)", options);
+  if (out) *out = NULL;
+  if (!out || (!bytes && size > 0))
+    return fail(&ld, BBC_ERR_INVALID_ARGUMENT, "bbc__scene_load_memory needs an output and data");
+  bbc__gltf_options gopts = {ld.error_fn, ld.user};
+  bbc__gltf_data *g = NULL;
+  bbc_result r = bbc__gltf_parse_memory(&g, bytes, size, ld.path, base_dir, &gopts);
+  if (r == BBC_OK) r = build(out, &ld, g);
+  bbc__gltf_free(g);
+  return r;
+}
+
+void bbc_scene_free(bbc_scene *scene) {
+  if (!scene) return;
+  free(scene->positions);
+  free(scene->normals);
+  free(scene->uvs);
+  free(scene->indices);
+  free(scene->triangle_mesh);
+  free(scene->meshes);
+  free(scene->materials);
+  free(scene->point_lights);
+  free(scene->emitters);
+  free(scene->emitter_cdf);
+  free(scene);
+}

@@ -1,0 +1,46 @@
+#!/bin/sh
+# Writes the generated scenes the test suite reads: make_test_scenes.sh GENERATOR OUTDIR,
+# where GENERATOR is the built bbc-scenegen. The build runs it once (tests/CMakeLists.txt)
+# and the unit and CLI tests find the scenes in BBC_TEST_SCENES.
+#
+# Sizes are kept small so that precomputing caches for them stays quick in the suite;
+# scenes/scenegen.c documents each set-up (positions, lights, cameras).
+set -e
+
+if [ "$#" -ne 2 ]; then
+  echo "usage: make_test_scenes.sh GENERATOR OUTDIR" >&2
+  exit 2
+fi
+gen=$1
+out=$2
+
+if [ ! -x "$gen" ]; then
+  echo "make_test_scenes.sh: generator '$gen' is missing or not executable" >&2
+  exit 1
+fi
+mkdir -p "$out"
+
+# Runs one generation and names it on failure, so a broken build step says which scene
+# could not be written instead of failing silently.
+scene() {
+  if ! "$gen" "$@"; then
+    echo "make_test_scenes.sh: failed: $gen $*" >&2
+    exit 1
+  fi
+}
+
+# Analytic irradiance: a point light over a bare floor.
+scene floor -o "$out/floor.gltf"
+# Analytic mirror: the floor receives the light plus exactly its mirror image; the tiny
+# mirror keeps enumeration cheap, and the area-light variant tests emissive triangles.
+scene flat-mirror --size 8 -o "$out/flat-mirror.gltf"
+scene flat-mirror --size 8 --area-light 0.25 -o "$out/flat-mirror-area.gltf"
+# Curved casters for single reflection, double refraction and single refraction.
+scene wavy-mirror --size 800 -o "$out/wavy-mirror.gltf"
+scene glass-sphere --size 320 -o "$out/glass-sphere.gltf"
+scene glass-slab --size 500 -o "$out/glass-slab.gltf"
+scene pool --size 800 -o "$out/pool.gltf"
+# The binary container, so the loader's .glb path is exercised too.
+scene pool --size 200 --glb -o "$out/pool.glb"
+# The demo scene of the README, larger and at a presentable size.
+scene wavy-mirror --size 5000 --width 640 --height 480 -o "$out/demo.gltf"

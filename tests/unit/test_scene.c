@@ -1,0 +1,790 @@
+/* Tests of the glTF scene loader (scene.c over gltf_shim.cpp).
+ *
+ * Expected values come from the files themselves or are worked out by hand from the
+ * small corpus files in tests/corpus/valid (their geometry is described next to each
+ * test), never from the loader's own output. */
+#define _POSIX_C_SOURCE 200809L
+#include <dirent.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bbc/scene.h"
+#include "gltf_shim_internal.h"
+#include "harness.h"
+
+#define VALID_DIR SOURCE_PATH("tests/corpus/valid")
+#define INVALID_DIR SOURCE_PATH("tests/corpus/invalid-gltf")
+#define PI 3.14159265358979323846
+
+/* ------------------------------------------------------------------ helpers */
+
+typedef struct messages {
+  int errors, warnings;
+  bbc_result error_code;
+  bbc_result warning_code;
+  char error[1024];
+  char warning[8][1024];
+} messages;
+
+static void on_error(void *user, bbc_result code, const char *message) {
+  messages *m = user;
+  m->errors++;
+  m->error_code = code;
+  snprintf(m->error, sizeof m->error, "%s", message);
+}
+
+static void on_warning(void *user, bbc_result code, const char *message) {
+  messages *m = user;
+  m->warning_code = code;
+  if (m->warnings < 8) snprintf(m->warning[m->warnings], sizeof m->warning[0], "%s", message);
+  m->warnings++;
+}
+
+static bbc_scene *load(const char *path, messages *m, bbc_result *result) {
+  memset(m, 0, sizeof *m);
+  bbc_scene_options options = {on_error, on_warning, m};
+  bbc_scene *scene = (bbc_scene *)1; /* must be overwritten, also on failure */
+  *result = bbc_scene_load(&scene, path, &options);
+  if (*result != BBC_OK && scene != NULL) harness_fail(__FILE__, __LINE__, "*out not NULL");
+  if (*result != BBC_OK) return NULL;
+  return scene;
+}
+
+/* Loads a file that must load without errors; warnings are allowed and kept in m. */
+static bbc_scene *load_ok(const char *path, messages *m) {
+  bbc_result r;
+  bbc_scene *scene = load(path, m, &r);
+  if (r != BBC_OK)
+    harness_fail(__FILE__, __LINE__, "loading %s: %s (%s)", path, bbc_result_string(r), m->error);
+  if (m->errors != 0) harness_fail(__FILE__, __LINE__, "error_fn called on success");
+  return scene;
+}
+
+static char *read_file(const char *path, size_t *size) {
+  FILE *f = fopen(path, "rb");
+  if (!f) return NULL;
+  size_t cap = 1 << 16, n = 0, got;
+  char *data = malloc(cap + 1);
+  while (data && (got = fread(data + n, 1, cap - n, f)) > 0) {
+    n += got;
+    if (n == cap) {
+      char *bigger = realloc(data, 2 * cap + 1);
+      if (!bigger) {
+        free(data);
+        data = NULL;
+        break;
+      }
+      data = bigger;
+      cap *= 2;
+    }
+  }
+  fclose(f);
+  if (data) data[n] = '\0';
+  *size = n;
+  return data;
+}
+
+/* The number after the first occurrence of "key": in a JSON text, or -1. The shared
+ * scenes are written one key per line, which makes this enough of a parser. */
+static double json_number_after(const char *text, const char *key) {
+  char pattern[64];
+  snprintf(pattern, sizeof pattern, "\"%s\":", key);
+  const char *at = strstr(text, pattern);
+  return at ? strtod(at + strlen(pattern), NULL) : -1.0;
+}
+
+static int compare_names(const void *a, const void *b) {
+  return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+/* The names in a folder that end with one of the suffixes, sorted; NULL-terminated. */
+static char **list_dir(const char *dir, const char *suffix1, const char *suffix2, int *count) {
+  DIR *d = opendir(dir);
+  char **names = calloc(256, sizeof *names);
+  *count = 0;
+  if (!d || !names) {
+    if (d) closedir(d);
+    return names;
+  }
+  struct dirent *e;
+  while ((e = readdir(d)) != NULL && *count < 255) {
+    size_t n = strlen(e->d_name);
+    int match = 0;
+    for (int k = 0; k < 2; k++) {
+      const char *suffix = k ? suffix2 : suffix1;
+      size_t s = suffix ? strlen(suffix) : 0;
+      if (suffix && n > s && strcmp(e->d_name + n - s, suffix) == 0) match = 1;
+    }
+    if (match) names[(*count)++] = strdup(e->d_name);
+  }
+  closedir(d);
+  qsort(names, (size_t)*count, sizeof *names, compare_names);
+  return names;
+}
+
+static void free_list(char **names) {
+  for (int i = 0; names && names[i]; i++) free(names[i]);
+  free(names);
+}
+
+static void vec_sub(const float *a, const float *b, double out[3]) {
+  for (int k = 0; k < 3; k++) out[k] = (double)a[k] - (double)b[k];
+}
+
+static void vec_cross(const double a[3], const double b[3], double c[3]) {
+  c[0] = a[1] * b[2] - a[2] * b[1];
+  c[1] = a[2] * b[0] - a[0] * b[2];
+  c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static void vec_normalize(double v[3]) {
+  double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  for (int k = 0; k < 3; k++) v[k] /= len;
+}
+
+/* The unnormalised geometric normal of a triangle from its stored winding. */
+static void triangle_normal(const bbc_scene *s, uint32_t t, double n[3]) {
+  const float *p0 = &s->positions[3 * s->indices[3 * t]];
+  const float *p1 = &s->positions[3 * s->indices[3 * t + 1]];
+  const float *p2 = &s->positions[3 * s->indices[3 * t + 2]];
+  double e1[3], e2[3];
+  vec_sub(p1, p0, e1);
+  vec_sub(p2, p0, e2);
+  vec_cross(e1, e2, n);
+}
+
+static const bbc_mesh *find_mesh(const bbc_scene *s, const char *name) {
+  for (uint32_t i = 0; i < s->mesh_count; i++)
+    if (strcmp(s->meshes[i].name, name) == 0) return &s->meshes[i];
+  return NULL;
+}
+
+static void check_position(const bbc_scene *s, uint32_t vertex, double x, double y, double z) {
+  CHECK_NEAR(s->positions[3 * vertex], x, 1e-5);
+  CHECK_NEAR(s->positions[3 * vertex + 1], y, 1e-5);
+  CHECK_NEAR(s->positions[3 * vertex + 2], z, 1e-5);
+}
+
+/* Invariants every loaded scene must satisfy, whatever the file. */
+static void check_invariants(const bbc_scene *s) {
+  REQUIRE(s != NULL);
+  CHECK(s->vertex_count > 0);
+  CHECK(s->triangle_count > 0);
+  for (uint32_t v = 0; v < s->vertex_count; v++) {
+    const float *n = &s->normals[3 * v];
+    for (int k = 0; k < 3; k++) CHECK(isfinite(s->positions[3 * v + k]));
+    double len = sqrt((double)n[0] * n[0] + (double)n[1] * n[1] + (double)n[2] * n[2]);
+    if (fabs(len - 1.0) > 1e-5) {
+      CHECK_NEAR(len, 1.0, 1e-5);
+      break;
+    }
+  }
+  uint32_t expected_first = 0;
+  for (uint32_t i = 0; i < s->mesh_count; i++) {
+    const bbc_mesh *m = &s->meshes[i];
+    CHECK_INT(m->first_triangle, expected_first);
+    expected_first += m->triangle_count;
+    CHECK(m->material < s->material_count);
+    CHECK(m->first_vertex + m->vertex_count <= s->vertex_count);
+    for (uint32_t t = m->first_triangle; t < m->first_triangle + m->triangle_count; t++) {
+      CHECK_INT(s->triangle_mesh[t], i);
+      for (int k = 0; k < 3; k++) {
+        uint32_t v = s->indices[3 * t + (uint32_t)k];
+        if (v < m->first_vertex || v >= m->first_vertex + m->vertex_count) {
+          harness_fail(__FILE__, __LINE__, "triangle %u uses vertex %u outside its mesh", t, v);
+          return;
+        }
+      }
+    }
+  }
+  CHECK_INT(expected_first, s->triangle_count);
+  CHECK(s->point_light_count > 0 || s->emitter_count > 0);
+  /* The camera frame must be orthonormal and right-handed. */
+  const bbc_camera *c = &s->camera;
+  double u[3] = {c->u.x, c->u.y, c->u.z}, v[3] = {c->v.x, c->v.y, c->v.z};
+  double w[3] = {c->w.x, c->w.y, c->w.z}, uxv[3];
+  vec_cross(u, v, uxv);
+  for (int k = 0; k < 3; k++) CHECK_NEAR(uxv[k], w[k], 1e-12);
+  CHECK_NEAR(u[0] * u[0] + u[1] * u[1] + u[2] * u[2], 1.0, 1e-12);
+  CHECK_NEAR(v[0] * v[0] + v[1] * v[1] + v[2] * v[2], 1.0, 1e-12);
+  CHECK_NEAR(u[0] * v[0] + u[1] * v[1] + u[2] * v[2], 0.0, 1e-12);
+}
+
+/* ------------------------------------------------------------------ shared scenes */
+
+/* Every scene in ../shared/scenes loads with the triangle count its extras declare,
+ * a caster of the right material, a diffuse receiver, the point light and the camera
+ * written in the file. */
+TEST(shared_scenes) {
+  int count = 0;
+  char **names = list_dir(SHARED_SCENE(""), ".gltf", NULL, &count);
+  CHECK(count >= 1);
+  for (int i = 0; i < count; i++) {
+    char path[2048];
+    snprintf(path, sizeof path, "%s%s", SHARED_SCENE(""), names[i]);
+    size_t size;
+    char *text = read_file(path, &size);
+    messages m;
+    bbc_scene *s = load_ok(path, &m);
+    if (!s || !text) {
+      harness_fail(__FILE__, __LINE__, "%s did not load", names[i]);
+      free(text);
+      bbc_scene_free(s);
+      continue;
+    }
+    fprintf(stderr, "  %s: %u triangles, %u vertices\n", names[i], s->triangle_count,
+            s->vertex_count);
+    check_invariants(s);
+    CHECK_INT(m.warnings, 0);
+    /* extras.bbc.triangles counts the caster's triangles (the first node); the floor
+     * adds its own two. */
+    double triangles = json_number_after(text, "triangles");
+    if (triangles >= 0) CHECK_INT(s->meshes[0].triangle_count, (long long)triangles);
+    CHECK_INT(s->mesh_count, 2);
+    const bbc_mesh *caster = &s->meshes[0], *floor = &s->meshes[1];
+    CHECK_INT(caster->role, BBC_ROLE_CASTER);
+    CHECK_INT(floor->role, BBC_ROLE_RECEIVER);
+    CHECK_INT(floor->triangle_count, 2);
+    CHECK(floor->has_uvs);
+    const bbc_material *cm = &s->materials[caster->material];
+    const bbc_material *fm = &s->materials[floor->material];
+    CHECK_INT(fm->type, BBC_MATERIAL_DIFFUSE);
+    CHECK_NEAR(fm->base_color[0], 0.8, 1e-7);
+    if (strncmp(names[i], "plane", 5) == 0) {
+      CHECK_INT(cm->type, BBC_MATERIAL_MIRROR);
+      CHECK_NEAR(cm->base_color[1], 0.78, 1e-7);
+    } else {
+      double ior = strncmp(names[i], "diamond", 7) == 0 ? 2.42
+                   : strncmp(names[i], "pool", 4) == 0  ? 1.33
+                                                        : 1.5;
+      CHECK_INT(cm->type, BBC_MATERIAL_DIELECTRIC);
+      CHECK_NEAR(cm->ior, ior, 1e-6);
+    }
+    CHECK_INT(s->point_light_count, 1);
+    CHECK_NEAR(s->point_lights[0].intensity[0], json_number_after(text, "intensity"), 1e-6);
+    CHECK_INT(s->emitter_count, 0);
+    CHECK_NEAR(s->emitter_power, 0.0, 0.0);
+    CHECK_INT(s->camera.width, (long long)json_number_after(text, "width"));
+    CHECK_INT(s->camera.height, (long long)json_number_after(text, "height"));
+    CHECK_NEAR(s->camera.aspect, json_number_after(text, "aspectRatio"), 1e-12);
+    CHECK_NEAR(s->camera.yfov, json_number_after(text, "yfov"), 1e-12);
+    CHECK(strcmp(s->path, path) == 0);
+    free(text);
+    bbc_scene_free(s);
+  }
+  free_list(names);
+}
+
+/* diamond.gltf in detail: light at (1,3,-2); camera at (0,6,6) rotated about x by the
+ * quaternion (qx,0,0,qw), so it looks along -w with w = (0, -sin a, cos a), a = 2
+ * atan2(qx, qw), and u = x. */
+TEST(shared_diamond_light_and_camera) {
+  messages m;
+  bbc_scene *s = load_ok(SHARED_SCENE("diamond.gltf"), &m);
+  REQUIRE(s != NULL);
+  CHECK_NEAR(s->point_lights[0].position.x, 1.0, 0.0);
+  CHECK_NEAR(s->point_lights[0].position.y, 3.0, 0.0);
+  CHECK_NEAR(s->point_lights[0].position.z, -2.0, 0.0);
+  for (int k = 0; k < 3; k++) CHECK_NEAR(s->point_lights[0].intensity[k], 50.0, 0.0);
+  double a = 2.0 * atan2(-0.41537300200070665, 0.9096511799634632);
+  CHECK_NEAR(s->camera.position.x, 0.0, 0.0);
+  CHECK_NEAR(s->camera.position.y, 6.0, 0.0);
+  CHECK_NEAR(s->camera.position.z, 6.0, 0.0);
+  CHECK_NEAR(s->camera.w.x, 0.0, 1e-12);
+  CHECK_NEAR(s->camera.w.y, -sin(a), 1e-12);
+  CHECK_NEAR(s->camera.w.z, cos(a), 1e-12);
+  CHECK_NEAR(s->camera.u.x, 1.0, 1e-12);
+  CHECK_NEAR(s->camera.v.y, cos(a), 1e-12);
+  CHECK_NEAR(s->camera.v.z, sin(a), 1e-12);
+  /* The camera looks down at the origin: -w points from it towards the scene. */
+  CHECK(-s->camera.w.y < 0 && -s->camera.w.z < 0);
+  CHECK_INT(s->meshes[0].has_normals, 1);
+  bbc_scene_free(s);
+}
+
+/* ------------------------------------------------------------------ transforms */
+
+/* transform.gltf holds the triangle (1,0,0), (0,1,0), (0,0,1) with vertex normals
+ * (1,1,1)/sqrt 3 under three nodes:
+ *  - "child" of a parent translated by (1,2,3), itself rotated 90 degrees about z and
+ *    scaled by (2,3,4): p -> (1 - 3 y, 2 + 2 x, 3 + 4 z), so the corners go to
+ *    (1,4,3), (-2,2,3), (1,2,7); the normal goes to R S^-1 n ~ (-1/3, 1/2, 1/4),
+ *    parallel to the cross product of the world edges, (-8, 12, 6);
+ *  - "by_matrix", the same world transform written as a matrix;
+ *  - "mirrored", scaled by (-1,1,1) and moved by (0,0,-5), whose normal is (-1,1,1)/sqrt 3
+ *    and whose winding must flip to stay consistent with it. */
+static void check_transformed_triangle(const bbc_scene *s, const bbc_mesh *mesh) {
+  REQUIRE(mesh != NULL);
+  CHECK_INT(mesh->vertex_count, 3);
+  CHECK_INT(mesh->triangle_count, 1);
+  uint32_t v = mesh->first_vertex;
+  check_position(s, v, 1, 4, 3);
+  check_position(s, v + 1, -2, 2, 3);
+  check_position(s, v + 2, 1, 2, 7);
+  double n[3] = {-8, 12, 6};
+  vec_normalize(n);
+  for (uint32_t i = 0; i < 3; i++)
+    for (int k = 0; k < 3; k++) CHECK_NEAR(s->normals[3 * (v + i) + (uint32_t)k], n[k], 1e-6);
+  double g[3];
+  triangle_normal(s, mesh->first_triangle, g);
+  vec_normalize(g);
+  for (int k = 0; k < 3; k++) CHECK_NEAR(g[k], n[k], 1e-6);
+}
+
+TEST(transform_trs_hierarchy) {
+  messages m;
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/transform.gltf"), &m);
+  REQUIRE(s != NULL);
+  check_invariants(s);
+  CHECK_INT(s->mesh_count, 3);
+  /* Meshes come in node order: the parent's child first, then the other roots. */
+  check_transformed_triangle(s, &s->meshes[0]);
+  CHECK_INT(s->meshes[0].role, BBC_ROLE_NONE);
+  bbc_scene_free(s);
+}
+
+TEST(transform_matrix) {
+  messages m;
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/transform.gltf"), &m);
+  REQUIRE(s != NULL);
+  check_transformed_triangle(s, &s->meshes[1]);
+  /* No role given and a diffuse material: a receiver. */
+  CHECK_INT(s->meshes[1].role, BBC_ROLE_RECEIVER);
+  bbc_scene_free(s);
+}
+
+TEST(transform_mirrored_keeps_winding) {
+  messages m;
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/transform.gltf"), &m);
+  REQUIRE(s != NULL && s->mesh_count == 3);
+  const bbc_mesh *mesh = &s->meshes[2];
+  CHECK_INT(mesh->role, BBC_ROLE_CASTER);
+  uint32_t v = mesh->first_vertex;
+  check_position(s, v, -1, 0, -5);
+  check_position(s, v + 1, 0, 1, -5);
+  check_position(s, v + 2, 0, 0, -4);
+  double n[3] = {-1, 1, 1};
+  vec_normalize(n);
+  for (int k = 0; k < 3; k++) CHECK_NEAR(s->normals[3 * v + (uint32_t)k], n[k], 1e-6);
+  /* The second and third corners are swapped so the winding agrees with the normal. */
+  uint32_t t = mesh->first_triangle;
+  CHECK_INT(s->indices[3 * t], v);
+  CHECK_INT(s->indices[3 * t + 1], v + 2);
+  CHECK_INT(s->indices[3 * t + 2], v + 1);
+  double g[3];
+  triangle_normal(s, t, g);
+  CHECK(g[0] * n[0] + g[1] * n[1] + g[2] * n[2] > 0.0);
+  bbc_scene_free(s);
+}
+
+/* ------------------------------------------------------------------ accessors */
+
+/* indices.gltf: the quad (0,0,0), (1,0,0), (1,0,1), (0,0,1) with triangles (0,2,1) and
+ * (0,3,2), facing +y, in five meshes shifted by 10 k along x: 8-, 16- and 32-bit
+ * indices, non-indexed, and an interleaved buffer (position, normal, uv; stride 32). */
+static const double quad[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 0, 1}, {0, 0, 1}};
+static const double quad_uv[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+static const int quad_indices[6] = {0, 2, 1, 0, 3, 2};
+
+static void check_quad_mesh(const bbc_scene *s, const char *name, int k, int expect_uvs) {
+  const bbc_mesh *mesh = find_mesh(s, name);
+  if (!mesh) {
+    harness_fail(__FILE__, __LINE__, "no mesh named %s", name);
+    return;
+  }
+  CHECK_INT(mesh->triangle_count, 2);
+  CHECK_INT(mesh->has_normals, 1);
+  CHECK_INT(mesh->has_uvs, expect_uvs);
+  for (uint32_t c = 0; c < 6; c++) {
+    uint32_t v = s->indices[3 * mesh->first_triangle + c];
+    const double *p = quad[quad_indices[c]];
+    check_position(s, v, p[0] + 10.0 * k, p[1], p[2]);
+    CHECK_NEAR(s->normals[3 * v + 1], 1.0, 0.0);
+    CHECK_NEAR(s->uvs[2 * v], expect_uvs ? quad_uv[quad_indices[c]][0] : 0.0, 0.0);
+    CHECK_NEAR(s->uvs[2 * v + 1], expect_uvs ? quad_uv[quad_indices[c]][1] : 0.0, 0.0);
+  }
+}
+
+TEST(indices_8_16_32_bit) {
+  messages m;
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/indices.gltf"), &m);
+  REQUIRE(s != NULL);
+  check_invariants(s);
+  CHECK_INT(s->mesh_count, 5);
+  CHECK_INT(s->triangle_count, 10);
+  check_quad_mesh(s, "u8", 0, 0);
+  check_quad_mesh(s, "u16", 1, 0);
+  check_quad_mesh(s, "u32", 2, 0);
+  bbc_scene_free(s);
+}
+
+TEST(non_indexed_and_interleaved) {
+  messages m;
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/indices.gltf"), &m);
+  REQUIRE(s != NULL);
+  check_quad_mesh(s, "non_indexed", 3, 0);
+  check_quad_mesh(s, "interleaved", 4, 1);
+  const bbc_mesh *flat = find_mesh(s, "non_indexed");
+  REQUIRE(flat != NULL);
+  CHECK_INT(flat->vertex_count, 6);
+  bbc_scene_free(s);
+}
+
+/* small.glb: the quad scaled to [-1,1]^2 in the BIN chunk of a binary glTF, with uvs;
+ * its camera gives only a film size, so aspect = 320 / 240. */
+TEST(glb_file) {
+  messages m;
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/small.glb"), &m);
+  REQUIRE(s != NULL);
+  check_invariants(s);
+  CHECK_INT(s->mesh_count, 1);
+  CHECK_INT(s->vertex_count, 4);
+  CHECK_INT(s->triangle_count, 2);
+  CHECK_INT(s->meshes[0].has_uvs, 1);
+  check_position(s, 0, -1, 0, -1);
+  check_position(s, 2, 1, 0, 1);
+  CHECK_NEAR(s->uvs[2 * 2], 1.0, 0.0);
+  CHECK_INT(s->camera.width, 320);
+  CHECK_INT(s->camera.height, 240);
+  CHECK_NEAR(s->camera.aspect, 320.0 / 240.0, 1e-15);
+  CHECK_NEAR(s->camera.yfov, 0.7, 1e-15);
+  bbc_scene_free(s);
+}
+
+/* The same bytes given to the memory loader, which must find nothing on disk. */
+TEST(glb_from_memory) {
+  size_t size;
+  char *bytes = read_file(SOURCE_PATH("tests/corpus/valid/small.glb"), &size);
+  REQUIRE(bytes != NULL);
+  messages m = {0};
+  bbc_scene_options options = {on_error, on_warning, &m};
+  bbc_scene *s = NULL;
+  bbc_result r = bbc__scene_load_memory(&s, bytes, size, "small.glb", NULL, &options);
+  CHECK_INT(r, BBC_OK);
+  CHECK_INT(m.errors, 0);
+  if (s) {
+    CHECK_INT(s->triangle_count, 2);
+    CHECK(strcmp(s->path, "small.glb") == 0);
+  }
+  bbc_scene_free(s);
+  free(bytes);
+}
+
+/* ------------------------------------------------------------------ normals, materials */
+
+/* no_normals.gltf: the bent quad (0,0,0), (1,0,0), (1,0.5,1), (0,0,1) without NORMAL,
+ * TEXCOORD_0 or material. Each triangle gets its own vertices and its flat normal. */
+TEST(missing_normals_are_flat) {
+  messages m;
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/no_normals.gltf"), &m);
+  REQUIRE(s != NULL);
+  check_invariants(s);
+  static const double p[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 0.5, 1}, {0, 0, 1}};
+  CHECK_INT(s->vertex_count, 6);
+  CHECK_INT(s->triangle_count, 2);
+  CHECK_INT(s->meshes[0].has_normals, 0);
+  CHECK_INT(s->meshes[0].has_uvs, 0);
+  double normals[2][3];
+  for (uint32_t t = 0; t < 2; t++) {
+    const double *a = p[quad_indices[3 * t]], *b = p[quad_indices[3 * t + 1]],
+                 *c = p[quad_indices[3 * t + 2]];
+    double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+    double e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+    vec_cross(e1, e2, normals[t]);
+    vec_normalize(normals[t]);
+    CHECK(normals[t][1] > 0.0);
+    for (uint32_t k = 0; k < 3; k++) {
+      uint32_t v = s->indices[3 * t + k];
+      const double *q = p[quad_indices[3 * t + k]];
+      check_position(s, v, q[0], q[1], q[2]);
+      for (int c2 = 0; c2 < 3; c2++)
+        CHECK_NEAR(s->normals[3 * v + (uint32_t)c2], normals[t][c2], 1e-6);
+      CHECK_NEAR(s->uvs[2 * v], 0.0, 0.0);
+      CHECK_NEAR(s->uvs[2 * v + 1], 0.0, 0.0);
+    }
+  }
+  /* The quad is bent, so the two flat normals differ and no vertex may be shared. */
+  CHECK(fabs(normals[0][0] - normals[1][0]) > 0.1 || fabs(normals[0][2] - normals[1][2]) > 0.1);
+  for (uint32_t i = 0; i < 6; i++)
+    for (uint32_t j = i + 1; j < 6; j++) CHECK(s->indices[i] != s->indices[j]);
+  bbc_scene_free(s);
+}
+
+TEST(default_material) {
+  messages m;
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/no_normals.gltf"), &m);
+  REQUIRE(s != NULL);
+  CHECK_INT(s->material_count, 1);
+  const bbc_material *mat = bbc_scene_triangle_material(s, 0);
+  CHECK_INT(mat->type, BBC_MATERIAL_DIFFUSE);
+  for (int k = 0; k < 3; k++) {
+    CHECK_NEAR(mat->base_color[k], 0.8, 1e-7);
+    CHECK_NEAR(mat->emission[k], 0.0, 0.0);
+  }
+  CHECK_INT(s->meshes[0].role, BBC_ROLE_RECEIVER);
+  CHECK_INT(m.warnings, 0);
+  bbc_scene_free(s);
+}
+
+/* materials.gltf: one triangle per material, mesh named after its material. */
+TEST(material_classification) {
+  messages m;
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/materials.gltf"), &m);
+  REQUIRE(s != NULL);
+  check_invariants(s);
+  static const struct {
+    const char *name;
+    bbc_material_type type;
+    bbc_role role;
+    double ior;
+  } expected[] = {
+      {"silver", BBC_MATERIAL_MIRROR, BBC_ROLE_CASTER, 1.5},
+      {"glass_1.7", BBC_MATERIAL_DIELECTRIC, BBC_ROLE_CASTER, 1.7},
+      {"glass_default", BBC_MATERIAL_DIELECTRIC, BBC_ROLE_CASTER, 1.5},
+      {"thin_glass", BBC_MATERIAL_DIFFUSE, BBC_ROLE_RECEIVER, 1.5},
+      {"brushed_steel", BBC_MATERIAL_DIFFUSE, BBC_ROLE_RECEIVER, 1.5},
+      {"white", BBC_MATERIAL_DIFFUSE, BBC_ROLE_RECEIVER, 1.5},
+  };
+  CHECK_INT(s->material_count, 6);
+  for (size_t i = 0; i < sizeof expected / sizeof expected[0]; i++) {
+    const bbc_mesh *mesh = find_mesh(s, expected[i].name);
+    if (!mesh) {
+      harness_fail(__FILE__, __LINE__, "no mesh %s", expected[i].name);
+      continue;
+    }
+    const bbc_material *mat = &s->materials[mesh->material];
+    CHECK(strcmp(mat->name, expected[i].name) == 0);
+    CHECK_INT(mat->type, expected[i].type);
+    CHECK_INT(mesh->role, expected[i].role);
+    if (mat->type == BBC_MATERIAL_DIELECTRIC) CHECK_NEAR(mat->ior, expected[i].ior, 1e-6);
+  }
+  const bbc_material *silver = &s->materials[find_mesh(s, "silver")->material];
+  CHECK_NEAR(silver->base_color[0], 0.9, 1e-7);
+  CHECK_NEAR(silver->base_color[2], 0.7, 1e-7);
+  const bbc_material *white = &s->materials[find_mesh(s, "white")->material];
+  CHECK_NEAR(white->base_color[1], 0.6, 1e-7);
+  bbc_scene_free(s);
+}
+
+/* Materials bbc cannot render exactly fall back to diffuse with one warning each,
+ * naming the material, sent with code BBC_OK. */
+TEST(unknown_material_warns) {
+  messages m;
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/materials.gltf"), &m);
+  REQUIRE(s != NULL);
+  CHECK_INT(m.warnings, 2);
+  CHECK_INT(m.warning_code, BBC_OK);
+  int thin = 0, steel = 0;
+  for (int i = 0; i < m.warnings && i < 8; i++) {
+    thin += strstr(m.warning[i], "\"thin_glass\"") != NULL;
+    steel += strstr(m.warning[i], "\"brushed_steel\"") != NULL;
+    CHECK_STR_CONTAINS(m.warning[i], "materials.gltf");
+    CHECK_STR_CONTAINS(m.warning[i], "diffuse");
+    CHECK(strchr(m.warning[i], '\n') == NULL);
+  }
+  CHECK_INT(thin, 1);
+  CHECK_INT(steel, 1);
+  bbc_scene_free(s);
+}
+
+/* ------------------------------------------------------------------ lights */
+
+/* emissive.gltf: a floor quad (triangles 0, 1) and two emissive triangles of areas 0.5
+ * and 2 (triangles 2, 3) with emissiveFactor (1, 0.5, 0.25) x emissiveStrength 4, so
+ * radiance (4, 2, 1) with mean 7/3; its only punctual light is a spot light. */
+TEST(emissive_triangles) {
+  messages m;
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/emissive.gltf"), &m);
+  REQUIRE(s != NULL);
+  check_invariants(s);
+  CHECK_INT(s->point_light_count, 0);
+  REQUIRE(s->emitter_count == 2);
+  CHECK_INT(s->emitters[0], 2);
+  CHECK_INT(s->emitters[1], 3);
+  CHECK_NEAR(s->emitter_cdf[0], 0.5 / 2.5, 1e-12);
+  CHECK_NEAR(s->emitter_cdf[1], 1.0, 0.0);
+  CHECK_NEAR(s->emitter_power, 2.5 * (7.0 / 3.0) * PI, 1e-9);
+  const bbc_material *lamp = bbc_scene_triangle_material(s, 2);
+  CHECK_NEAR(lamp->emission[0], 4.0, 0.0);
+  CHECK_NEAR(lamp->emission[1], 2.0, 0.0);
+  CHECK_NEAR(lamp->emission[2], 1.0, 0.0);
+  CHECK_INT(bbc_scene_triangle_material(s, 0)->type, BBC_MATERIAL_DIFFUSE);
+  bbc_scene_free(s);
+}
+
+TEST(spot_light_ignored_with_warning) {
+  messages m;
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/emissive.gltf"), &m);
+  REQUIRE(s != NULL);
+  CHECK_INT(m.warnings, 1);
+  CHECK_STR_CONTAINS(m.warning[0], "spot");
+  CHECK_STR_CONTAINS(m.warning[0], "emissive.gltf");
+  bbc_scene_free(s);
+}
+
+/* ------------------------------------------------------------------ failures */
+
+static bbc_result code_from_name(const char *name, int *known) {
+  static const struct {
+    const char *prefix;
+    bbc_result code;
+  } codes[] = {{"gltf--", BBC_ERR_GLTF}, {"scene--", BBC_ERR_SCENE}, {"io--", BBC_ERR_IO}};
+  *known = 1;
+  for (size_t i = 0; i < sizeof codes / sizeof codes[0]; i++)
+    if (strncmp(name, codes[i].prefix, strlen(codes[i].prefix)) == 0) return codes[i].code;
+  *known = 0;
+  return BBC_OK;
+}
+
+/* Each file of tests/corpus/invalid-gltf fails with exactly the code its name starts
+ * with, one error line naming the file, no warnings about it afterwards, and the same
+ * code when given to the memory loader. */
+TEST(invalid_corpus) {
+  int count = 0;
+  char **names = list_dir(INVALID_DIR, ".gltf", ".glb", &count);
+  CHECK(count >= 20);
+  for (int i = 0; i < count; i++) {
+    int known;
+    bbc_result expected = code_from_name(names[i], &known);
+    if (!known) {
+      harness_fail(__FILE__, __LINE__, "%s: name does not start with a result code", names[i]);
+      continue;
+    }
+    char path[2048];
+    snprintf(path, sizeof path, "%s/%s", INVALID_DIR, names[i]);
+    messages m;
+    bbc_result r;
+    bbc_scene *s = load(path, &m, &r);
+    fprintf(stderr, "  %s: %s\n", names[i], m.error);
+    if (r != expected)
+      harness_fail(__FILE__, __LINE__, "%s: got %s, expected %s", names[i], bbc_result_string(r),
+                   bbc_result_string(expected));
+    CHECK(s == NULL);
+    CHECK_INT(m.errors, 1);
+    CHECK_INT(m.error_code, expected);
+    CHECK_STR_CONTAINS(m.error, path);
+    CHECK(strchr(m.error, '\n') == NULL);
+    bbc_scene_free(s);
+
+    size_t size;
+    char *bytes = read_file(path, &size);
+    REQUIRE(bytes != NULL);
+    messages mm = {0};
+    bbc_scene_options options = {on_error, on_warning, &mm};
+    bbc_scene *ms = NULL;
+    r = bbc__scene_load_memory(&ms, bytes, size, names[i], INVALID_DIR "/", &options);
+    if (r != expected)
+      harness_fail(__FILE__, __LINE__, "%s from memory: got %s, expected %s", names[i],
+                   bbc_result_string(r), bbc_result_string(expected));
+    CHECK_INT(mm.errors, 1);
+    CHECK_STR_CONTAINS(mm.error, names[i]);
+    bbc_scene_free(ms);
+    free(bytes);
+  }
+  free_list(names);
+}
+
+TEST(io_missing_file) {
+  const char *path = INVALID_DIR "/io--does-not-exist.gltf";
+  messages m;
+  bbc_result r;
+  bbc_scene *s = load(path, &m, &r);
+  CHECK_INT(r, BBC_ERR_IO);
+  CHECK(s == NULL);
+  CHECK_INT(m.errors, 1);
+  CHECK_INT(m.error_code, BBC_ERR_IO);
+  CHECK_STR_CONTAINS(m.error, path);
+}
+
+TEST(io_directory) {
+  const char *path = VALID_DIR;
+  messages m;
+  bbc_result r;
+  bbc_scene *s = load(path, &m, &r);
+  CHECK_INT(r, BBC_ERR_IO);
+  CHECK(s == NULL);
+  CHECK_INT(m.errors, 1);
+  CHECK_STR_CONTAINS(m.error, path);
+}
+
+TEST(null_arguments) {
+  messages m = {0};
+  bbc_scene_options options = {on_error, on_warning, &m};
+  CHECK_INT(bbc_scene_load(NULL, SHARED_SCENE("plane1k.gltf"), &options), BBC_ERR_INVALID_ARGUMENT);
+  bbc_scene *s = (bbc_scene *)1;
+  CHECK_INT(bbc_scene_load(&s, NULL, &options), BBC_ERR_INVALID_ARGUMENT);
+  CHECK(s == NULL);
+  CHECK_INT(m.errors, 2);
+  /* Without options nothing is reported, and the result is the same. */
+  CHECK_INT(bbc_scene_load(&s, INVALID_DIR "/io--does-not-exist.gltf", NULL), BBC_ERR_IO);
+  CHECK(s == NULL);
+  bbc_scene_free(NULL);
+  bbc__gltf_free(NULL);
+}
+
+/* Every truncation and many single-byte corruptions of two small files either load or
+ * fail cleanly, always with exactly one error line on failure and none on success.
+ * Under ASan or valgrind this also proves the failure paths free everything. */
+static void mutate_file(const char *path, const char *base_dir) {
+  size_t size;
+  unsigned char *bytes = (unsigned char *)read_file(path, &size);
+  REQUIRE(bytes != NULL);
+  unsigned char *copy = malloc(size ? size : 1);
+  REQUIRE(copy != NULL);
+  size_t step = (size_t)harness_scale(7, 1);
+  int loaded = 0, failed = 0;
+  for (size_t pass = 0; pass < 2; pass++) {
+    for (size_t i = 0; i < size; i += (pass == 0 ? 1 : step)) {
+      size_t n = size;
+      memcpy(copy, bytes, size);
+      if (pass == 0)
+        n = i; /* truncated to i bytes */
+      else
+        copy[i] ^= (unsigned char)(0x5A + i); /* one corrupted byte */
+      messages m = {0};
+      bbc_scene_options options = {on_error, on_warning, &m};
+      bbc_scene *s = NULL;
+      bbc_result r = bbc__scene_load_memory(&s, copy, n, "mutant", base_dir, &options);
+      if (r == BBC_OK) {
+        loaded++;
+        CHECK(s != NULL);
+        CHECK_INT(m.errors, 0);
+      } else {
+        failed++;
+        CHECK(s == NULL);
+        if (m.errors != 1) {
+          harness_fail(__FILE__, __LINE__, "%s pass %zu at %zu: %d error lines", path, pass, i,
+                       m.errors);
+          break;
+        }
+      }
+      bbc_scene_free(s);
+    }
+  }
+  fprintf(stderr, "  %s: %d loaded, %d failed\n", path, loaded, failed);
+  CHECK(failed > 0);
+  free(copy);
+  free(bytes);
+}
+
+TEST(mutated_inputs_fail_cleanly) {
+  mutate_file(SOURCE_PATH("tests/corpus/valid/small.glb"), NULL);
+  mutate_file(SOURCE_PATH("tests/corpus/valid/no_normals.gltf"), NULL);
+}
+
+/* ------------------------------------------------------------------ result strings */
+
+TEST(result_strings) {
+  for (int code = 0; code <= BBC_ERR_SCENE; code++) {
+    const char *s = bbc_result_string((bbc_result)code);
+    REQUIRE(s != NULL);
+    CHECK(strlen(s) > 0);
+    CHECK(strcmp(s, "unknown result code") != 0);
+    for (int other = 0; other < code; other++)
+      CHECK(strcmp(s, bbc_result_string((bbc_result)other)) != 0);
+  }
+  CHECK(strcmp(bbc_result_string((bbc_result)9999), "unknown result code") == 0);
+  CHECK(bbc_version_string() != NULL && bbc_version_string()[0] != '\0');
+}
