@@ -7,5 +7,6 @@
 #include "bbc/image.h"
 #include "bbc/render.h"
 #include "bbc/scene.h"
+#include "bbc/tuple.h"
 
 #endif

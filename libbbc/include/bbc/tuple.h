@@ -1,0 +1,50 @@
+/* Triangle tuples: a light, one or two specular triangles and a receiver triangle —
+ * the unit the bounds are computed for, the cache stores and the renderer samples. */
+#ifndef BBC_TUPLE_H
+#define BBC_TUPLE_H
+
+#include "bbc/common.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Chain types: R reflection, T refraction (transmission), in light-to-receiver order.
+ * The values are stored in .bbc files and never change. */
+typedef enum bbc_chain {
+  BBC_CHAIN_R = 0,
+  BBC_CHAIN_T = 1,
+  BBC_CHAIN_RR = 2,
+  BBC_CHAIN_RT = 3,
+  BBC_CHAIN_TR = 4,
+  BBC_CHAIN_TT = 5,
+  BBC_CHAIN_COUNT = 6
+} bbc_chain;
+
+/* Marks an unused specular slot (single-scattering chains). */
+#define BBC_NO_TRIANGLE UINT32_MAX
+
+typedef struct bbc_tuple {
+  uint32_t light;        /* index into scene->point_lights */
+  uint32_t chain;        /* a bbc_chain */
+  uint32_t specular[2];  /* T1 and T2 (BBC_NO_TRIANGLE for one bounce), scene triangles */
+  uint32_t receiver;     /* Tk, a scene triangle of a receiver mesh */
+} bbc_tuple;
+
+/* Number of specular vertices of a chain type (1 or 2). */
+static inline int bbc_chain_length(bbc_chain chain) { return chain <= BBC_CHAIN_T ? 1 : 2; }
+/* 1 if the i-th specular vertex (0-based) of the chain refracts. */
+static inline int bbc_chain_refracts(bbc_chain chain, int i) {
+  static const char *const codes[BBC_CHAIN_COUNT] = {"R", "T", "RR", "RT", "TR", "TT"};
+  return codes[chain][i] == 'T';
+}
+/* "R", "T", "RR", ... */
+BBC_API const char *bbc_chain_name(bbc_chain chain);
+/* Parses a chain name; returns 1 on success. */
+BBC_API int bbc_chain_parse(const char *name, bbc_chain *out);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif
