@@ -29,6 +29,14 @@ static inline bbc_vec3 v3_madd(bbc_vec3 a, bbc_vec3 b, double s) {
 }
 static inline bbc_vec3 v3_load(const float *p) { return v3(p[0], p[1], p[2]); }
 
+/* The origin of a ray leaving surface point p in direction dir, pushed off the surface
+ * along its geometric normal ng to the side dir goes to, so the ray does not hit the
+ * surface it starts on. */
+static inline bbc_vec3 v3_offset_origin(bbc_vec3 p, bbc_vec3 ng, bbc_vec3 dir) {
+  double eps = 2e-5 * (1.0 + v3_max_abs(p));
+  return v3_madd(p, ng, v3_dot(dir, ng) > 0 ? eps : -eps);
+}
+
 /* An orthonormal basis (t, b) around the unit vector n (Duff et al. 2017). */
 static inline void v3_basis(bbc_vec3 n, bbc_vec3 *t, bbc_vec3 *b) {
   double sign = copysign(1.0, n.z);

@@ -1,0 +1,100 @@
+/* Single-scattering caustic bounds (paper Sec. 4.2-4.5): for a tuple (point light, one
+ * specular triangle T1, a receiver triangle Tk) and boxes ("pieces") of T1's barycentrics
+ * u1, conservative bounds of where on the receiver the caustic lands (the position bound,
+ * a box of receiver barycentrics u_k) and of the irradiance it carries there (the
+ * irradiance bound), refined by breadth-first subdivision of u1. */
+#ifndef BBC_BOUNDS_H
+#define BBC_BOUNDS_H
+
+#include "bbc/scene.h"
+#include "bbc/tuple.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The geometry of a single-scattering tuple in the form the bounds use (doubles; plain
+ * struct, fill it with bbc_tuple_geometry_init or by hand for synthetic tuples).
+ *
+ * T1's normals are oriented toward the light: if the light lies behind T1's plane (as
+ * seen from the vertex normals), they are negated, so mirrors reflect on whichever side
+ * the light is and a dielectric is entered from the light's side. eta is then the ratio
+ * n_incident / n_transmitted (1/ior entering the front side, ior leaving through the
+ * back); it is unused for reflection. */
+typedef struct bbc_tuple_geometry {
+  bbc_vec3 light;  /* x0 */
+  int refract;     /* 0: reflection (R), 1: refraction (T) */
+  double eta;      /* eta' of Eq. 10-11 */
+  bbc_vec3 p[3];   /* T1's vertices p_{1,0..2} (Eq. 6) */
+  bbc_vec3 n[3];   /* T1's vertex normals n_{1,0..2}, oriented as described and
+                      interpolated unnormalised (Eq. 7) */
+  bbc_vec3 r[3];   /* Tk's vertices */
+} bbc_tuple_geometry;
+
+/* Fills g for a single-scattering tuple of the scene (chain R or T).
+ * BBC_ERR_INVALID_ARGUMENT for another chain or out-of-range indices. */
+BBC_API bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene,
+                                           const bbc_tuple *tuple);
+
+typedef enum bbc_jacobian_form {
+  BBC_JACOBIAN_DETERMINANT = 0, /* |det du_k/du_1| = |D| / |q|^3 (DESIGN 3.5), default */
+  BBC_JACOBIAN_QUOTIENT = 1     /* the quotient-rule form, |N| / q^4 with N = q D expanded */
+} bbc_jacobian_form;
+
+/* Parameters of the subdivision; a zero-initialised struct means the defaults. */
+typedef struct bbc_bound_params {
+  int max_level;        /* deepest subdivision level of the u1 box; 0 = 10 */
+  double sigma;         /* stop when the position bound's area is below this; 0 = 1e-4 */
+  double alpha;         /* stop when E_hi / E_lo is below this; 0 = 2 */
+  int no_remainder;     /* replace sqrt by its linearisation without remainder variables
+                           (NOT conservative: the paper's Fig. 18 ablation) */
+  bbc_jacobian_form jacobian;
+  int positions_only;   /* skip irradiance bounds (E_hi = +inf, E_lo = 0) */
+} bbc_bound_params;
+
+typedef enum bbc_piece_status {
+  BBC_PIECE_KEPT = 0,      /* may hold valid paths; its bounds are valid for all of them */
+  BBC_PIECE_DISCARDED = 1  /* proved to hold no valid path */
+} bbc_piece_status;
+
+/* A leaf of the subdivision: the box [u_lo, u_hi] x [v_lo, v_hi] of T1's barycentrics
+ * (it may stick out of the triangle, u + v > 1, which holds no path) and, when kept, its
+ * position bound (a box of receiver barycentrics clipped to [0,1]^2) and irradiance bound
+ * per unit light intensity (W/m^2 per W/sr), E_hi possibly +inf near focal points. */
+typedef struct bbc_piece {
+  double u_lo, u_hi, v_lo, v_hi;
+  int level;
+  bbc_piece_status status;
+  double uk_lo, uk_hi, vk_lo, vk_hi;
+  double e_lo, e_hi;
+} bbc_piece;
+
+/* Statistics of bounding, summed over calls (the paper's Table 2 precompute columns). */
+typedef struct bbc_bound_stats {
+  uint64_t tuples;
+  uint64_t position_pieces;   /* pieces whose position bound was computed */
+  uint64_t irradiance_pieces; /* pieces whose irradiance bound was computed */
+  uint64_t kept_pieces, discarded_pieces;
+  double position_seconds, irradiance_seconds; /* thread CPU time */
+} bbc_bound_stats;
+
+/* Called for every leaf piece, in breadth-first order. A non-zero return stops. */
+typedef int (*bbc_piece_fn)(void *user, const bbc_piece *piece);
+
+/* Per-thread working memory of the bounder. Opaque; one per thread. */
+typedef struct bbc_bounder bbc_bounder;
+BBC_API bbc_result bbc_bounder_create(bbc_bounder **out);
+BBC_API void bbc_bounder_free(bbc_bounder *bounder); /* NULL is allowed */
+
+/* Subdivides T1's barycentric domain breadth-first and reports every leaf: discarded
+ * pieces (proved empty), and kept ones with their bounds. stats may be NULL and is added
+ * to. Returns BBC_ERR_CANCELLED if fn returned non-zero. */
+BBC_API bbc_result bbc_bound_tuple(bbc_bounder *bounder, const bbc_tuple_geometry *g,
+                                   const bbc_bound_params *params, bbc_piece_fn fn, void *user,
+                                   bbc_bound_stats *stats);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

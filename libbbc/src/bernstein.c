@@ -1,0 +1,1004 @@
+/* Tensor-product Bernstein polynomials: the arena, construction, and the operations that are
+ * exact in real arithmetic (add, multiply, elevate, differentiate, subdivide), each with the
+ * propagation of the coefficient error radius `err` (paper Sec. 4.1, DESIGN 3.1).
+ *
+ * Error bookkeeping. Every operation below computes each output coefficient as a sum of
+ * products w * c of input coefficients with weights w that, in exact arithmetic, are
+ * non-negative and sum to at most 1 (elevation, de Casteljau, the scaled-form product) or
+ * are small integers (derivative). In floating point every path of the computation picks up
+ * at most K factors (1 + delta), |delta| <= u, so the computed coefficient is within
+ * gamma_K * sum |w c| <= gamma_K * max|c| of the exact one (Higham, Lemma 3.1 and
+ * Sec. 3.1). That term plus the propagated input radii, all summed with upward rounding,
+ * is the output radius. The K of each operation is derived next to it. */
+#include "bbc/bernstein.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+#include <threads.h>
+
+#include "bernstein_internal.h"
+#include "rounding_internal.h"
+
+#define NAX BBC_POLY_MAX_AXES
+#define MAXD BBC_POLY_MAX_DEGREE
+
+/* ---- Binomial coefficients ---------------------------------------------------------- */
+
+__extension__ typedef unsigned __int128 bbc__u128;
+
+static double binomial_table[MAXD + 1][MAXD + 1];
+static once_flag binomial_once = ONCE_FLAG_INIT;
+
+/* Round-to-nearest-even conversion of a 128-bit integer, written out so that the relative
+ * error u per binomial that the error bounds assume does not depend on the compiler's
+ * runtime library. */
+static double u128_to_double(bbc__u128 v) {
+  int bits = 0;
+  for (bbc__u128 t = v; t; t >>= 1) bits++;
+  if (bits <= 53) return (double)(uint64_t)v;
+  int shift = bits - 53;
+  bbc__u128 mant = v >> shift;
+  bbc__u128 rem = v & ((((bbc__u128)1) << shift) - 1);
+  bbc__u128 half = ((bbc__u128)1) << (shift - 1);
+  if (rem > half || (rem == half && (mant & 1))) mant++;
+  return ldexp((double)(uint64_t)mant, shift);
+}
+
+static void binomial_init(void) {
+  /* C(n, k+1) = C(n, k) (n - k) / (k + 1) is an exact integer division; the largest
+   * intermediate, C(120, 60) * 120 < 1.2e37, fits in 128 bits. */
+  for (int n = 0; n <= MAXD; n++) {
+    bbc__u128 v = 1;
+    for (int k = 0; k <= n; k++) {
+      binomial_table[n][k] = u128_to_double(v);
+      if (k < n) v = v * (bbc__u128)(n - k) / (bbc__u128)(k + 1);
+    }
+  }
+}
+
+const double *bbc__binomial_row(int n) {
+  call_once(&binomial_once, binomial_init);
+  return binomial_table[n];
+}
+
+/* ---- Arena -------------------------------------------------------------------------- */
+
+void bbc_arena_init(bbc_arena *arena, void *buffer, size_t capacity) {
+  if (!arena) return;
+  arena->base = (unsigned char *)buffer;
+  arena->capacity = buffer ? capacity : 0;
+  arena->used = 0;
+  arena->peak = 0;
+}
+
+void *bbc_arena_alloc(bbc_arena *arena, size_t bytes) {
+  if (!arena || !arena->base) return NULL;
+  uintptr_t at = (uintptr_t)(arena->base + arena->used);
+  size_t pad = (size_t)((16u - (at & 15u)) & 15u);
+  if (pad > arena->capacity - arena->used) return NULL;
+  size_t off = arena->used + pad;
+  if (bytes > arena->capacity - off) return NULL;
+  arena->used = off + bytes;
+  if (arena->used > arena->peak) arena->peak = arena->used;
+  return arena->base + off;
+}
+
+size_t bbc_arena_mark(const bbc_arena *arena) {
+  return arena ? arena->used : 0;
+}
+
+void bbc_arena_reset(bbc_arena *arena, size_t mark) {
+  if (arena && mark <= arena->used) arena->used = mark;
+}
+
+/* ---- Tensor helpers ----------------------------------------------------------------- */
+
+size_t bbc__size(const unsigned char deg[NAX]) {
+  size_t s = 1;
+  for (int j = 0; j < NAX; j++) s *= (size_t)deg[j] + 1;
+  return s;
+}
+
+size_t bbc__strides(const unsigned char deg[NAX], size_t stride[NAX]) {
+  size_t s = 1;
+  for (int j = NAX - 1; j >= 0; j--) {
+    stride[j] = s;
+    s *= (size_t)deg[j] + 1;
+  }
+  return s;
+}
+
+double bbc__maxabs(const double *c, size_t n) {
+  double m = 0.0;
+  for (size_t i = 0; i < n; i++) {
+    double a = fabs(c[i]);
+    if (!(a <= m)) {
+      if (!(a < INFINITY)) return INFINITY; /* inf or NaN */
+      m = a;
+    }
+  }
+  return m;
+}
+
+bbc_result bbc__alloc_coef(bbc_arena *arena, const unsigned char deg[NAX], double **out) {
+  size_t n = bbc__size(deg);
+  double *c = (double *)bbc_arena_alloc(arena, n * sizeof(double));
+  if (!c) return BBC_ERR_OUT_OF_MEMORY;
+  *out = c;
+  return BBC_OK;
+}
+
+/* pre = product of the dimensions before `axis`, post = after it. */
+static void split_dims(const unsigned char deg[NAX], int axis, size_t *pre, size_t *post) {
+  size_t a = 1, b = 1;
+  for (int j = 0; j < axis; j++) a *= (size_t)deg[j] + 1;
+  for (int j = axis + 1; j < NAX; j++) b *= (size_t)deg[j] + 1;
+  *pre = a;
+  *post = b;
+}
+
+void bbc__axis_apply(const double *in, const unsigned char deg[NAX], int axis, const double *m,
+                     int rows, double *out) {
+  size_t pre, post;
+  split_dims(deg, axis, &pre, &post);
+  size_t cols = (size_t)deg[axis] + 1;
+  /* The non-zero band of each row (elevation matrices are banded), found once, so that the
+   * inner loops need no test. Adding an exact 0 * x inside a band changes no rounding. */
+  int band_lo[MAXD + 1], band_hi[MAXD + 1];
+  for (int k = 0; k < rows; k++) {
+    const double *w = m + (size_t)k * cols;
+    int lo = 0, hi = -1;
+    for (int j = 0; j < (int)cols; j++) {
+      if (w[j] != 0.0) {
+        if (hi < 0) lo = j;
+        hi = j;
+      }
+    }
+    band_lo[k] = lo;
+    band_hi[k] = hi;
+  }
+  if (post == 1) {
+    /* The contiguous axis: plain dot products. */
+    for (size_t p = 0; p < pre; p++) {
+      const double *src = in + p * cols;
+      double *dst = out + p * (size_t)rows;
+      for (int k = 0; k < rows; k++) {
+        const double *w = m + (size_t)k * cols;
+        double acc = 0.0;
+        for (int j = band_lo[k]; j <= band_hi[k]; j++) acc += w[j] * src[j];
+        dst[k] = acc;
+      }
+    }
+    return;
+  }
+  for (size_t p = 0; p < pre; p++) {
+    const double *src = in + p * cols * post;
+    double *dst = out + p * (size_t)rows * post;
+    for (int k = 0; k < rows; k++) {
+      double *d = dst + (size_t)k * post;
+      for (size_t t = 0; t < post; t++) d[t] = 0.0;
+      for (int j = band_lo[k]; j <= band_hi[k]; j++) {
+        double w = m[(size_t)k * cols + (size_t)j];
+        const double *s = src + (size_t)j * post;
+        for (size_t t = 0; t < post; t++) d[t] += w * s[t];
+      }
+    }
+  }
+}
+
+static int poly_ok(const bbc_poly *p) {
+  if (!p || !p->coef) return 0;
+  for (int j = 0; j < NAX; j++)
+    if (p->deg[j] > MAXD) return 0;
+  return 1;
+}
+
+static int axis_ok(int axis) {
+  return axis >= 0 && axis < NAX;
+}
+
+/* Multiplies (or divides) every coefficient by C(deg[axis], i_axis), for every axis. One
+ * rounding for the binomial and one for the product per axis: 2 per active axis. */
+static void scale_by_binomials(double *c, const unsigned char deg[NAX], int divide) {
+  for (int j = 0; j < NAX; j++) {
+    int n = deg[j];
+    if (n == 0) continue;
+    const double *row = bbc__binomial_row(n);
+    size_t pre, post;
+    split_dims(deg, j, &pre, &post);
+    for (size_t p = 0; p < pre; p++) {
+      for (int i = 0; i <= n; i++) {
+        double *x = c + (p * (size_t)(n + 1) + (size_t)i) * post;
+        double f = row[i];
+        if (f == 1.0) continue;
+        if (divide) {
+          for (size_t t = 0; t < post; t++) x[t] /= f;
+        } else {
+          for (size_t t = 0; t < post; t++) x[t] *= f;
+        }
+      }
+    }
+  }
+}
+
+static int count_active(const unsigned char deg[NAX]) {
+  int m = 0;
+  for (int j = 0; j < NAX; j++) m += deg[j] > 0;
+  return m;
+}
+
+/* ---- Elevation and linear combinations ----------------------------------------------- */
+
+/* The (t+1) x (n+1) matrix of elevation from degree n to t along one axis:
+ * C(n, j) C(t-n, k-j) / C(t, k). Its rows are non-negative and sum to 1. Each entry carries
+ * three binomial roundings and two operation roundings. */
+static void elevation_matrix(int n, int t, double *m) {
+  int r = t - n;
+  const double *cn = bbc__binomial_row(n), *cr = bbc__binomial_row(r), *ct = bbc__binomial_row(t);
+  for (int k = 0; k <= t; k++)
+    for (int j = 0; j <= n; j++)
+      m[(size_t)k * (n + 1) + j] = (j <= k && k - j <= r) ? cn[j] * cr[k - j] / ct[k] : 0.0;
+}
+
+bbc_result bbc__elevate_into(bbc_arena *arena, const bbc_poly *p, const unsigned char deg[NAX],
+                             double *dst, double *err) {
+  unsigned char cur[NAX];
+  memcpy(cur, p->deg, NAX);
+  int axes[NAX], naxes = 0;
+  for (int j = 0; j < NAX; j++)
+    if (deg[j] > cur[j]) axes[naxes++] = j;
+  size_t size = bbc__size(cur);
+  if (naxes == 0) {
+    if (dst != p->coef) memcpy(dst, p->coef, size * sizeof(double));
+    *err = bbc__radius(p->err);
+    return BBC_OK;
+  }
+  size_t mark = bbc_arena_mark(arena);
+  const double *src = p->coef;
+  double e = bbc__radius(p->err);
+  double m = bbc__maxabs(p->coef, size);
+  for (int a = 0; a < naxes; a++) {
+    int j = axes[a], n = cur[j], t = deg[j];
+    unsigned char next[NAX];
+    memcpy(next, cur, NAX);
+    next[j] = (unsigned char)t;
+    double *mat = (double *)bbc_arena_alloc(arena, sizeof(double) * (size_t)(t + 1) * (n + 1));
+    double *out = dst;
+    if (a + 1 < naxes) out = (double *)bbc_arena_alloc(arena, sizeof(double) * bbc__size(next));
+    if (!mat || !out) {
+      bbc_arena_reset(arena, mark);
+      return BBC_ERR_OUT_OF_MEMORY;
+    }
+    elevation_matrix(n, t, mat);
+    bbc__axis_apply(src, cur, j, mat, t + 1, out);
+    /* K = 5 (matrix entry) + 1 (product) + (terms - 1) (sum), terms <= min(n, t - n) + 1. */
+    int terms = (n < t - n ? n : t - n) + 1;
+    double pass = bbc__mul_up(bbc__gamma(5 + terms), m);
+    e = bbc__add_up(e, pass);
+    m = bbc__add_up(m, pass); /* |computed| <= |exact| + error <= m + pass */
+    src = out;
+    memcpy(cur, next, NAX);
+  }
+  bbc_arena_reset(arena, mark);
+  *err = bbc__radius(e);
+  return BBC_OK;
+}
+
+bbc_result bbc__lincomb_into(bbc_arena *arena, int n, const double *alpha, const bbc_poly *const *p,
+                             const unsigned char deg[NAX], double *dst, double *err) {
+  size_t size = bbc__size(deg);
+  double e = 0.0, mt = 0.0;
+  for (int k = 0; k < n; k++) {
+    size_t mark = bbc_arena_mark(arena);
+    const double *src = p[k]->coef;
+    double ek = bbc__radius(p[k]->err);
+    if (memcmp(p[k]->deg, deg, NAX) != 0) {
+      double *tmp = (double *)bbc_arena_alloc(arena, size * sizeof(double));
+      if (!tmp) return BBC_ERR_OUT_OF_MEMORY;
+      bbc_result r = bbc__elevate_into(arena, p[k], deg, tmp, &ek);
+      if (r != BBC_OK) {
+        bbc_arena_reset(arena, mark);
+        return r;
+      }
+      src = tmp;
+    }
+    double a = alpha[k];
+    double mk = bbc__maxabs(src, size);
+    if (k == 0) {
+      for (size_t i = 0; i < size; i++) dst[i] = a * src[i];
+    } else {
+      for (size_t i = 0; i < size; i++) dst[i] += a * src[i];
+    }
+    e = bbc__add_up(e, bbc__mul_up(fabs(a), ek));
+    mt = bbc__add_up(mt, bbc__mul_up(fabs(a), mk));
+    bbc_arena_reset(arena, mark);
+  }
+  /* Each term passes one product and at most n - 1 sums: K = n. */
+  e = bbc__add_up(e, bbc__mul_up(bbc__gamma(n), mt));
+  *err = bbc__radius(e);
+  return BBC_OK;
+}
+
+/* ---- Construction ------------------------------------------------------------------- */
+
+size_t bbc_poly_size(const bbc_poly *p) {
+  return p ? bbc__size(p->deg) : 0;
+}
+
+bbc_result bbc_poly_constant(bbc_arena *arena, bbc_poly *out, double value) {
+  if (!out) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_poly r;
+  memset(&r, 0, sizeof r);
+  BBC__TRY(bbc__alloc_coef(arena, r.deg, &r.coef));
+  r.coef[0] = value;
+  r.err = isfinite(value) ? 0.0 : INFINITY;
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_linear(bbc_arena *arena, bbc_poly *out, int axis, double v0, double v1) {
+  if (!out || !axis_ok(axis)) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_poly r;
+  memset(&r, 0, sizeof r);
+  r.deg[axis] = 1;
+  BBC__TRY(bbc__alloc_coef(arena, r.deg, &r.coef));
+  r.coef[0] = v0;
+  r.coef[1] = v1;
+  r.err = (isfinite(v0) && isfinite(v1)) ? 0.0 : INFINITY;
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_affine(bbc_arena *arena, bbc_poly *out, double c, const double grad[NAX]) {
+  if (!out || !grad) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_poly r;
+  memset(&r, 0, sizeof r);
+  int k = 0;
+  double sum_abs = fabs(c);
+  for (int j = 0; j < NAX; j++) {
+    if (grad[j] != 0.0) {
+      r.deg[j] = 1;
+      k++;
+      sum_abs = bbc__add_up(sum_abs, fabs(grad[j]));
+    }
+  }
+  BBC__TRY(bbc__alloc_coef(arena, r.deg, &r.coef));
+  size_t size = bbc__size(r.deg);
+  /* Coefficient at a corner = c + sum of the gradients of the axes at their 1 end; the
+   * index bits of the degree-1 axes, last axis fastest, name the corner. */
+  int inexact = 0;
+  for (size_t i = 0; i < size; i++) {
+    double v = c;
+    size_t rest = i;
+    for (int j = NAX - 1; j >= 0; j--) {
+      if (!r.deg[j]) continue;
+      if (rest & 1u) {
+        /* TwoSum (Knuth): the rounding error of v + g, exactly; zero means exact. */
+        double g = grad[j], s = v + g, gv = s - v;
+        if ((v - (s - gv)) + (g - gv) != 0.0) inexact = 1;
+        v = s;
+      }
+      rest >>= 1;
+    }
+    r.coef[i] = v;
+  }
+  /* At most k sums per corner: gamma_k times the sum of the magnitudes, or nothing when
+   * every sum was exact (the common case of short dyadic inputs, and any k <= 1 with
+   * c = 0). */
+  r.err = inexact ? bbc__radius(bbc__mul_up(bbc__gamma(k), sum_abs)) : 0.0;
+  if (!(sum_abs < INFINITY)) r.err = INFINITY;
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_copy(bbc_arena *arena, bbc_poly *out, const bbc_poly *p) {
+  if (!out || !poly_ok(p)) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_poly r = *p;
+  BBC__TRY(bbc__alloc_coef(arena, r.deg, &r.coef));
+  memcpy(r.coef, p->coef, bbc__size(r.deg) * sizeof(double));
+  *out = r;
+  return BBC_OK;
+}
+
+void bbc_poly_widen(bbc_poly *p, double radius) {
+  if (!p) return;
+  p->err = bbc__radius(bbc__add_up(bbc__radius(p->err), bbc__radius(fabs(radius))));
+}
+
+/* ---- Arithmetic --------------------------------------------------------------------- */
+
+static void max_degrees(int n, const bbc_poly *const *p, unsigned char deg[NAX]) {
+  memset(deg, 0, NAX);
+  for (int k = 0; k < n; k++)
+    for (int j = 0; j < NAX; j++)
+      if (p[k]->deg[j] > deg[j]) deg[j] = p[k]->deg[j];
+}
+
+bbc_result bbc_poly_lincomb(bbc_arena *arena, bbc_poly *out, int n, const double *alpha,
+                            const bbc_poly *const *p) {
+  if (!out || n < 1 || !alpha || !p) return BBC_ERR_INVALID_ARGUMENT;
+  for (int k = 0; k < n; k++)
+    if (!poly_ok(p[k])) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_poly r;
+  memset(&r, 0, sizeof r);
+  max_degrees(n, p, r.deg);
+  size_t mark = bbc_arena_mark(arena);
+  BBC__TRY(bbc__alloc_coef(arena, r.deg, &r.coef));
+  bbc_result res = bbc__lincomb_into(arena, n, alpha, p, r.deg, r.coef, &r.err);
+  if (res != BBC_OK) {
+    bbc_arena_reset(arena, mark);
+    return res;
+  }
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_add(bbc_arena *arena, bbc_poly *out, const bbc_poly *a, const bbc_poly *b) {
+  const bbc_poly *p[2] = {a, b};
+  const double alpha[2] = {1.0, 1.0};
+  return bbc_poly_lincomb(arena, out, 2, alpha, p);
+}
+
+bbc_result bbc_poly_sub(bbc_arena *arena, bbc_poly *out, const bbc_poly *a, const bbc_poly *b) {
+  const bbc_poly *p[2] = {a, b};
+  const double alpha[2] = {1.0, -1.0};
+  return bbc_poly_lincomb(arena, out, 2, alpha, p);
+}
+
+bbc_result bbc_poly_scale(bbc_arena *arena, bbc_poly *out, const bbc_poly *p, double s) {
+  if (!out || !poly_ok(p)) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_poly r = *p;
+  size_t size = bbc__size(r.deg);
+  BBC__TRY(bbc__alloc_coef(arena, r.deg, &r.coef));
+  for (size_t i = 0; i < size; i++) r.coef[i] = s * p->coef[i];
+  if (s == 0.0) {
+    r.err = 0.0; /* the exact result is the zero polynomial whatever p is */
+  } else {
+    double m = bbc__maxabs(p->coef, size);
+    double e = bbc__mul_up(fabs(s), bbc__radius(p->err));
+    e = bbc__add_up(e, bbc__mul_up(bbc__gamma(1), bbc__mul_up(fabs(s), m)));
+    r.err = bbc__radius(e);
+  }
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_add_scalar(bbc_arena *arena, bbc_poly *out, const bbc_poly *p, double s) {
+  if (!out || !poly_ok(p)) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_poly r = *p;
+  size_t size = bbc__size(r.deg);
+  BBC__TRY(bbc__alloc_coef(arena, r.deg, &r.coef));
+  for (size_t i = 0; i < size; i++) r.coef[i] = p->coef[i] + s;
+  double m = bbc__add_up(bbc__maxabs(p->coef, size), fabs(s));
+  r.err = bbc__radius(bbc__add_up(bbc__radius(p->err), bbc__mul_up(bbc__gamma(1), m)));
+  *out = r;
+  return BBC_OK;
+}
+
+/* a * b into dst (degree deg = a.deg + b.deg). Scaled Bernstein form: a_i C(n, i) and
+ * b_j C(m, j) are convolved and the sum for k divided by C(n + m, k), per axis, which is
+ * the exact product (the weights C(n,i) C(m,j) / C(n+m,k) are >= 0 and sum to 1 over
+ * i + j = k by Vandermonde's identity). */
+static bbc_result mul_into(bbc_arena *arena, const bbc_poly *a, const bbc_poly *b,
+                           const unsigned char deg[NAX], double *dst, double *err) {
+  size_t mark = bbc_arena_mark(arena);
+  size_t na = bbc__size(a->deg), nb = bbc__size(b->deg);
+  size_t so[NAX];
+  size_t size = bbc__strides(deg, so);
+  double *ta = (double *)bbc_arena_alloc(arena, na * sizeof(double));
+  double *tb = (double *)bbc_arena_alloc(arena, nb * sizeof(double));
+  if (!ta || !tb) {
+    bbc_arena_reset(arena, mark);
+    return BBC_ERR_OUT_OF_MEMORY;
+  }
+  memcpy(ta, a->coef, na * sizeof(double));
+  memcpy(tb, b->coef, nb * sizeof(double));
+  scale_by_binomials(ta, a->deg, 0);
+  scale_by_binomials(tb, b->deg, 0);
+  for (size_t i = 0; i < size; i++) dst[i] = 0.0;
+
+  /* The last axis with a non-zero output degree has output stride 1 and, in b, stride 1 as
+   * well; runs of b along it map to contiguous output, which keeps the inner loop a plain
+   * multiply-add over a contiguous row. */
+  int last = -1;
+  for (int j = 0; j < NAX; j++)
+    if (deg[j] > 0) last = j;
+  if (last < 0) {
+    dst[0] = ta[0] * tb[0];
+  } else {
+    size_t run = (size_t)b->deg[last] + 1, rows = nb / run;
+    size_t *row_off = (size_t *)bbc_arena_alloc(arena, rows * sizeof(size_t));
+    if (!row_off) {
+      bbc_arena_reset(arena, mark);
+      return BBC_ERR_OUT_OF_MEMORY;
+    }
+    int idx[NAX] = {0};
+    size_t off = 0;
+    for (size_t r = 0; r < rows; r++) {
+      row_off[r] = off;
+      for (int j = NAX - 1; j >= 0; j--) {
+        if (j == last || b->deg[j] == 0) continue;
+        if (idx[j] < b->deg[j]) {
+          idx[j]++;
+          off += so[j];
+          break;
+        }
+        off -= (size_t)idx[j] * so[j];
+        idx[j] = 0;
+      }
+    }
+    memset(idx, 0, sizeof idx);
+    off = 0;
+    for (size_t ia = 0; ia < na; ia++) {
+      double va = ta[ia];
+      if (va != 0.0) {
+        for (size_t r = 0; r < rows; r++) {
+          double *d = dst + off + row_off[r];
+          const double *s = tb + r * run;
+          for (size_t t = 0; t < run; t++) d[t] += va * s[t];
+        }
+      }
+      for (int j = NAX - 1; j >= 0; j--) {
+        if (a->deg[j] == 0) continue;
+        if (idx[j] < a->deg[j]) {
+          idx[j]++;
+          off += so[j];
+          break;
+        }
+        off -= (size_t)idx[j] * so[j];
+        idx[j] = 0;
+      }
+    }
+  }
+  scale_by_binomials(dst, deg, 1);
+  bbc_arena_reset(arena, mark);
+
+  /* K: 2 per active axis for scaling a, the same for b and for the final division, 1 for
+   * the product and terms - 1 for the sum, terms = prod(min(n_j, m_j) + 1). */
+  int active = count_active(deg);
+  double terms = 1.0;
+  for (int j = 0; j < NAX; j++)
+    terms *= (double)((a->deg[j] < b->deg[j] ? a->deg[j] : b->deg[j]) + 1);
+  double k = 6.0 * active + terms + 1.0;
+  double ma = bbc__maxabs(a->coef, na), mb = bbc__maxabs(b->coef, nb);
+  double ea = bbc__radius(a->err), eb = bbc__radius(b->err);
+  /* |A B - a b| <= |a| eb + |b| ea + ea eb coefficient-wise before rounding, then the
+   * rounding of the convex combination. */
+  double e = bbc__add_up(bbc__mul_up(ma, eb), bbc__mul_up(mb, ea));
+  e = bbc__add_up(e, bbc__mul_up(ea, eb));
+  e = bbc__add_up(e, bbc__mul_up(bbc__gamma(k), bbc__mul_up(ma, mb)));
+  e = bbc__add_up(e, k * BBC__ETA);
+  *err = bbc__radius(e);
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_mul(bbc_arena *arena, bbc_poly *out, const bbc_poly *a, const bbc_poly *b) {
+  if (!out || !poly_ok(a) || !poly_ok(b)) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_poly r;
+  memset(&r, 0, sizeof r);
+  for (int j = 0; j < NAX; j++) {
+    int d = a->deg[j] + b->deg[j];
+    if (d > MAXD) return BBC_ERR_UNSUPPORTED;
+    r.deg[j] = (unsigned char)d;
+  }
+  size_t mark = bbc_arena_mark(arena);
+  BBC__TRY(bbc__alloc_coef(arena, r.deg, &r.coef));
+  bbc_result res = mul_into(arena, a, b, r.deg, r.coef, &r.err);
+  if (res != BBC_OK) {
+    bbc_arena_reset(arena, mark);
+    return res;
+  }
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_derivative(bbc_arena *arena, bbc_poly *out, const bbc_poly *p, int axis) {
+  if (!out || !poly_ok(p) || !axis_ok(axis)) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_poly r = *p;
+  int n = p->deg[axis];
+  r.deg[axis] = (unsigned char)(n > 0 ? n - 1 : 0);
+  BBC__TRY(bbc__alloc_coef(arena, r.deg, &r.coef));
+  if (n == 0) {
+    /* Constant along the axis: the exact derivative is the zero polynomial. */
+    size_t size = bbc__size(r.deg);
+    for (size_t i = 0; i < size; i++) r.coef[i] = 0.0;
+    r.err = 0.0;
+    *out = r;
+    return BBC_OK;
+  }
+  size_t pre, post;
+  split_dims(p->deg, axis, &pre, &post);
+  double dn = (double)n;
+  for (size_t q = 0; q < pre; q++) {
+    const double *src = p->coef + q * (size_t)(n + 1) * post;
+    double *dst = r.coef + q * (size_t)n * post;
+    for (int i = 0; i < n; i++)
+      for (size_t t = 0; t < post; t++)
+        dst[(size_t)i * post + t] =
+            dn * (src[(size_t)(i + 1) * post + t] - src[(size_t)i * post + t]);
+  }
+  /* Exact coefficients n (C_{i+1} - C_i) move by at most 2 n err; computing n (c_{i+1} - c_i)
+   * costs two roundings on a value of magnitude <= 2 n max|c|. */
+  double m = bbc__maxabs(p->coef, bbc__size(p->deg));
+  double e = bbc__mul_up(2.0 * dn, bbc__radius(p->err));
+  e = bbc__add_up(e, bbc__mul_up(bbc__gamma(2), bbc__mul_up(2.0 * dn, m)));
+  r.err = bbc__radius(e);
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_elevate(bbc_arena *arena, bbc_poly *out, const bbc_poly *p,
+                            const unsigned char deg[NAX]) {
+  if (!out || !poly_ok(p) || !deg) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_poly r;
+  memset(&r, 0, sizeof r);
+  for (int j = 0; j < NAX; j++) {
+    if (deg[j] > MAXD) return BBC_ERR_UNSUPPORTED;
+    if (deg[j] < p->deg[j]) return BBC_ERR_INVALID_ARGUMENT;
+    r.deg[j] = deg[j];
+  }
+  size_t mark = bbc_arena_mark(arena);
+  BBC__TRY(bbc__alloc_coef(arena, r.deg, &r.coef));
+  bbc_result res = bbc__elevate_into(arena, p, r.deg, r.coef, &r.err);
+  if (res != BBC_OK) {
+    bbc_arena_reset(arena, mark);
+    return res;
+  }
+  *out = r;
+  return BBC_OK;
+}
+
+/* ---- Subdivision (de Casteljau) ------------------------------------------------------ */
+
+/* One de Casteljau subdivision along `axis` at t in [0, 1]: left gets the coefficients on
+ * [0, t], right those on [t, 1] (either may be NULL). work holds one block of (n+1) * post.
+ * Each level computes (1-t) x + t y: three roundings (1 - t, two products, the sum counted
+ * with the products), so n levels give K = 3n on a convex combination. */
+static void casteljau_axis(const double *in, const unsigned char deg[NAX], int axis, double t,
+                           double *left, double *right, double *work) {
+  int n = deg[axis];
+  size_t pre, post;
+  split_dims(deg, axis, &pre, &post);
+  size_t block = (size_t)(n + 1) * post;
+  double s = 1.0 - t;
+  if (post == 1) {
+    /* The contiguous axis: the same triangle on scalars, without the row copies. */
+    double w[MAXD + 1];
+    for (size_t q = 0; q < pre; q++) {
+      const double *src = in + q * block;
+      double *l = left ? left + q * block : NULL;
+      double *r = right ? right + q * block : NULL;
+      for (int i = 0; i <= n; i++) w[i] = src[i];
+      if (l) l[0] = w[0];
+      if (r) r[n] = w[n];
+      for (int level = 1; level <= n; level++) {
+        for (int i = 0; i <= n - level; i++) w[i] = s * w[i] + t * w[i + 1];
+        if (l) l[level] = w[0];
+        if (r) r[n - level] = w[n - level];
+      }
+    }
+    return;
+  }
+  for (size_t q = 0; q < pre; q++) {
+    memcpy(work, in + q * block, block * sizeof(double));
+    double *l = left ? left + q * block : NULL;
+    double *r = right ? right + q * block : NULL;
+    if (l) memcpy(l, work, post * sizeof(double));
+    if (r) memcpy(r + (size_t)n * post, work + (size_t)n * post, post * sizeof(double));
+    for (int level = 1; level <= n; level++) {
+      for (int i = 0; i <= n - level; i++) {
+        double *wi = work + (size_t)i * post;
+        const double *wj = wi + post;
+        for (size_t k = 0; k < post; k++) wi[k] = s * wi[k] + t * wj[k];
+      }
+      if (l) memcpy(l + (size_t)level * post, work, post * sizeof(double));
+      if (r)
+        memcpy(r + (size_t)(n - level) * post, work + (size_t)(n - level) * post,
+               post * sizeof(double));
+    }
+  }
+}
+
+/* a / b rounded towards 0, for 0 <= a <= b, b > 0: the left end of the second subdivision in
+ * bbc_poly_restrict. Rounding down makes the covered interval [t b, b] contain [a, b]. */
+static double ratio_down(double a, double b) {
+  if (a <= 0.0) return 0.0;
+  double t = a / b;
+  /* fma gives the sign of t b - a exactly; very small a guards against an underflowed
+   * residual. */
+  if (fma(t, b, -a) > 0.0 || a < 0x1p-960) t = nextafter(t, 0.0);
+  if (t > 1.0) t = 1.0;
+  return t;
+}
+
+bbc_result bbc_poly_restrict(bbc_arena *arena, bbc_poly *out, const bbc_poly *p,
+                             const double lo[NAX], const double hi[NAX]) {
+  if (!out || !poly_ok(p) || !lo || !hi) return BBC_ERR_INVALID_ARGUMENT;
+  for (int j = 0; j < NAX; j++) {
+    if (p->deg[j] == 0) continue;
+    if (!(lo[j] >= 0.0 && lo[j] <= hi[j] && hi[j] <= 1.0)) return BBC_ERR_INVALID_ARGUMENT;
+  }
+  bbc_poly r = *p;
+  size_t size = bbc__size(p->deg);
+  size_t outer = bbc_arena_mark(arena);
+  BBC__TRY(bbc__alloc_coef(arena, r.deg, &r.coef));
+  size_t mark = bbc_arena_mark(arena);
+  double *buf[2], *work;
+  buf[0] = (double *)bbc_arena_alloc(arena, size * sizeof(double));
+  buf[1] = (double *)bbc_arena_alloc(arena, size * sizeof(double));
+  work = (double *)bbc_arena_alloc(arena, size * sizeof(double));
+  if (!buf[0] || !buf[1] || !work) {
+    bbc_arena_reset(arena, outer);
+    return BBC_ERR_OUT_OF_MEMORY;
+  }
+  const double *cur = p->coef;
+  int next = 0;
+  double e = bbc__radius(p->err), m = bbc__maxabs(p->coef, size);
+  for (int j = 0; j < NAX; j++) {
+    int n = p->deg[j];
+    if (n == 0) continue;
+    double pass_gamma = bbc__gamma(3.0 * n);
+    if (hi[j] < 1.0) {
+      casteljau_axis(cur, p->deg, j, hi[j], buf[next], NULL, work);
+      cur = buf[next];
+      next ^= 1;
+      double pass = bbc__mul_up(pass_gamma, m);
+      e = bbc__add_up(e, pass);
+      m = bbc__add_up(m, pass);
+    }
+    if (lo[j] > 0.0) {
+      double t = ratio_down(lo[j], hi[j]);
+      casteljau_axis(cur, p->deg, j, t, NULL, buf[next], work);
+      cur = buf[next];
+      next ^= 1;
+      double pass = bbc__mul_up(pass_gamma, m);
+      e = bbc__add_up(e, pass);
+      m = bbc__add_up(m, pass);
+    }
+  }
+  memcpy(r.coef, cur, size * sizeof(double));
+  bbc_arena_reset(arena, mark);
+  r.err = bbc__radius(e);
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_split(bbc_arena *arena, const bbc_poly *p, int axis, bbc_poly *left,
+                          bbc_poly *right) {
+  if (!poly_ok(p) || !axis_ok(axis) || (!left && !right)) return BBC_ERR_INVALID_ARGUMENT;
+  size_t size = bbc__size(p->deg);
+  size_t outer = bbc_arena_mark(arena);
+  bbc_poly l = *p, r = *p;
+  l.coef = r.coef = NULL;
+  if (left && bbc__alloc_coef(arena, l.deg, &l.coef) != BBC_OK) goto oom;
+  if (right && bbc__alloc_coef(arena, r.deg, &r.coef) != BBC_OK) goto oom;
+  int n = p->deg[axis];
+  double e = bbc__radius(p->err);
+  if (n == 0) {
+    if (l.coef) memcpy(l.coef, p->coef, size * sizeof(double));
+    if (r.coef) memcpy(r.coef, p->coef, size * sizeof(double));
+  } else {
+    size_t mark = bbc_arena_mark(arena);
+    size_t pre, post;
+    split_dims(p->deg, axis, &pre, &post);
+    double *work = (double *)bbc_arena_alloc(arena, (size_t)(n + 1) * post * sizeof(double));
+    if (!work) goto oom;
+    casteljau_axis(p->coef, p->deg, axis, 0.5, l.coef, r.coef, work);
+    bbc_arena_reset(arena, mark);
+    double m = bbc__maxabs(p->coef, size);
+    e = bbc__add_up(e, bbc__mul_up(bbc__gamma(3.0 * n), m));
+  }
+  l.err = r.err = bbc__radius(e);
+  if (left) *left = l;
+  if (right) *right = r;
+  return BBC_OK;
+oom:
+  bbc_arena_reset(arena, outer);
+  return BBC_ERR_OUT_OF_MEMORY;
+}
+
+/* ---- Evaluation --------------------------------------------------------------------- */
+
+static double eval_rec(const double *c, const unsigned char *deg, const size_t *stride, int axis,
+                       const double *x) {
+  while (axis < NAX && deg[axis] == 0) axis++;
+  if (axis == NAX) return c[0];
+  int n = deg[axis];
+  double v[MAXD + 1];
+  for (int i = 0; i <= n; i++)
+    v[i] = eval_rec(c + (size_t)i * stride[axis], deg, stride, axis + 1, x);
+  double t = x[axis], s = 1.0 - t;
+  for (int level = 1; level <= n; level++)
+    for (int i = 0; i <= n - level; i++) v[i] = s * v[i] + t * v[i + 1];
+  return v[0];
+}
+
+double bbc_poly_eval(const bbc_poly *p, const double x[NAX]) {
+  if (!poly_ok(p) || !x) return NAN;
+  size_t stride[NAX];
+  bbc__strides(p->deg, stride);
+  return eval_rec(p->coef, p->deg, stride, 0, x);
+}
+
+/* ---- Vectors of polynomials --------------------------------------------------------- */
+
+bbc_result bbc_poly3_constant(bbc_arena *arena, bbc_poly3 *out, bbc_vec3 v) {
+  if (!out) return BBC_ERR_INVALID_ARGUMENT;
+  size_t mark = bbc_arena_mark(arena);
+  bbc_poly3 r;
+  bbc_result res = bbc_poly_constant(arena, &r.x, v.x);
+  if (res == BBC_OK) res = bbc_poly_constant(arena, &r.y, v.y);
+  if (res == BBC_OK) res = bbc_poly_constant(arena, &r.z, v.z);
+  if (res != BBC_OK) {
+    bbc_arena_reset(arena, mark);
+    return res;
+  }
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly3_affine(bbc_arena *arena, bbc_poly3 *out, bbc_vec3 c,
+                            const bbc_vec3 grad[NAX]) {
+  if (!out || !grad) return BBC_ERR_INVALID_ARGUMENT;
+  double gx[NAX], gy[NAX], gz[NAX];
+  for (int j = 0; j < NAX; j++) {
+    gx[j] = grad[j].x;
+    gy[j] = grad[j].y;
+    gz[j] = grad[j].z;
+  }
+  size_t mark = bbc_arena_mark(arena);
+  bbc_poly3 r;
+  bbc_result res = bbc_poly_affine(arena, &r.x, c.x, gx);
+  if (res == BBC_OK) res = bbc_poly_affine(arena, &r.y, c.y, gy);
+  if (res == BBC_OK) res = bbc_poly_affine(arena, &r.z, c.z, gz);
+  if (res != BBC_OK) {
+    bbc_arena_reset(arena, mark);
+    return res;
+  }
+  *out = r;
+  return BBC_OK;
+}
+
+/* out = alpha0 a + alpha1 b per coordinate. */
+static bbc_result poly3_combine(bbc_arena *arena, bbc_poly3 *out, const bbc_poly3 *a,
+                                const bbc_poly3 *b, double alpha0, double alpha1) {
+  if (!out || !a || !b) return BBC_ERR_INVALID_ARGUMENT;
+  const double alpha[2] = {alpha0, alpha1};
+  const bbc_poly *px[2] = {&a->x, &b->x}, *py[2] = {&a->y, &b->y}, *pz[2] = {&a->z, &b->z};
+  size_t mark = bbc_arena_mark(arena);
+  bbc_poly3 r;
+  bbc_result res = bbc_poly_lincomb(arena, &r.x, 2, alpha, px);
+  if (res == BBC_OK) res = bbc_poly_lincomb(arena, &r.y, 2, alpha, py);
+  if (res == BBC_OK) res = bbc_poly_lincomb(arena, &r.z, 2, alpha, pz);
+  if (res != BBC_OK) {
+    bbc_arena_reset(arena, mark);
+    return res;
+  }
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly3_add(bbc_arena *arena, bbc_poly3 *out, const bbc_poly3 *a, const bbc_poly3 *b) {
+  return poly3_combine(arena, out, a, b, 1.0, 1.0);
+}
+
+bbc_result bbc_poly3_sub(bbc_arena *arena, bbc_poly3 *out, const bbc_poly3 *a, const bbc_poly3 *b) {
+  return poly3_combine(arena, out, a, b, 1.0, -1.0);
+}
+
+bbc_result bbc_poly3_scale(bbc_arena *arena, bbc_poly3 *out, const bbc_poly *s,
+                           const bbc_poly3 *v) {
+  if (!out || !s || !v) return BBC_ERR_INVALID_ARGUMENT;
+  size_t mark = bbc_arena_mark(arena);
+  bbc_poly3 r;
+  bbc_result res = bbc_poly_mul(arena, &r.x, s, &v->x);
+  if (res == BBC_OK) res = bbc_poly_mul(arena, &r.y, s, &v->y);
+  if (res == BBC_OK) res = bbc_poly_mul(arena, &r.z, s, &v->z);
+  if (res != BBC_OK) {
+    bbc_arena_reset(arena, mark);
+    return res;
+  }
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly3_scale_const(bbc_arena *arena, bbc_poly3 *out, double s, const bbc_poly3 *v) {
+  if (!out || !v) return BBC_ERR_INVALID_ARGUMENT;
+  size_t mark = bbc_arena_mark(arena);
+  bbc_poly3 r;
+  bbc_result res = bbc_poly_scale(arena, &r.x, &v->x, s);
+  if (res == BBC_OK) res = bbc_poly_scale(arena, &r.y, &v->y, s);
+  if (res == BBC_OK) res = bbc_poly_scale(arena, &r.z, &v->z, s);
+  if (res != BBC_OK) {
+    bbc_arena_reset(arena, mark);
+    return res;
+  }
+  *out = r;
+  return BBC_OK;
+}
+
+/* out = sum_k sign[k] a[k] * b[k] with the products as arena temporaries freed before
+ * returning: the output is allocated first, so the temporaries above it can go. */
+static bbc_result sum_of_products(bbc_arena *arena, bbc_poly *out, int n, const double *sign,
+                                  const bbc_poly *const *a, const bbc_poly *const *b) {
+  bbc_poly r;
+  memset(&r, 0, sizeof r);
+  for (int k = 0; k < n; k++) {
+    if (!poly_ok(a[k]) || !poly_ok(b[k])) return BBC_ERR_INVALID_ARGUMENT;
+    for (int j = 0; j < NAX; j++) {
+      int d = a[k]->deg[j] + b[k]->deg[j];
+      if (d > MAXD) return BBC_ERR_UNSUPPORTED;
+      if (d > r.deg[j]) r.deg[j] = (unsigned char)d;
+    }
+  }
+  size_t outer = bbc_arena_mark(arena);
+  BBC__TRY(bbc__alloc_coef(arena, r.deg, &r.coef));
+  size_t mark = bbc_arena_mark(arena);
+  bbc_poly prod[3];
+  const bbc_poly *pp[3];
+  bbc_result res = BBC_OK;
+  for (int k = 0; k < n && res == BBC_OK; k++) {
+    res = bbc_poly_mul(arena, &prod[k], a[k], b[k]);
+    pp[k] = &prod[k];
+  }
+  if (res == BBC_OK) res = bbc__lincomb_into(arena, n, sign, pp, r.deg, r.coef, &r.err);
+  if (res != BBC_OK) {
+    bbc_arena_reset(arena, outer);
+    return res;
+  }
+  bbc_arena_reset(arena, mark);
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly3_dot(bbc_arena *arena, bbc_poly *out, const bbc_poly3 *a, const bbc_poly3 *b) {
+  if (!out || !a || !b) return BBC_ERR_INVALID_ARGUMENT;
+  const double sign[3] = {1.0, 1.0, 1.0};
+  const bbc_poly *pa[3] = {&a->x, &a->y, &a->z}, *pb[3] = {&b->x, &b->y, &b->z};
+  return sum_of_products(arena, out, 3, sign, pa, pb);
+}
+
+bbc_result bbc_poly3_dot_vec(bbc_arena *arena, bbc_poly *out, const bbc_poly3 *a, bbc_vec3 v) {
+  if (!out || !a) return BBC_ERR_INVALID_ARGUMENT;
+  const double alpha[3] = {v.x, v.y, v.z};
+  const bbc_poly *pa[3] = {&a->x, &a->y, &a->z};
+  return bbc_poly_lincomb(arena, out, 3, alpha, pa);
+}
+
+bbc_result bbc_poly3_cross(bbc_arena *arena, bbc_poly3 *out, const bbc_poly3 *a,
+                           const bbc_poly3 *b) {
+  if (!out || !a || !b) return BBC_ERR_INVALID_ARGUMENT;
+  const double sign[2] = {1.0, -1.0};
+  const bbc_poly *ax[2] = {&a->y, &a->z}, *bx[2] = {&b->z, &b->y};
+  const bbc_poly *ay[2] = {&a->z, &a->x}, *by[2] = {&b->x, &b->z};
+  const bbc_poly *az[2] = {&a->x, &a->y}, *bz[2] = {&b->y, &b->x};
+  size_t mark = bbc_arena_mark(arena);
+  bbc_poly3 r;
+  bbc_result res = sum_of_products(arena, &r.x, 2, sign, ax, bx);
+  if (res == BBC_OK) res = sum_of_products(arena, &r.y, 2, sign, ay, by);
+  if (res == BBC_OK) res = sum_of_products(arena, &r.z, 2, sign, az, bz);
+  if (res != BBC_OK) {
+    bbc_arena_reset(arena, mark);
+    return res;
+  }
+  *out = r;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly3_cross_vec(bbc_arena *arena, bbc_poly3 *out, const bbc_poly3 *a, bbc_vec3 v) {
+  if (!out || !a) return BBC_ERR_INVALID_ARGUMENT;
+  const double ax[2] = {v.z, -v.y}, ay[2] = {v.x, -v.z}, az[2] = {v.y, -v.x};
+  const bbc_poly *px[2] = {&a->y, &a->z}, *py[2] = {&a->z, &a->x}, *pz[2] = {&a->x, &a->y};
+  size_t mark = bbc_arena_mark(arena);
+  bbc_poly3 r;
+  bbc_result res = bbc_poly_lincomb(arena, &r.x, 2, ax, px);
+  if (res == BBC_OK) res = bbc_poly_lincomb(arena, &r.y, 2, ay, py);
+  if (res == BBC_OK) res = bbc_poly_lincomb(arena, &r.z, 2, az, pz);
+  if (res != BBC_OK) {
+    bbc_arena_reset(arena, mark);
+    return res;
+  }
+  *out = r;
+  return BBC_OK;
+}

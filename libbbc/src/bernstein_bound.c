@@ -1,0 +1,184 @@
+/* Range bounds of Bernstein polynomials and of their ratios (paper Eq. 3, DESIGN 3.1).
+ *
+ * The exact polynomial P = sum_i P_i B_i has |P_i - c_i| <= err for the stored c_i. Since the
+ * B_i are non-negative and sum to 1 on the box, P(x) lies in [min_i P_i, max_i P_i], hence in
+ * [min c - err, max c + err]. For a ratio, each exact coefficient pair lies in the intervals
+ * [p_i - e_p, p_i + e_p] and [q_i - e_q, q_i + e_q]; when every q interval excludes 0 with
+ * one sign, P/Q at any point is a weighted mean of the ratios P_i/Q_i with positive weights
+ * Q_i B_i / Q, so the hull of the interval quotients encloses it (Narkawicz et al. 2012). All
+ * endpoints are rounded outward (rounding_internal.h). */
+#include "bbc/bernstein.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "bernstein_internal.h"
+#include "rounding_internal.h"
+
+#define NAX BBC_POLY_MAX_AXES
+
+static bbc_range range_unbounded(void) {
+  bbc_range r;
+  r.kind = BBC_RANGE_UNBOUNDED;
+  r.lo = -INFINITY;
+  r.hi = INFINITY;
+  return r;
+}
+
+bbc_interval bbc_poly_bound(const bbc_poly *p) {
+  bbc_interval whole = {-INFINITY, INFINITY};
+  if (!p || !p->coef) return whole;
+  size_t n = bbc__size(p->deg);
+  double e = bbc__radius(p->err);
+  if (!(e < INFINITY)) return whole;
+  double lo = p->coef[0], hi = p->coef[0];
+  for (size_t i = 0; i < n; i++) {
+    double c = p->coef[i];
+    if (!(c > -INFINITY && c < INFINITY)) return whole; /* inf or NaN */
+    if (c < lo) lo = c;
+    if (c > hi) hi = c;
+  }
+  bbc_interval r;
+  r.lo = bbc__sub_down(lo, e);
+  r.hi = bbc__add_up(hi, e);
+  return r;
+}
+
+int bbc_range_contains(const bbc_range *r, double v) {
+  if (!r) return 0;
+  switch (r->kind) {
+    case BBC_RANGE_BOUNDED:
+      return r->lo <= v && v <= r->hi;
+    case BBC_RANGE_COMPLEMENT:
+      return !(r->lo < v && v < r->hi);
+    default:
+      return 1;
+  }
+}
+
+/* 1 when every coefficient interval [c - e, c + e] is strictly positive, -1 when strictly
+ * negative, 0 otherwise (or when something is not finite). */
+static int coefficient_sign(const double *c, size_t n, double e) {
+  if (!(e < INFINITY)) return 0;
+  int pos = 1, neg = 1;
+  for (size_t i = 0; i < n && (pos || neg); i++) {
+    /* With e = 0 the coefficient is exact and needs no rounding allowance. */
+    double lo = e == 0.0 ? c[i] : bbc__sub_down(c[i], e);
+    double hi = e == 0.0 ? c[i] : bbc__add_up(c[i], e);
+    if (!(lo > 0.0)) pos = 0;
+    if (!(hi < 0.0)) neg = 0;
+  }
+  if (pos) return 1;
+  if (neg) return -1;
+  return 0;
+}
+
+/* The hull of the interval quotients [num_i +- en] / [den_i +- ed] over all i, where every
+ * denominator interval has sign `sign` (non-zero) and excludes 0. Flipping both signs for
+ * negative denominators leaves the quotient alone, so only positive denominators need the
+ * case analysis: for D = [dl, dh] with dl > 0, N / D = [nl / (nl >= 0 ? dh : dl),
+ * nh / (nh >= 0 ? dl : dh)]. Returns 0 when a quotient is not finite. */
+static int ratio_hull(const double *num, const double *den, size_t n, double en, double ed,
+                      int sign, double *lo_out, double *hi_out) {
+  double lo = INFINITY, hi = -INFINITY;
+  double s = (double)sign;
+  for (size_t i = 0; i < n; i++) {
+    double nm = s * num[i], dm = s * den[i]; /* exact sign flips */
+    /* Exact operands (radius 0) and exact zero quotients are kept exact, so that a zero
+     * coefficient gives the ratio 0 itself (the half-line cases of the reciprocal). */
+    double nl = en == 0.0 ? nm : bbc__sub_down(nm, en), nh = en == 0.0 ? nm : bbc__add_up(nm, en);
+    double dl = ed == 0.0 ? dm : bbc__sub_down(dm, ed), dh = ed == 0.0 ? dm : bbc__add_up(dm, ed);
+    double ql = nl == 0.0 ? 0.0 : bbc__div_down(nl, nl >= 0.0 ? dh : dl);
+    double qh = nh == 0.0 ? 0.0 : bbc__div_up(nh, nh >= 0.0 ? dl : dh);
+    if (ql < lo) lo = ql;
+    if (qh > hi) hi = qh;
+  }
+  if (!(lo > -INFINITY && hi < INFINITY)) return 0; /* also rejects NaN */
+  *lo_out = lo;
+  *hi_out = hi;
+  return 1;
+}
+
+bbc_result bbc_rational_bound(bbc_arena *arena, const bbc_poly *p, const bbc_poly *q,
+                              bbc_range *out) {
+  if (!out || !p || !p->coef || !q || !q->coef) return BBC_ERR_INVALID_ARGUMENT;
+  unsigned char deg[NAX];
+  for (int j = 0; j < NAX; j++) {
+    if (p->deg[j] > BBC_POLY_MAX_DEGREE || q->deg[j] > BBC_POLY_MAX_DEGREE)
+      return BBC_ERR_INVALID_ARGUMENT;
+    deg[j] = p->deg[j] > q->deg[j] ? p->deg[j] : q->deg[j];
+  }
+  size_t n = bbc__size(deg);
+  size_t mark = bbc_arena_mark(arena);
+  const double *pc = p->coef, *qc = q->coef;
+  double ep = bbc__radius(p->err), eq = bbc__radius(q->err);
+  /* Eq. 3 needs both in the same degree; elevation keeps the exact polynomials and adds its
+   * rounding to the radii. */
+  if (memcmp(p->deg, deg, NAX) != 0) {
+    double *t = (double *)bbc_arena_alloc(arena, n * sizeof(double));
+    if (!t) return BBC_ERR_OUT_OF_MEMORY;
+    bbc_result r = bbc__elevate_into(arena, p, deg, t, &ep);
+    if (r != BBC_OK) {
+      bbc_arena_reset(arena, mark);
+      return r;
+    }
+    pc = t;
+  }
+  if (memcmp(q->deg, deg, NAX) != 0) {
+    double *t = (double *)bbc_arena_alloc(arena, n * sizeof(double));
+    if (!t) {
+      bbc_arena_reset(arena, mark);
+      return BBC_ERR_OUT_OF_MEMORY;
+    }
+    bbc_result r = bbc__elevate_into(arena, q, deg, t, &eq);
+    if (r != BBC_OK) {
+      bbc_arena_reset(arena, mark);
+      return r;
+    }
+    qc = t;
+  }
+
+  bbc_range res = range_unbounded();
+  double lo, hi;
+  int qs = coefficient_sign(qc, n, eq);
+  if (qs != 0) {
+    /* Eq. 3 directly. */
+    if (ratio_hull(pc, qc, n, ep, eq, qs, &lo, &hi)) {
+      res.kind = BBC_RANGE_BOUNDED;
+      res.lo = lo;
+      res.hi = hi;
+    }
+  } else {
+    int ps = coefficient_sign(pc, n, ep);
+    /* The reciprocal (Sec. 4.1): y = q/p lies in [L, H]; p/q = 1/y wherever q != 0, and
+     * 1/y is decreasing on each side of 0. */
+    if (ps != 0 && ratio_hull(qc, pc, n, eq, ep, ps, &lo, &hi)) {
+      if (lo > 0.0 || hi < 0.0) {
+        /* y keeps one sign: 1/y in [1/H, 1/L]. (Unusual: q then has one sign although its
+         * coefficients failed the test.) */
+        res.kind = BBC_RANGE_BOUNDED;
+        res.lo = bbc__div_down(1.0, hi);
+        res.hi = bbc__div_up(1.0, lo);
+      } else if (lo < 0.0 && hi > 0.0) {
+        /* y in [L, 0) gives 1/y <= 1/L; y in (0, H] gives 1/y >= 1/H. The excluded open
+         * interval (1/L, 1/H) is shrunk: its ends are rounded towards its inside. */
+        res.kind = BBC_RANGE_COMPLEMENT;
+        res.lo = bbc__div_up(1.0, lo);
+        res.hi = bbc__div_down(1.0, hi);
+      } else if (lo == 0.0 && hi > 0.0) {
+        res.kind = BBC_RANGE_COMPLEMENT; /* y in (0, H]: p/q >= 1/H */
+        res.lo = -INFINITY;
+        res.hi = bbc__div_down(1.0, hi);
+      } else if (lo < 0.0 && hi == 0.0) {
+        res.kind = BBC_RANGE_COMPLEMENT; /* y in [L, 0): p/q <= 1/L */
+        res.lo = bbc__div_up(1.0, lo);
+        res.hi = INFINITY;
+      }
+      /* lo == hi == 0: q vanishes wherever it is defined; nothing is known. */
+      if (res.kind == BBC_RANGE_COMPLEMENT && !(res.lo < res.hi)) res = range_unbounded();
+    }
+  }
+  bbc_arena_reset(arena, mark);
+  *out = res;
+  return BBC_OK;
+}
