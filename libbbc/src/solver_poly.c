@@ -1,0 +1,895 @@
+/* The single-scattering solver: specular polynomials (Fan et al. 2024; paper Sec. 6.1;
+ * DESIGN 3.10). See bbc/solver.h.
+ *
+ * The constraint. With x1(u, v) on T1 (Eq. 6), the unnormalised interpolated normal
+ * n(u, v) (Eq. 7), d0 = x1 - x0, d1 = x_k - x1 and w = x_k - x0 (constant), a path
+ * x0 -> x1 -> x_k is specular when
+ *   C = (d0 x w) . n = 0                               (coplanarity, "endpoint
+ *        difference form" of the slides: d0 x d1 = d0 x w, so C has degree 2) and
+ *   reflection:  A = (r x d1) . t = 0, r = (n.n) d0 - 2 (d0.n) n   (Eq. 10's reflected
+ *        direction must be parallel to d1; with d0 x d1 = d0 x w this has degree 4), or
+ *   refraction:  A = eta_i^2 |d1|^2 |d0 x n|^2 - eta_o^2 |d0|^2 |d1 x n|^2 = 0
+ *        (the slides' "square form" of Snell's law eta_i sin(theta_i) = eta_o sin(theta_o),
+ *        without the projection on a basis vector b: with C = 0 both cross products are
+ *        parallel to the plane of incidence's normal, and leaving b out removes the
+ *        spurious zeros where that normal is orthogonal to b; degree 6).
+ * The reflection form needs a vector t with a component along the plane of incidence's
+ * normal; t = w x n_avg is that normal for the average normal n_avg. Where w is nearly
+ * parallel to n_avg (light and shading point on one normal line) t is unreliable and the
+ * square form with eta_i = eta_o = 1 (degree 6) is used instead.
+ *
+ * The squared and product forms admit wrong branches: the reflected ray running
+ * backwards, refraction into the wrong side or with the tangential direction reversed,
+ * the straight line x0 -> x_k itself. Every candidate is therefore polished by Newton's
+ * method on the exact constraint with normalised vectors and no squaring (the
+ * generalised half-vector must be parallel to the shading normal; bbc_solver_newton) and
+ * then checked by bbc_solver_verify, which traces the exact path: the wrong branches fail
+ * there.
+ *
+ * Elimination. Both polynomials are written in u with coefficients that are polynomials
+ * in v. Their resultant with respect to u (v hidden) vanishes at the v of every common
+ * root and has degree at most deg C * deg A <= 12 in v (Bezout). Rather than expanding a
+ * determinant of polynomials, it is sampled at deg + 1 Chebyshev nodes of the v range and
+ * interpolated in the Bernstein basis, where Descartes' rule of signs with de Casteljau
+ * subdivision isolates its roots. Each sample is the Sylvester determinant when C is
+ * linear in u, and a^n A(u+) A(u-) divided by the constant a^n when C is quadratic in u
+ * (leading coefficient a, roots u+-): on nearly flat triangles a is tiny, and the
+ * Sylvester (or Bezout) determinant's a^n then drowns in its own rounding. Coefficients at
+ * rounding level are zeroed first (a sphere's normals are affine in position, which makes
+ * C exactly linear; computed, its u^2 term is noise). Which variable is hidden is chosen
+ * per tuple: see solve_system.
+ *
+ * Back-substitution. For each root v*, C(u, v*) is a quadratic in u; its real roots in
+ * the u range are the candidates, ranked by |A(u, v*)| (a common root makes A vanish
+ * too).
+ *
+ * Degenerate systems (C or A vanishing identically, e.g. light and x_k on one normal
+ * line of a flat mirror, or a resultant that vanishes at every node) fall back to Newton
+ * from four seeds. Everything here is numerical; the tests measure how often it misses
+ * (round trips on scenes and on random triangles, BBC_TEST_FULL=1 for millions). */
+#include <assert.h>
+#include <float.h>
+#include <math.h>
+#include <string.h>
+#include <threads.h>
+
+#include "bbc/solver.h"
+#include "vec_internal.h"
+
+/* The highest total degree of the constraint polynomials. */
+#define BP_MAXD 6
+/* The highest degree of the resultant (Bezout: 2 x 6). */
+#define RES_MAXD (2 * BP_MAXD)
+/* Margins of the root search beyond the triangle, in barycentric units: candidates there
+ * may still polish into a root on the edge. */
+#define SEARCH_PAD 1e-6
+/* Two solutions closer than this (barycentric units, max norm) are the same. */
+#define DUPLICATE_TOLERANCE 1e-9
+
+/* ------------------------------------------------------------------------------------ */
+/* Bivariate polynomials in the power basis: c[i][j] multiplies u^i v^j (i + j <= deg).
+ * On the unit triangle |u^i v^j| <= 1, so the power basis is well conditioned for these
+ * low degrees. */
+
+typedef struct bpoly {
+  int deg;
+  double c[BP_MAXD + 1][BP_MAXD + 1];
+} bpoly;
+
+typedef struct bvec {
+  bpoly x, y, z;
+} bvec;
+
+/* Coefficients beyond deg are kept zero, so sums need only raise deg. */
+static void bp_zero(bpoly *p) {
+  memset(p, 0, sizeof *p);
+}
+
+/* a + bu u + bv v */
+static void bp_linear(bpoly *p, double a, double bu, double bv) {
+  bp_zero(p);
+  p->deg = 1;
+  p->c[0][0] = a, p->c[1][0] = bu, p->c[0][1] = bv;
+}
+
+/* r += s a */
+static void bp_axpy(bpoly *r, const bpoly *a, double s) {
+  for (int i = 0; i <= a->deg; i++)
+    for (int j = 0; i + j <= a->deg; j++) r->c[i][j] += s * a->c[i][j];
+  if (a->deg > r->deg) r->deg = a->deg;
+}
+
+/* r += s a b (r distinct from a and b). Callers never exceed BP_MAXD: the forms have
+ * degree at most 6. */
+static void bp_muladd(bpoly *r, const bpoly *a, const bpoly *b, double s) {
+  assert(a->deg + b->deg <= BP_MAXD && r != a && r != b);
+  for (int i = 0; i <= a->deg; i++)
+    for (int j = 0; i + j <= a->deg; j++) {
+      double ac = s * a->c[i][j];
+      if (ac == 0) continue;
+      for (int k = 0; k <= b->deg; k++)
+        for (int l = 0; k + l <= b->deg; l++) r->c[i + k][j + l] += ac * b->c[k][l];
+    }
+  if (a->deg + b->deg > r->deg) r->deg = a->deg + b->deg;
+}
+
+static void bp_scale(bpoly *p, double s) {
+  for (int i = 0; i <= p->deg; i++)
+    for (int j = 0; i + j <= p->deg; j++) p->c[i][j] *= s;
+}
+
+static double bp_max_abs(const bpoly *p) {
+  double m = 0;
+  for (int i = 0; i <= p->deg; i++)
+    for (int j = 0; i + j <= p->deg; j++) m = fmax(m, fabs(p->c[i][j]));
+  return m;
+}
+
+/* Exchanges u and v. */
+static void bp_transpose(bpoly *p) {
+  for (int i = 0; i <= p->deg; i++)
+    for (int j = i + 1; i + j <= p->deg; j++) {
+      double t = p->c[i][j];
+      p->c[i][j] = p->c[j][i];
+      p->c[j][i] = t;
+    }
+}
+
+/* Lowers deg to the true total degree (exact zeros only: flat triangles give exact zeros
+ * in the normal's differences, so their forms drop degree without any threshold). */
+static void bp_trim(bpoly *p) {
+  while (p->deg > 0) {
+    int nonzero = 0;
+    for (int i = 0; i <= p->deg; i++) nonzero |= p->c[i][p->deg - i] != 0;
+    if (nonzero) break;
+    p->deg--;
+  }
+}
+
+/* The degree in u. */
+static int bp_deg_u(const bpoly *p) {
+  for (int i = p->deg; i > 0; i--)
+    for (int j = 0; i + j <= p->deg; j++)
+      if (p->c[i][j] != 0) return i;
+  return 0;
+}
+
+/* The coefficients of u^0..u^deg_u at v, into out. */
+static void bp_at_v(const bpoly *p, double v, int deg_u, double *out) {
+  for (int i = 0; i <= deg_u; i++) {
+    double s = 0;
+    for (int j = p->deg - i; j >= 0; j--) s = s * v + p->c[i][j];
+    out[i] = s;
+  }
+}
+
+static void bv_linear(bvec *r, bbc_vec3 a, bbc_vec3 bu, bbc_vec3 bv) {
+  bp_linear(&r->x, a.x, bu.x, bv.x);
+  bp_linear(&r->y, a.y, bu.y, bv.y);
+  bp_linear(&r->z, a.z, bu.z, bv.z);
+}
+
+/* r = a . b */
+static void bv_dot(bpoly *r, const bvec *a, const bvec *b) {
+  bp_zero(r);
+  bp_muladd(r, &a->x, &b->x, 1.0);
+  bp_muladd(r, &a->y, &b->y, 1.0);
+  bp_muladd(r, &a->z, &b->z, 1.0);
+}
+
+/* r = a . b for a constant b */
+static void bv_dotc(bpoly *r, const bvec *a, bbc_vec3 b) {
+  bp_zero(r);
+  bp_axpy(r, &a->x, b.x);
+  bp_axpy(r, &a->y, b.y);
+  bp_axpy(r, &a->z, b.z);
+}
+
+/* r = a x b */
+static void bv_cross(bvec *r, const bvec *a, const bvec *b) {
+  bp_zero(&r->x), bp_zero(&r->y), bp_zero(&r->z);
+  bp_muladd(&r->x, &a->y, &b->z, 1.0), bp_muladd(&r->x, &a->z, &b->y, -1.0);
+  bp_muladd(&r->y, &a->z, &b->x, 1.0), bp_muladd(&r->y, &a->x, &b->z, -1.0);
+  bp_muladd(&r->z, &a->x, &b->y, 1.0), bp_muladd(&r->z, &a->y, &b->x, -1.0);
+}
+
+/* r = a x b for a constant b */
+static void bv_crossc(bvec *r, const bvec *a, bbc_vec3 b) {
+  bp_zero(&r->x), bp_zero(&r->y), bp_zero(&r->z);
+  bp_axpy(&r->x, &a->y, b.z), bp_axpy(&r->x, &a->z, -b.y);
+  bp_axpy(&r->y, &a->z, b.x), bp_axpy(&r->y, &a->x, -b.z);
+  bp_axpy(&r->z, &a->x, b.y), bp_axpy(&r->z, &a->y, -b.x);
+}
+
+/* ------------------------------------------------------------------------------------ */
+/* Small dense linear algebra. */
+
+/* The determinant of the n x n matrix a (row-major, destroyed) by Gaussian elimination
+ * with partial pivoting. */
+static double det_lu(double *a, int n) {
+  double det = 1.0;
+  for (int k = 0; k < n; k++) {
+    int p = k;
+    for (int i = k + 1; i < n; i++)
+      if (fabs(a[i * n + k]) > fabs(a[p * n + k])) p = i;
+    if (a[p * n + k] == 0) return 0.0;
+    if (p != k) {
+      for (int j = 0; j < n; j++) {
+        double t = a[k * n + j];
+        a[k * n + j] = a[p * n + j];
+        a[p * n + j] = t;
+      }
+      det = -det;
+    }
+    double piv = a[k * n + k];
+    det *= piv;
+    for (int i = k + 1; i < n; i++) {
+      double f = a[i * n + k] / piv;
+      if (f == 0) continue;
+      for (int j = k + 1; j < n; j++) a[i * n + j] -= f * a[k * n + j];
+    }
+  }
+  return det;
+}
+
+/* Solves a x = b in place (a n x n row-major, destroyed; b becomes x). Returns 0 if a is
+ * singular. */
+static int solve_lu(double *a, double *b, int n) {
+  for (int k = 0; k < n; k++) {
+    int p = k;
+    for (int i = k + 1; i < n; i++)
+      if (fabs(a[i * n + k]) > fabs(a[p * n + k])) p = i;
+    if (a[p * n + k] == 0) return 0;
+    if (p != k) {
+      for (int j = 0; j < n; j++) {
+        double t = a[k * n + j];
+        a[k * n + j] = a[p * n + j];
+        a[p * n + j] = t;
+      }
+      double t = b[k];
+      b[k] = b[p];
+      b[p] = t;
+    }
+    for (int i = k + 1; i < n; i++) {
+      double f = a[i * n + k] / a[k * n + k];
+      for (int j = k; j < n; j++) a[i * n + j] -= f * a[k * n + j];
+      b[i] -= f * b[k];
+    }
+  }
+  for (int k = n - 1; k >= 0; k--) {
+    double s = b[k];
+    for (int j = k + 1; j < n; j++) s -= a[k * n + j] * b[j];
+    b[k] = s / a[k * n + k];
+  }
+  return 1;
+}
+
+static double binomial(int n, int k) {
+  double r = 1;
+  for (int i = 1; i <= k; i++) r = r * (n - k + i) / i;
+  return r;
+}
+
+/* ------------------------------------------------------------------------------------ */
+/* Univariate polynomials in the Bernstein basis of [0, 1]: root isolation by Descartes'
+ * rule of signs (the number of sign changes of the coefficients bounds the number of
+ * roots in (0, 1) and has its parity) and de Casteljau halving. */
+
+typedef struct root_list {
+  int count;
+  double t[RES_MAXD + 4];
+} root_list;
+
+static void roots_push(root_list *r, double t) {
+  if (r->count < (int)(sizeof r->t / sizeof r->t[0])) r->t[r->count++] = t;
+}
+
+static int sign_changes(const double *b, int n) {
+  int changes = 0, last = 0;
+  for (int i = 0; i <= n; i++) {
+    int s = b[i] > 0 ? 1 : (b[i] < 0 ? -1 : 0);
+    if (s == 0) continue;
+    if (last != 0 && s != last) changes++;
+    last = s;
+  }
+  return changes;
+}
+
+/* Splits b at t = 1/2 into the coefficients of both halves (each again on [0, 1]). */
+static void bernstein_halve(const double *b, int n, double *left, double *right) {
+  double w[RES_MAXD + 1];
+  memcpy(w, b, sizeof(double) * (size_t)(n + 1));
+  left[0] = w[0];
+  right[n] = w[n];
+  for (int r = 1; r <= n; r++) {
+    for (int i = 0; i <= n - r; i++) w[i] = 0.5 * (w[i] + w[i + 1]);
+    left[r] = w[0];
+    right[n - r] = w[n - r];
+  }
+}
+
+/* The value at t in O(n) (for the many evaluations of root refinement): with s the
+ * smaller of t / (1 - t) and (1 - t) / t, p(t) is (1 - t)^n or t^n times a polynomial in s
+ * with |s| <= 1, evaluated by Horner's scheme. binom holds C(n, j). */
+static double bernstein_eval_fast(const double *b, const double *binom, int n, double t) {
+  double acc = 0, w = t <= 0.5 ? 1 - t : t, wn = 1;
+  for (int j = 0; j < n; j++) wn *= w;
+  if (t <= 0.5) {
+    double s = t / (1 - t);
+    for (int j = n; j >= 0; j--) acc = acc * s + binom[j] * b[j];
+  } else {
+    double s = (1 - t) / t;
+    for (int j = 0; j <= n; j++) acc = acc * s + binom[j] * b[j];
+  }
+  return acc * wn;
+}
+
+/* The single root of b in (0, 1) when Descartes counts one sign change, to 1e-10 of the
+ * interval (Newton's method on the exact constraint polishes it afterwards), by the
+ * Illinois variant of regula falsi (superlinear; bisection-safe). The signs just inside
+ * the ends are those of the first and last non-zero coefficients. */
+static double refine_single_root(const double *b, int n) {
+  int s_lo = 0, s_hi = 0;
+  for (int i = 0; i <= n && !s_lo; i++) s_lo = b[i] > 0 ? 1 : (b[i] < 0 ? -1 : 0);
+  for (int i = n; i >= 0 && !s_hi; i--) s_hi = b[i] > 0 ? 1 : (b[i] < 0 ? -1 : 0);
+  double binom[RES_MAXD + 1];
+  binom[0] = 1;
+  for (int j = 1; j <= n; j++) binom[j] = binom[j - 1] * (n - j + 1) / j;
+  double a = 0, c = 1, fa = b[0], fc = b[n];
+  if (fa == 0) fa = s_lo * DBL_MIN;
+  if (fc == 0) fc = s_hi * DBL_MIN;
+  int side = 0;
+  for (int it = 0; it < 100 && c - a > 1e-10; it++) {
+    double m = (a * fc - c * fa) / (fc - fa);
+    /* Keep the iterate strictly inside and fall back to bisection when regula falsi
+     * stalls at an end. */
+    if (!(m > a && m < c)) m = 0.5 * (a + c);
+    double fm = bernstein_eval_fast(b, binom, n, m);
+    if (fm == 0) return m;
+    if ((fm > 0) == (fa > 0)) {
+      a = m, fa = fm;
+      if (side == -1) fc *= 0.5;
+      side = -1;
+    } else {
+      c = m, fc = fm;
+      if (side == 1) fa *= 0.5;
+      side = 1;
+    }
+  }
+  return 0.5 * (a + c);
+}
+
+/* Appends the roots of b in (0, 1), mapped to [t0, t1], to out. Clusters narrower than
+ * about 1e-13 (multiple or nearly multiple roots, e.g. near a fold of the caustic) are
+ * reported once, at their middle. */
+static void isolate_roots(const double *b, int n, double t0, double t1, int depth, root_list *out) {
+  int changes = sign_changes(b, n);
+  if (changes == 0) return;
+  if (changes == 1) {
+    roots_push(out, t0 + (t1 - t0) * refine_single_root(b, n));
+    return;
+  }
+  double mid = 0.5 * (t0 + t1);
+  if (depth >= 44 || t1 - t0 < 1e-13) {
+    roots_push(out, mid);
+    return;
+  }
+  double left[RES_MAXD + 1], right[RES_MAXD + 1];
+  bernstein_halve(b, n, left, right);
+  /* A root exactly at the split point is invisible to both halves' sign counts. */
+  if (left[n] == 0) roots_push(out, mid);
+  isolate_roots(left, n, t0, mid, depth + 1, out);
+  isolate_roots(right, n, mid, t1, depth + 1, out);
+}
+
+/* The roots in [lo, hi] of the power-basis polynomial a[0] + a[1] x + ... + a[n] x^n,
+ * through its Bernstein form on [lo, hi]. */
+static void power_roots(const double *a, int n, double lo, double hi, root_list *out) {
+  while (n > 0 && a[n] == 0) n--;
+  if (n == 0) return;
+  /* q(t) = p(lo + w t) in the power basis of t, by Horner's scheme on polynomials. */
+  double w = hi - lo, q[RES_MAXD + 1] = {0};
+  for (int i = n; i >= 0; i--) {
+    for (int k = n; k >= 1; k--) q[k] = q[k] * lo + q[k - 1] * w;
+    q[0] = q[0] * lo + a[i];
+  }
+  /* Power to Bernstein: b_k = sum_{i <= k} C(k, i) / C(n, i) q_i. */
+  double b[RES_MAXD + 1];
+  for (int k = 0; k <= n; k++) {
+    double s = 0;
+    for (int i = 0; i <= k; i++) s += binomial(k, i) / binomial(n, i) * q[i];
+    b[k] = s;
+  }
+  root_list r = {0};
+  if (b[0] == 0) roots_push(&r, 0.0);
+  if (b[n] == 0) roots_push(&r, 1.0);
+  isolate_roots(b, n, 0.0, 1.0, 0, &r);
+  for (int i = 0; i < r.count; i++) roots_push(out, lo + w * r.t[i]);
+}
+
+/* ------------------------------------------------------------------------------------ */
+/* The resultant of C and A with respect to u, as a polynomial in v on [lo, hi]. */
+
+/* The Sylvester matrix of f (degree m in u) and g (degree n) at one v: n shifted rows of
+ * f's coefficients (highest power first) above m shifted rows of g's. Returns the
+ * determinant and, in *scale, Hadamard's bound on it (the product of the row norms),
+ * against which "zero" is judged. */
+static double sylvester_det(const double *f, int m, const double *g, int n, double *scale) {
+  int size = m + n;
+  double a[(2 * BP_MAXD) * (2 * BP_MAXD)];
+  memset(a, 0, sizeof(double) * (size_t)(size * size));
+  for (int r = 0; r < n; r++)
+    for (int i = 0; i <= m; i++) a[r * size + r + (m - i)] = f[i];
+  for (int r = 0; r < m; r++)
+    for (int i = 0; i <= n; i++) a[(n + r) * size + r + (n - i)] = g[i];
+  double hadamard = 1;
+  for (int r = 0; r < size; r++) {
+    double s = 0;
+    for (int j = 0; j < size; j++) s += a[r * size + j] * a[r * size + j];
+    hadamard *= sqrt(s);
+  }
+  *scale = hadamard;
+  return det_lu(a, size);
+}
+
+/* A(u) at complex u = (re, im) for the power-basis coefficients g[0..n]: the real and
+ * imaginary parts, by Horner's scheme. */
+static void complex_eval(const double *g, int n, double re, double im, double *out_re,
+                         double *out_im) {
+  double pr = 0, pi = 0;
+  for (int k = n; k >= 0; k--) {
+    double t = pr * re - pi * im + g[k];
+    pi = pr * im + pi * re;
+    pr = t;
+  }
+  *out_re = pr, *out_im = pi;
+}
+
+/* One sample of the resultant at v, with the magnitude against which "zero" is judged.
+ * C has total degree 2, so when it is quadratic in u its leading coefficient a is a
+ * constant, and Res_u(C, A) = a^n A(u+) A(u-) over the two roots u+- of C(., v) (real or
+ * complex conjugate). The sample is A(u+) A(u-) = Res / a^n: the same polynomial in v up
+ * to a constant factor, but evaluated without the Sylvester determinant's rounding, which
+ * swamps the tiny a^n on nearly flat triangles. When C is linear in u the Sylvester
+ * determinant has no such factor and is used directly. */
+static double resultant_sample(const double *fc, int m, const double *gc, int n, double *scale) {
+  if (m != 2) return sylvester_det(fc, m, gc, n, scale);
+  double a = fc[2], b = fc[1], c = fc[0];
+  double disc = b * b - 4 * a * c;
+  double re[2], im[2];
+  if (disc >= 0) {
+    /* The stable pair: q = -(b + sign(b) sqrt(disc)) / 2, roots q / a and c / q. */
+    double q = -0.5 * (b + copysign(sqrt(disc), b));
+    re[0] = q / a, im[0] = 0;
+    re[1] = q != 0 ? c / q : 0, im[1] = 0;
+  } else {
+    re[0] = re[1] = -b / (2 * a);
+    im[0] = sqrt(-disc) / (2 * fabs(a));
+    im[1] = -im[0];
+  }
+  double pr = 1, pi = 0, mag = 1;
+  for (int i = 0; i < 2; i++) {
+    double ar, ai;
+    complex_eval(gc, n, re[i], im[i], &ar, &ai);
+    double t = pr * ar - pi * ai;
+    pi = pr * ai + pi * ar;
+    pr = t;
+    double r = hypot(re[i], im[i]), bound = 0;
+    for (int k = n; k >= 0; k--) bound = bound * r + fabs(gc[k]);
+    mag *= bound;
+  }
+  *scale = mag;
+  return pr; /* the imaginary part is rounding: the roots are real or conjugate */
+}
+
+/* Interpolation of the resultant's samples in the Bernstein basis: for every degree, the
+ * Chebyshev nodes of [0, 1] and the inverse of the collocation matrix B_j(t_s). They
+ * depend on the degree only, so they are computed once per process (call_once makes that
+ * safe from any number of threads) instead of factorising the matrix in every solve. */
+typedef struct collocation {
+  double t[RES_MAXD + 1];
+  double inv[(RES_MAXD + 1) * (RES_MAXD + 1)];
+  int ok;
+} collocation;
+
+static collocation collocations[RES_MAXD + 1];
+static once_flag collocations_once = ONCE_FLAG_INIT;
+
+static void collocations_init(void) {
+  for (int deg = 1; deg <= RES_MAXD; deg++) {
+    collocation *c = &collocations[deg];
+    int n = deg + 1;
+    double mat[(RES_MAXD + 1) * (RES_MAXD + 1)];
+    for (int s = 0; s < n; s++)
+      c->t[s] = 0.5 - 0.5 * cos((2.0 * s + 1.0) * 3.14159265358979323846 / (2.0 * n));
+    c->ok = 1;
+    for (int col = 0; col < n && c->ok; col++) {
+      for (int s = 0; s < n; s++)
+        for (int j = 0; j < n; j++)
+          mat[s * n + j] = binomial(deg, j) * pow(c->t[s], j) * pow(1.0 - c->t[s], deg - j);
+      double e[RES_MAXD + 1] = {0};
+      e[col] = 1;
+      c->ok = solve_lu(mat, e, n);
+      for (int r = 0; r < n; r++) c->inv[r * n + col] = e[r];
+    }
+  }
+}
+
+/* Finds the roots v in [lo, hi] of Res_u(C, A)(v). Returns 0 when the resultant vanishes
+ * identically (to rounding), i.e. the system is degenerate; else 1. */
+static int resultant_roots(const bpoly *c, const bpoly *a, double lo, double hi, root_list *out) {
+  int m = bp_deg_u(c), n = bp_deg_u(a);
+  int deg = c->deg * a->deg;
+  if (deg > RES_MAXD) deg = RES_MAXD;
+  if (deg == 0) return 0;
+  /* Sample at the Chebyshev nodes of [lo, hi]: they keep the interpolation well
+   * conditioned. */
+  call_once(&collocations_once, collocations_init);
+  const collocation *col = &collocations[deg];
+  if (!col->ok) return 0;
+  double val[RES_MAXD + 1];
+  int big = 0;
+  for (int s = 0; s <= deg; s++) {
+    double v = lo + (hi - lo) * col->t[s];
+    double fc[BP_MAXD + 1], gc[BP_MAXD + 1], scale;
+    bp_at_v(c, v, m, fc);
+    bp_at_v(a, v, n, gc);
+    val[s] = resultant_sample(fc, m, gc, n, &scale);
+    if (!isfinite(val[s])) return 0;
+    if (fabs(val[s]) > 1e-13 * scale) big = 1;
+  }
+  if (!big) return 0;
+  /* Bernstein coefficients: b = M^-1 val for the collocation matrix M_sj = B_j(t_s). */
+  double b[RES_MAXD + 1];
+  for (int r = 0; r <= deg; r++) {
+    double acc = 0;
+    for (int s = 0; s <= deg; s++) acc += col->inv[r * (deg + 1) + s] * val[s];
+    b[r] = acc;
+  }
+  memcpy(val, b, sizeof(double) * (size_t)(deg + 1));
+  isolate_roots(val, deg, lo, hi, 0, out);
+  return 1;
+}
+
+/* ------------------------------------------------------------------------------------ */
+/* Polishing and verification. */
+
+static double opt_triangle_tol(const bbc_solver_options *o) {
+  return o && o->triangle_tolerance > 0 ? o->triangle_tolerance : 1e-9;
+}
+static double opt_angle_tol(const bbc_solver_options *o) {
+  return o && o->angle_tolerance > 0 ? o->angle_tolerance : 1e-7;
+}
+
+int bbc_solver_verify(const bbc_path_geometry *g, bbc_vec3 xk, double u, double v,
+                      const bbc_solver_options *options, bbc_solution *out) {
+  bbc_solution local;
+  bbc_solution *s = out ? out : &local;
+  memset(s, 0, sizeof *s);
+  if (!g || (g->length != 1 && g->length != 2)) return 0;
+  if (bbc_specular_path_trace(g, u, v, &s->path) != BBC_OK) return 0;
+  const bbc_specular_path *p = &s->path;
+  s->u1[0] = u, s->u1[1] = v;
+  s->x1 = p->x1;
+  if (g->length == 2) {
+    s->u2[0] = p->u2[0], s->u2[1] = p->u2[1];
+    s->x2 = p->x2;
+  }
+  s->irradiance = p->irradiance;
+  if (!p->complete) return 0;
+  /* Inside tests get a tolerance here instead of the trace's exact ones; x_k is given, so
+   * whether it lies in the receiver triangle is the caller's business. */
+  uint32_t hard = BBC_PATH_REJECT & ~(uint32_t)(BBC_PATH_OUTSIDE_T1 | BBC_PATH_OUTSIDE_T2 |
+                                                BBC_PATH_OUTSIDE_RECEIVER);
+  if (p->flags & hard) return 0;
+  double tol = opt_triangle_tol(options);
+  if (!(u >= -tol && v >= -tol && u + v <= 1 + tol)) return 0;
+  if (g->length == 2 && !(p->u2[0] >= -tol && p->u2[1] >= -tol && p->u2[0] + p->u2[1] <= 1 + tol))
+    return 0;
+  /* The last segment must point at x_k: compare directions from the last specular
+   * vertex, which is robust to grazing receivers and to x_k slightly off the plane. */
+  bbc_vec3 last = g->length == 2 ? p->x2 : p->x1;
+  bbc_vec3 a = v3_sub(p->xk, last), b = v3_sub(xk, last);
+  double la = v3_length(a), lb = v3_length(b);
+  if (!(la > 0 && lb > 0) || v3_dot(a, b) <= 0) return 0;
+  double sine = v3_length(v3_cross(a, b)) / (la * lb);
+  return sine <= opt_angle_tol(options);
+}
+
+/* ------------------------------------------------------------------------------------ */
+
+typedef struct solve_state {
+  const bbc_path_geometry *g;
+  bbc_vec3 xk;
+  int swapped; /* the polynomials' u and v are T1's v and u (see solve_system) */
+  const bbc_solver_options *options;
+  bbc_solver_stats stats;
+  bbc_solution found[BBC_SOLVER_MAX_SOLUTIONS];
+  int count;
+} solve_state;
+
+/* Polishes a candidate with Newton's method on the exact constraint (bbc_solver_newton,
+ * which also verifies the result) and keeps it if it is new. */
+static void try_candidate(solve_state *st, double u, double v) {
+  st->stats.candidates++;
+  bbc_solver_options polish;
+  if (st->options)
+    polish = *st->options;
+  else
+    memset(&polish, 0, sizeof polish);
+  bbc_solver_stats counts;
+  memset(&counts, 0, sizeof counts);
+  polish.stats = &counts;
+  double start[2] = {u, v};
+  bbc_solution s;
+  int found = 0;
+  if (bbc_solver_newton(st->g, st->xk, start, &polish, &s, &found) != BBC_OK) found = 0;
+  st->stats.newton_iterations += counts.newton_iterations;
+  st->stats.rejected_not_converged += counts.rejected_not_converged;
+  st->stats.rejected_inadmissible += counts.rejected_inadmissible;
+  if (!found) return;
+  for (int i = 0; i < st->count; i++) {
+    if (fabs(st->found[i].u1[0] - s.u1[0]) <= DUPLICATE_TOLERANCE &&
+        fabs(st->found[i].u1[1] - s.u1[1]) <= DUPLICATE_TOLERANCE) {
+      st->stats.duplicates++;
+      return;
+    }
+  }
+  if (st->count < BBC_SOLVER_MAX_SOLUTIONS) st->found[st->count++] = s;
+}
+
+/* Back-substitution at one root v* of the resultant: the real roots u of the
+ * lower-degree polynomial in the u range, ranked by how nearly the other vanishes. */
+static void back_substitute(solve_state *st, const bpoly *c, const bpoly *a, double v) {
+  int m = bp_deg_u(c), n = bp_deg_u(a);
+  double fc[BP_MAXD + 1], gc[BP_MAXD + 1];
+  bp_at_v(c, v, m, fc);
+  bp_at_v(a, v, n, gc);
+  /* Solve the polynomial of lower (non-zero) degree in u, unless it vanishes at this v;
+   * both were normalised to a largest coefficient of 1 by solve_system. */
+  double fnorm = 0, hnorm = 0;
+  for (int i = 0; i <= m; i++) fnorm += fabs(fc[i]);
+  for (int i = 0; i <= n; i++) hnorm += fabs(gc[i]);
+  int use_c = m > 0 && (n == 0 || m <= n);
+  if (use_c && fnorm <= 1e-12) use_c = 0;
+  if (!use_c && (n == 0 || hnorm <= 1e-12)) use_c = m > 0 && fnorm > 1e-12;
+  const double *f = use_c ? fc : gc, *h = use_c ? gc : fc;
+  int fd = use_c ? m : n, hd = use_c ? n : m;
+  if (!use_c) {
+    double t = fnorm;
+    fnorm = hnorm, hnorm = t;
+  }
+  if (fd == 0) return;
+  root_list us = {0};
+  power_roots(f, fd, -SEARCH_PAD, 1.0 - v + SEARCH_PAD, &us);
+  if (us.count == 0) return;
+  /* Rank by the residual of the other polynomial; keep the best and any that come close
+   * (a common root makes it vanish up to the error of v*). */
+  double res[RES_MAXD + 4], best = INFINITY;
+  for (int i = 0; i < us.count; i++) {
+    double s = 0;
+    for (int k = hd; k >= 0; k--) s = s * us.t[i] + h[k];
+    res[i] = fabs(s) / (hnorm > 0 ? hnorm : 1.0);
+    best = fmin(best, res[i]);
+  }
+  for (int i = 0; i < us.count; i++)
+    if (res[i] == best || res[i] <= 1e-4) {
+      if (st->swapped)
+        try_candidate(st, v, us.t[i]);
+      else
+        try_candidate(st, us.t[i], v);
+    }
+}
+
+/* Zeroes the coefficients of p below tol: they are rounding noise (a coefficient that
+ * vanishes analytically, e.g. the u^2 term of C on a sphere, whose normals are an affine
+ * function of position, comes out as a few ulps of the others), and a noisy leading
+ * coefficient would give the resultant a spurious huge factor. */
+static void bp_chop(bpoly *p, double tol) {
+  for (int i = 0; i <= p->deg; i++)
+    for (int j = 0; i + j <= p->deg; j++)
+      if (fabs(p->c[i][j]) <= tol) p->c[i][j] = 0;
+}
+
+/* Solves the system {c = 0, a = 0} on T1 and feeds every candidate to try_candidate.
+ * scale_c and scale_a are the natural magnitudes of the two polynomials (products of the
+ * lengths they are made of), against which an identically vanishing one is recognised.
+ * Returns 0 if the system is degenerate; else 1. */
+static int solve_system(solve_state *st, bpoly *c, bpoly *a, double scale_c, double scale_a) {
+  double cm = bp_max_abs(c), am = bp_max_abs(a);
+  if (!isfinite(cm) || !isfinite(am) || cm <= 1e-12 * scale_c || am <= 1e-12 * scale_a) return 0;
+  bp_chop(c, 1e-12 * cm);
+  bp_chop(a, 1e-12 * am);
+  bp_trim(c);
+  bp_trim(a);
+  /* The roots are isolated in v and then found in u along the curve C = 0. Where that
+   * curve runs nearly along the u axis, roots far apart on it have nearly equal v: they
+   * cluster in the resultant, which then places them poorly, and back-substitution along
+   * the flat curve amplifies the error. So the variable C changes fastest along (at T1's
+   * centre) is the one eliminated: if that is v, u and v are exchanged (the triangle's
+   * domain is symmetric in them). The curve's direction then makes at most 45 degrees
+   * with the v axis. */
+  double cu = c->deg >= 1 ? c->c[1][0] : 0, cv = c->deg >= 1 ? c->c[0][1] : 0;
+  if (c->deg >= 2) {
+    cu += (2 * c->c[2][0] + c->c[1][1]) / 3.0;
+    cv += (2 * c->c[0][2] + c->c[1][1]) / 3.0;
+  }
+  st->swapped = fabs(cv) > fabs(cu);
+  if (st->swapped) {
+    bp_transpose(c);
+    bp_transpose(a);
+  }
+  /* Normalising keeps the resultant's magnitude near 1. */
+  bp_scale(c, 1.0 / cm);
+  bp_scale(a, 1.0 / am);
+  const double lo = -SEARCH_PAD, hi = 1.0 + SEARCH_PAD;
+  root_list vs = {0};
+  int m = bp_deg_u(c), n = bp_deg_u(a);
+  if (m == 0 || n == 0) {
+    /* One polynomial does not involve u: its own roots in v are the candidates' v (the
+     * resultant would be a power of it, with multiple roots). */
+    const bpoly *p = m == 0 ? c : a;
+    double coef[BP_MAXD + 1];
+    for (int j = 0; j <= p->deg; j++) coef[j] = p->c[0][j];
+    power_roots(coef, p->deg, lo, hi, &vs);
+  } else if (!resultant_roots(c, a, lo, hi, &vs)) {
+    return 0;
+  }
+  st->stats.resultant_roots += (uint64_t)vs.count;
+  for (int i = 0; i < vs.count; i++) back_substitute(st, c, a, vs.t[i]);
+  return 1;
+}
+
+/* Seeds for the degenerate case: the centre and the centres of the three corner
+ * sub-triangles. */
+static void fallback(solve_state *st) {
+  static const double seeds[4][2] = {
+      {1.0 / 3, 1.0 / 3}, {2.0 / 3, 1.0 / 6}, {1.0 / 6, 2.0 / 3}, {1.0 / 6, 1.0 / 6}};
+  st->stats.fallbacks++;
+  for (int i = 0; i < 4; i++) try_candidate(st, seeds[i][0], seeds[i][1]);
+}
+
+static int solution_less(const bbc_solution *a, const bbc_solution *b) {
+  return a->u1[0] < b->u1[0] || (a->u1[0] == b->u1[0] && a->u1[1] < b->u1[1]);
+}
+
+static void add_stats(bbc_solver_stats *to, const bbc_solver_stats *from) {
+  to->solves += from->solves;
+  to->resultant_roots += from->resultant_roots;
+  to->candidates += from->candidates;
+  to->newton_iterations += from->newton_iterations;
+  to->rejected_not_converged += from->rejected_not_converged;
+  to->rejected_inadmissible += from->rejected_inadmissible;
+  to->duplicates += from->duplicates;
+  to->fallbacks += from->fallbacks;
+  to->solutions += from->solutions;
+}
+
+bbc_result bbc_solver_single(const bbc_path_geometry *g, bbc_vec3 xk,
+                             const bbc_solver_options *options, bbc_solution *out, size_t capacity,
+                             size_t *count) {
+  if (count) *count = 0;
+  if (!g || !count || (!out && capacity > 0) || g->length != 1 || !isfinite(xk.x) ||
+      !isfinite(xk.y) || !isfinite(xk.z))
+    return BBC_ERR_INVALID_ARGUMENT;
+
+  solve_state st;
+  memset(&st.stats, 0, sizeof st.stats);
+  st.g = g;
+  st.xk = xk;
+  st.options = options;
+  st.count = 0;
+  st.swapped = 0;
+  st.stats.solves = 1;
+
+  const bbc_specular_triangle *t = &g->specular[0];
+  bbc_vec3 e1 = v3_sub(t->p[1], t->p[0]), e2 = v3_sub(t->p[2], t->p[0]);
+  /* The polynomial vectors of Eq. 6-8 (x1 itself only through d0 and d1). */
+  bvec d0, d1, n;
+  bv_linear(&d0, v3_sub(t->p[0], g->light), e1, e2);
+  bv_linear(&d1, v3_sub(xk, t->p[0]), v3_neg(e1), v3_neg(e2));
+  bv_linear(&n, t->n[0], v3_sub(t->n[1], t->n[0]), v3_sub(t->n[2], t->n[0]));
+  bbc_vec3 w = v3_sub(xk, g->light);
+
+  /* Coplanarity C = (d0 x w) . n (degree 2). */
+  bvec d0w;
+  bv_crossc(&d0w, &d0, w);
+  bpoly c;
+  bv_dot(&c, &d0w, &n);
+
+  /* Natural magnitudes: lengths from the light (L0) and to x_k (L1) over T1, and of the
+   * normals (N). A polynomial far below its magnitude vanishes identically. */
+  double le = v3_length(e1) + v3_length(e2);
+  double L0 = v3_length(v3_sub(t->p[0], g->light)) + le, L1 = v3_length(v3_sub(xk, t->p[0])) + le;
+  double N = v3_length(t->n[0]) + v3_length(v3_sub(t->n[1], t->n[0])) +
+             v3_length(v3_sub(t->n[2], t->n[0]));
+  double W = v3_length(w);
+  double scale_c = L0 * W * N;
+
+  int solved = 1;
+  bbc_vec3 navg = v3_normalize(v3_add(t->n[0], v3_add(t->n[1], t->n[2])));
+  bbc_vec3 tv = v3_cross(w, navg);
+  if (!t->refract && v3_length(tv) > 0.05 * W) {
+    /* A = (r x d1) . t with r x d1 = (n.n)(d0 x w) - 2 (d0.n)(n x d1) (degree 4). */
+    tv = v3_scale(tv, 1.0 / v3_length(tv));
+    bpoly nn, d0n, p1, p2, a;
+    bvec nd1;
+    bv_dot(&nn, &n, &n);
+    bv_dot(&d0n, &d0, &n);
+    bv_dotc(&p1, &d0w, tv);
+    bv_cross(&nd1, &n, &d1);
+    bv_dotc(&p2, &nd1, tv);
+    bp_zero(&a);
+    bp_muladd(&a, &nn, &p1, 1.0);
+    bp_muladd(&a, &d0n, &p2, -2.0);
+    bpoly cc = c;
+    solved = solve_system(&st, &cc, &a, scale_c, N * N * L0 * (W + L1));
+  } else {
+    /* The square form eta_i^2 |d1|^2 |d0 x n|^2 - eta_o^2 |d0|^2 |d1 x n|^2: refraction,
+     * and reflection (eta_i = eta_o) where light and x_k lie on one normal line. */
+    bvec d0xn, d1xn;
+    bv_cross(&d0xn, &d0, &n);
+    bv_cross(&d1xn, &d1, &n);
+    bpoly s0, s1, l0, l1;
+    bv_dot(&s0, &d0xn, &d0xn);
+    bv_dot(&s1, &d1xn, &d1xn);
+    bv_dot(&l0, &d0, &d0);
+    bv_dot(&l1, &d1, &d1);
+    /* For refraction, which side the light arrives from decides eta_i and eta_o. The side
+     * is the sign of s(u, v) = (x0 - x1) . n, a quadratic on T1. Its six Bernstein
+     * coefficients on the triangle (the values at the corners, and 2 s(mid) - (s(a) +
+     * s(b)) / 2 for each edge a-b) enclose it, so the cases it can take are known for
+     * certain; where it may change sign inside T1 both are solved and verification keeps
+     * the consistent roots. (Probing a few points instead missed sides on triangles with
+     * strongly varying normals.) */
+    int front = !t->refract, back = 0;
+    if (t->refract) {
+      static const double corner[3][2] = {{0, 0}, {1, 0}, {0, 1}};
+      double sc[3];
+      for (int i = 0; i < 6; i++) {
+        int a = i < 3 ? i : i - 3, b = i < 3 ? i : (i - 2) % 3;
+        double pu = 0.5 * (corner[a][0] + corner[b][0]), pv = 0.5 * (corner[a][1] + corner[b][1]);
+        bbc_vec3 x = v3_add(t->p[0], v3_add(v3_scale(e1, pu), v3_scale(e2, pv)));
+        bbc_vec3 nrm = v3_add(t->n[0], v3_add(v3_scale(v3_sub(t->n[1], t->n[0]), pu),
+                                              v3_scale(v3_sub(t->n[2], t->n[0]), pv)));
+        double side = v3_dot(v3_sub(g->light, x), nrm);
+        if (i < 3)
+          sc[i] = side;
+        else
+          side = 2 * side - 0.5 * (sc[a] + sc[b]);
+        if (side >= 0) front = 1;
+        if (side <= 0) back = 1;
+      }
+    }
+    double ior = t->refract ? t->ior : 1.0;
+    for (int side = 0; side < 2; side++) {
+      if ((side == 0 && !front) || (side == 1 && !back)) continue;
+      /* Entering from the front: eta_i = 1, eta_o = ior; leaving: the reverse. */
+      double ei = side == 0 ? 1.0 : ior, eo = side == 0 ? ior : 1.0;
+      bpoly a;
+      bp_zero(&a);
+      bp_muladd(&a, &l1, &s0, ei * ei);
+      bp_muladd(&a, &l0, &s1, -(eo * eo));
+      bpoly cc = c;
+      solved &= solve_system(&st, &cc, &a, scale_c, L0 * L0 * L1 * L1 * N * N * ior * ior);
+    }
+  }
+  if (!solved) fallback(&st);
+
+  /* Sorted by u1 so the output does not depend on the order roots were found in. */
+  for (int i = 1; i < st.count; i++) {
+    bbc_solution s = st.found[i];
+    int j = i - 1;
+    while (j >= 0 && solution_less(&s, &st.found[j])) {
+      st.found[j + 1] = st.found[j];
+      j--;
+    }
+    st.found[j + 1] = s;
+  }
+  size_t n_out = (size_t)st.count < capacity ? (size_t)st.count : capacity;
+  for (size_t i = 0; i < n_out; i++) out[i] = st.found[i];
+  *count = n_out;
+  st.stats.solutions = (uint64_t)st.count;
+  if (options && options->stats) add_stats(options->stats, &st.stats);
+  return BBC_OK;
+}
