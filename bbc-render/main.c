@@ -23,9 +23,31 @@ static const char help[] =
     "                        the other follows the camera's aspect ratio)\n"
     "  --height N            image height in pixels (default: extras.bbc.height)\n"
     "\n"
-    "Method:\n"
-    "  --method NAME         pt: path tracing with next-event estimation (default, and\n"
-    "                        for now the only method)\n"
+    "Caustics (point lights through mirrors and glass, from a bbc-precompute cache):\n"
+    "  --cache FILE          the .bbc cache of this scene; refused if it was computed\n"
+    "                        for another scene\n"
+    "  --method NAME         bbc: sample tuples by their irradiance bounds (default with\n"
+    "                        --cache); enumerate: every tuple covering the point (the\n"
+    "                        deterministic reference); uniform: as many tuples on average\n"
+    "                        as bbc, uniformly; one-sample: one tuple proportional to\n"
+    "                        its bound (Eq. 23); pt: path tracing only (default without\n"
+    "                        --cache; misses point-light caustics)\n"
+    "  --gamma G             P = min(G * bound, 1) per tuple (default 100)\n"
+    "  --expected-tuples W   instead, choose gamma per cell so that W tuples are\n"
+    "                        expected\n"
+    "  --variance V          instead, choose gamma per cell so that the variance bound\n"
+    "                        of Eq. 25 is V\n"
+    "  --chains LIST         chain types used, comma-separated (R, T; default all)\n"
+    "  --only PARTS          render only these parts, comma-separated: caustics (the\n"
+    "                        caustic estimator), direct (light before any diffuse\n"
+    "                        bounce), indirect (the rest)\n"
+    "\n"
+    "Measuring:\n"
+    "  --reference FILE      print the relMSE against this EXR (same size)\n"
+    "  --relmse-eps E        the eps of relMSE (default 1e-2)\n"
+    "  --reject-outliers     leave the worst 0.1 % of pixels out of relMSE\n"
+    "\n"
+    "Path tracing:\n"
     "  --max-depth N         maximum number of path segments (default 16)\n"
     "  --no-fresnel          glass always transmits (reflects only under total internal\n"
     "                        reflection), as the paper assumes\n"
@@ -40,7 +62,8 @@ static const char help[] =
     "  --seed K              random seed (default 0)\n"
     "  --progress            show a progress bar (default: when stderr is a terminal)\n"
     "  --no-progress         never show one\n"
-    "  --stats               print time, samples and rays per second to stderr\n"
+    "  --stats               print time, samples, rays per second and the caustic\n"
+    "                        estimator's figures (the paper's Table 2) to stderr\n"
     "  --version             print versions and exit\n"
     "  -h, --help            print this help and exit\n"
     "\n"
@@ -74,6 +97,9 @@ int main(int argc, char **argv) {
   cli_tool = "bbc-render";
   cli_args a = {argc, argv, 1, usage};
   const char *scene_path = NULL, *output = NULL, *png = NULL, *value = NULL;
+  const char *cache_path = NULL, *reference_path = NULL;
+  double relmse_eps = 1e-2, reject = 0;
+  int method_given = 0;
   bbc_render_options options;
   memset(&options, 0, sizeof options);
   double exposure = 0;
@@ -100,8 +126,55 @@ int main(int argc, char **argv) {
     } else if (cli_option(&a, "--height", &value)) {
       height = cli_parse_int(&a, "--height", value, 1, 16384);
     } else if (cli_option(&a, "--method", &value)) {
-      if (strcmp(value, "pt") != 0)
-        cli_usage_error(usage, "--method: unknown method '%s' (available: pt)", value);
+      static const char *names[] = {"pt", "bbc", "enumerate", "uniform", "one-sample"};
+      int found = -1;
+      for (int i = 0; i < 5; i++)
+        if (strcmp(value, names[i]) == 0) found = i;
+      if (found < 0)
+        cli_usage_error(usage,
+                        "--method: unknown method '%s' (bbc, enumerate, uniform, one-sample, pt)",
+                        value);
+      options.method = (bbc_method)found;
+      method_given = 1;
+    } else if (cli_option(&a, "--cache", &value)) {
+      cache_path = value;
+    } else if (cli_option(&a, "--gamma", &value)) {
+      options.gamma_mode = BBC_GAMMA_FIXED;
+      options.gamma_value = cli_parse_double(&a, "--gamma", value, 1e-300, 1e300);
+    } else if (cli_option(&a, "--expected-tuples", &value)) {
+      options.gamma_mode = BBC_GAMMA_EXPECTED;
+      options.gamma_value = cli_parse_double(&a, "--expected-tuples", value, 1e-6, 1e9);
+    } else if (cli_option(&a, "--variance", &value)) {
+      options.gamma_mode = BBC_GAMMA_VARIANCE;
+      options.gamma_value = cli_parse_double(&a, "--variance", value, 1e-300, 1e300);
+    } else if (cli_option(&a, "--chains", &value)) {
+      options.chains = 0;
+      char buffer[256];
+      snprintf(buffer, sizeof buffer, "%s", value);
+      for (char *save = NULL, *name = strtok_r(buffer, ",", &save); name;
+           name = strtok_r(NULL, ",", &save)) {
+        bbc_chain chain;
+        if (!bbc_chain_parse(name, &chain))
+          cli_usage_error(usage, "--chains: unknown chain type '%s' (R, T, RR, RT, TR, TT)", name);
+        options.chains |= BBC_CHAIN_BIT(chain);
+      }
+    } else if (cli_option(&a, "--only", &value)) {
+      options.components = 0;
+      char buffer[256];
+      snprintf(buffer, sizeof buffer, "%s", value);
+      for (char *save = NULL, *name = strtok_r(buffer, ",", &save); name;
+           name = strtok_r(NULL, ",", &save)) {
+        if (strcmp(name, "caustics") == 0) options.components |= BBC_COMPONENT_CAUSTICS;
+        else if (strcmp(name, "direct") == 0) options.components |= BBC_COMPONENT_DIRECT;
+        else if (strcmp(name, "indirect") == 0) options.components |= BBC_COMPONENT_INDIRECT;
+        else cli_usage_error(usage, "--only: unknown part '%s' (caustics, direct, indirect)", name);
+      }
+    } else if (cli_option(&a, "--reference", &value)) {
+      reference_path = value;
+    } else if (cli_option(&a, "--relmse-eps", &value)) {
+      relmse_eps = cli_parse_double(&a, "--relmse-eps", value, 1e-300, 1e300);
+    } else if (cli_flag(&a, "--reject-outliers")) {
+      reject = 1e-3;
     } else if (cli_option(&a, "--max-depth", &value)) {
       options.max_depth = (uint32_t)cli_parse_int(&a, "--max-depth", value, 1, 1024);
     } else if (cli_flag(&a, "--no-fresnel")) {
@@ -131,6 +204,12 @@ int main(int argc, char **argv) {
   }
   if (!scene_path) cli_usage_error(usage, "no scene given");
   if (!output) cli_usage_error(usage, "no output given (-o OUT.exr)");
+  if (!method_given) options.method = cache_path ? BBC_METHOD_BBC : BBC_METHOD_PT;
+  if (options.method != BBC_METHOD_PT && !cache_path)
+    cli_usage_error(usage, "--method %s needs a cache (--cache FILE.bbc from bbc-precompute)",
+                    options.method == BBC_METHOD_BBC ? "bbc"
+                    : options.method == BBC_METHOD_ENUMERATE ? "enumerate"
+                    : options.method == BBC_METHOD_UNIFORM ? "uniform" : "one-sample");
 
   bbc_scene_options scene_options = {cli_print_message, cli_print_warning, NULL};
   bbc_scene *scene = NULL;
@@ -145,8 +224,31 @@ int main(int argc, char **argv) {
   if (height < 1) height = 1;
 
   bbc_accel *accel = NULL;
-  bbc_image *image = NULL;
+  bbc_image *image = NULL, *reference = NULL;
+  bbc_cache *cache = NULL;
   int status = 1;
+  if (cache_path && options.method != BBC_METHOD_PT) {
+    bbc_cache_options cache_options;
+    memset(&cache_options, 0, sizeof cache_options);
+    cache_options.error_fn = cli_print_message;
+    if (bbc_cache_open(&cache, cache_path, &cache_options) != BBC_OK) goto done;
+    bbc_result check = bbc_cache_check_scene(cache, scene);
+    if (check != BBC_OK) {
+      fprintf(stderr, "bbc-render: %s: computed for another scene than %s (%s)\n", cache_path,
+              scene_path, bbc_result_string(check));
+      goto done;
+    }
+    options.cache = cache;
+  }
+  if (reference_path) {
+    if (bbc_image_read_exr(&reference, reference_path, cli_print_message, NULL) != BBC_OK)
+      goto done;
+    if (reference->width != (uint32_t)width || reference->height != (uint32_t)height) {
+      fprintf(stderr, "bbc-render: %s: not the size of the image (%ux%u vs %lldx%lld)\n",
+              reference_path, reference->width, reference->height, width, height);
+      goto done;
+    }
+  }
   if (bbc_accel_create(&accel, scene, cli_print_message, NULL) != BBC_OK) {
     fprintf(stderr, "bbc-render: %s: cannot build the ray-tracing structure\n", scene_path);
     goto done;
@@ -171,6 +273,11 @@ int main(int argc, char **argv) {
   if (bbc_image_write_exr(image, output, cli_print_message, NULL) != BBC_OK) goto done;
   if (png && bbc_image_write_png(image, png, exposure, 1, cli_print_message, NULL) != BBC_OK)
     goto done;
+  if (reference) {
+    double relmse;
+    if (bbc_image_relmse(image, reference, relmse_eps, reject, &relmse) != BBC_OK) goto done;
+    printf("relMSE %.6g\n", relmse);
+  }
   if (stats) {
     double rays_per_s = render_stats.seconds > 0 ? render_stats.rays / render_stats.seconds : 0;
     fprintf(stderr,
@@ -181,10 +288,26 @@ int main(int argc, char **argv) {
             (unsigned long long)render_stats.samples, (unsigned long long)render_stats.rays,
             rays_per_s * 1e-6, rays_per_s * 1e-6 / render_stats.threads,
             render_stats.threads);
+    if (options.method != BBC_METHOD_PT) {
+      double lookups = render_stats.lookups ? (double)render_stats.lookups : 1;
+      double busy = render_stats.thread_seconds > 0 ? render_stats.thread_seconds : 1;
+      fprintf(stderr,
+              "caustics     %llu lookups; mean |U| %.2f, |B| %.2f, |S| %.2f; %.3f solutions "
+              "per solved tuple\n"
+              "time shares  sampling %.1f%%, decoding %.1f%%, solving %.1f%%\n",
+              (unsigned long long)render_stats.lookups, render_stats.candidates / lookups,
+              render_stats.bins / lookups, render_stats.sampled / lookups,
+              render_stats.sampled ? (double)render_stats.solutions / render_stats.sampled : 0.0,
+              100 * render_stats.sampling_seconds / busy,
+              100 * render_stats.decoding_seconds / busy,
+              100 * render_stats.solving_seconds / busy);
+    }
   }
   status = 0;
 done:
   bbc_image_free(image);
+  bbc_image_free(reference);
+  bbc_cache_close(cache);
   bbc_accel_free(accel);
   bbc_scene_free(scene);
   return status;

@@ -18,6 +18,7 @@
 
 #include <omp.h>
 
+#include "caustics_internal.h"
 #include "rng_internal.h"
 #include "vec_internal.h"
 
@@ -28,11 +29,14 @@ typedef struct render_ctx {
   const bbc_accel *accel;
   uint32_t max_depth;
   int no_fresnel;
+  uint32_t components;          /* BBC_COMPONENT_* to accumulate */
+  const bbc__caustics *caustics; /* NULL: plain path tracing */
 } render_ctx;
 
 /* A surface point where a ray hit: normals oriented so that ns and ng agree. */
 typedef struct surface {
   bbc_vec3 p;
+  double b1, b2; /* barycentrics of vertices 1 and 2 */
   bbc_vec3 ng; /* unit geometric normal */
   bbc_vec3 ns; /* unit shading normal (interpolated vertex normal) */
   uint32_t triangle;
@@ -55,16 +59,11 @@ static surface surface_at(const bbc_scene *scene, const bbc_hit *hit) {
                              v3_scale(n2, hit->v)));
   /* The vertex normals say which side is the front; the winding may disagree. */
   if (v3_dot(s.ng, s.ns) < 0) s.ng = v3_neg(s.ng);
+  s.b1 = hit->u;
+  s.b2 = hit->v;
   s.triangle = hit->triangle;
   s.material = bbc_scene_triangle_material(scene, hit->triangle);
   return s;
-}
-
-/* The origin of a ray leaving p in direction dir, pushed off the surface along the
- * geometric normal to the side dir goes to, so it does not hit its own triangle. */
-static bbc_vec3 offset_origin(bbc_vec3 p, bbc_vec3 ng, bbc_vec3 dir) {
-  double eps = 2e-5 * (1.0 + v3_max_abs(p));
-  return v3_madd(p, ng, v3_dot(dir, ng) > 0 ? eps : -eps);
 }
 
 static bbc_vec3 reflect(bbc_vec3 d, bbc_vec3 n) { return v3_madd(d, n, -2.0 * v3_dot(d, n)); }
@@ -89,24 +88,32 @@ static uint32_t pick_emitter(const bbc_scene *scene, double u, double *probabili
   return lo;
 }
 
-/* Light arriving at the diffuse point s straight from the lights, reflected toward the
- * previous vertex: next-event estimation for every point light and one sampled point on
- * an area light. The returned radiance still has to be multiplied by the path's
- * throughput. */
-static bbc_vec3 shade_diffuse_vertex(const render_ctx *ctx, const surface *s, bbc_rng *rng,
-                                     uint64_t *rays) {
+/* Radiance reflected toward the previous vertex by a diffuse point, by the kind of
+ * path it arrived along; still to be multiplied by the path's throughput. */
+typedef struct vertex_light {
+  bbc_vec3 direct;  /* straight from the lights (next-event estimation) */
+  bbc_vec3 caustic; /* from point lights through specular chains (the caustic estimator) */
+} vertex_light;
+
+/* What happens at a diffuse vertex: next-event estimation for every point light and one
+ * sampled point on an area light, and, with a cache, the caustic estimator for the
+ * point lights' specular chains. `segments` is the number of path segments so far; a
+ * light path may not make the whole exceed max_depth. */
+static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_thread *ct,
+                                         const surface *s, uint32_t segments, bbc_rng *rng,
+                                         uint64_t *rays) {
   const bbc_scene *scene = ctx->scene;
   const float *albedo = s->material->base_color;
   bbc_vec3 sum = v3(0, 0, 0);
 
-  for (uint32_t i = 0; i < scene->point_light_count; i++) {
+  for (uint32_t i = 0; i < scene->point_light_count && segments + 1 <= ctx->max_depth; i++) {
     const bbc_point_light *light = &scene->point_lights[i];
     bbc_vec3 to_light = v3_sub(light->position, s->p);
     double dist2 = v3_dot(to_light, to_light);
     double cos_s = v3_dot(s->ns, to_light);
     if (!(cos_s > 0) || v3_dot(s->ng, to_light) <= 0) continue;
     cos_s /= sqrt(dist2);
-    bbc_vec3 origin = offset_origin(s->p, s->ng, to_light);
+    bbc_vec3 origin = v3_offset_origin(s->p, s->ng, to_light);
     (*rays)++;
     if (bbc_accel_occluded(ctx->accel, origin, v3_sub(light->position, origin), 0.0, 1.0 - 1e-6))
       continue;
@@ -115,7 +122,7 @@ static bbc_vec3 shade_diffuse_vertex(const render_ctx *ctx, const surface *s, bb
                          light->intensity[2] * g));
   }
 
-  if (scene->emitter_count > 0) {
+  if (scene->emitter_count > 0 && segments + 1 <= ctx->max_depth) {
     double probability;
     uint32_t e = scene->emitters[pick_emitter(scene, bbc_rng_next(rng), &probability)];
     double r1 = sqrt(bbc_rng_next(rng)), r2 = bbc_rng_next(rng);
@@ -135,8 +142,8 @@ static bbc_vec3 shade_diffuse_vertex(const render_ctx *ctx, const surface *s, bb
     double cos_s = v3_dot(s->ns, to_light) / dist;
     double cos_l = -v3_dot(light.ns, to_light) / dist;
     if (cos_s > 0 && cos_l > 0 && v3_dot(s->ng, to_light) > 0 && probability > 0) {
-      bbc_vec3 origin = offset_origin(s->p, s->ng, to_light);
-      bbc_vec3 target = offset_origin(q, light.ng, v3_neg(to_light));
+      bbc_vec3 origin = v3_offset_origin(s->p, s->ng, to_light);
+      bbc_vec3 target = v3_offset_origin(q, light.ng, v3_neg(to_light));
       (*rays)++;
       if (!bbc_accel_occluded(ctx->accel, origin, v3_sub(target, origin), 0.0, 1.0 - 1e-6)) {
         const float *le = light.material->emission;
@@ -145,16 +152,30 @@ static bbc_vec3 shade_diffuse_vertex(const render_ctx *ctx, const surface *s, bb
       }
     }
   }
-  return v3(sum.x * albedo[0] / BBC_PI, sum.y * albedo[1] / BBC_PI, sum.z * albedo[2] / BBC_PI);
+  vertex_light out;
+  out.direct = v3(sum.x * albedo[0] / BBC_PI, sum.y * albedo[1] / BBC_PI,
+                  sum.z * albedo[2] / BBC_PI);
+  out.caustic = v3(0, 0, 0);
+  /* A single-scattering caustic path adds two segments to the point. */
+  if (ctx->caustics && segments + 2 <= ctx->max_depth) {
+    bbc_vec3 e = bbc__caustics_estimate(ctx->caustics, ct, s->p, s->ng, s->triangle, s->b1,
+                                        s->b2, rng);
+    out.caustic = v3(e.x * albedo[0] / BBC_PI, e.y * albedo[1] / BBC_PI, e.z * albedo[2] / BBC_PI);
+  }
+  return out;
 }
 
+static bbc_vec3 v3_mul(bbc_vec3 a, bbc_vec3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
+
 /* The radiance arriving at the camera along one path started in direction dir. */
-static bbc_vec3 trace_path(const render_ctx *ctx, bbc_vec3 origin, bbc_vec3 dir, bbc_rng *rng,
-                           uint64_t *rays) {
+static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_vec3 origin,
+                           bbc_vec3 dir, bbc_rng *rng, uint64_t *rays) {
   const bbc_scene *scene = ctx->scene;
   bbc_vec3 radiance = v3(0, 0, 0);
   bbc_vec3 throughput = v3(1, 1, 1);
   int count_emission = 1; /* camera ray or specular bounce: an emitter hit counts */
+  /* Light found before the first diffuse bounce is "direct", after it "indirect". */
+  uint32_t lit_component = BBC_COMPONENT_DIRECT;
   for (uint32_t depth = 0; depth < ctx->max_depth; depth++) {
     bbc_hit hit;
     (*rays)++;
@@ -163,7 +184,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc_vec3 origin, bbc_vec3 dir,
     const bbc_material *m = s.material;
     int front = v3_dot(dir, s.ng) < 0;
 
-    if (count_emission && front) {
+    if (count_emission && front && (ctx->components & lit_component)) {
       radiance = v3_add(radiance, v3(throughput.x * m->emission[0],
                                      throughput.y * m->emission[1],
                                      throughput.z * m->emission[2]));
@@ -175,12 +196,13 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc_vec3 origin, bbc_vec3 dir,
         s.ng = v3_neg(s.ng);
         s.ns = v3_neg(s.ns);
       }
-      /* The connection to a light is one more segment: a path of depth + 2 segments. */
-      if (depth + 2 <= ctx->max_depth) {
-        bbc_vec3 direct = shade_diffuse_vertex(ctx, &s, rng, rays);
-        radiance = v3_add(radiance, v3(throughput.x * direct.x, throughput.y * direct.y,
-                                       throughput.z * direct.z));
-      }
+      /* The path so far has depth + 1 segments. */
+      vertex_light light = shade_diffuse_vertex(ctx, ct, &s, depth + 1, rng, rays);
+      if (ctx->components & lit_component)
+        radiance = v3_add(radiance, v3_mul(throughput, light.direct));
+      if (ctx->components & BBC_COMPONENT_CAUSTICS)
+        radiance = v3_add(radiance, v3_mul(throughput, light.caustic));
+      lit_component = BBC_COMPONENT_INDIRECT;
       /* Cosine-weighted sampling: the pdf cancels cos/pi, leaving the albedo. */
       double r = sqrt(bbc_rng_next(rng)), phi = 2.0 * BBC_PI * bbc_rng_next(rng);
       bbc_vec3 t, b;
@@ -228,7 +250,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc_vec3 origin, bbc_vec3 dir,
       }
       count_emission = 1;
     }
-    origin = offset_origin(s.p, s.ng, dir);
+    origin = v3_offset_origin(s.p, s.ng, dir);
 
     if (depth >= 3) { /* Russian roulette */
       double q = fmin(0.95, fmax(throughput.x, fmax(throughput.y, throughput.z)));
@@ -248,16 +270,69 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
   if (!scene || !accel || !image) return BBC_ERR_INVALID_ARGUMENT;
   if (opts.time_limit < 0 || !isfinite(opts.time_limit)) return BBC_ERR_INVALID_ARGUMENT;
   uint32_t planned = opts.spp ? opts.spp : (opts.time_limit > 0 ? UINT32_MAX : 16);
-  render_ctx ctx = {scene, accel, opts.max_depth ? opts.max_depth : 16, opts.no_fresnel};
+  render_ctx ctx = {scene, accel, opts.max_depth ? opts.max_depth : 16, opts.no_fresnel,
+                    opts.components ? opts.components
+                                    : BBC_COMPONENT_CAUSTICS | BBC_COMPONENT_DIRECT |
+                                          BBC_COMPONENT_INDIRECT,
+                    NULL};
   int threads = opts.threads > 0 ? opts.threads : omp_get_max_threads();
   const uint32_t width = image->width, height = image->height;
   const size_t pixels = (size_t)width * height;
+
+  /* The caustic estimator and its per-thread state. */
+  bbc__caustics caustics;
+  bbc__caustics_thread *thread_state = calloc((size_t)threads, sizeof *thread_state);
+  if (!thread_state) return BBC_ERR_OUT_OF_MEMORY;
+  if (opts.method != BBC_METHOD_PT) {
+    if (!opts.cache) {
+      free(thread_state);
+      return BBC_ERR_INVALID_ARGUMENT;
+    }
+    memset(&caustics, 0, sizeof caustics);
+    caustics.scene = scene;
+    caustics.accel = accel;
+    caustics.cache = opts.cache;
+    caustics.tuples = bbc_cache_tuples(opts.cache);
+    caustics.chains = opts.chains ? opts.chains : BBC_CHAIN_MASK_ALL;
+    caustics.no_fresnel = opts.no_fresnel;
+    static const bbc__sampling_method methods[] = {BBC__SAMPLE_BOUND, BBC__SAMPLE_BOUND,
+                                                   BBC__SAMPLE_ENUMERATE, BBC__SAMPLE_UNIFORM,
+                                                   BBC__SAMPLE_ONE};
+    static const bbc__gamma_source sources[] = {BBC__GAMMA_FIXED, BBC__GAMMA_EXPECTED,
+                                                BBC__GAMMA_VARIANCE};
+    caustics.sampling.method = methods[opts.method];
+    caustics.sampling.source = sources[opts.gamma_mode];
+    /* As in the paper's Table 1, gamma and the variance target are given for a light
+     * of unit intensity: the bounds are scaled by the brightest light. */
+    double reference = 0;
+    for (uint32_t i = 0; i < scene->point_light_count; i++)
+      for (int k = 0; k < 3; k++) reference = fmax(reference, scene->point_lights[i].intensity[k]);
+    if (!(reference > 0)) reference = 1;
+    double value =
+        opts.gamma_value > 0 ? opts.gamma_value : (opts.gamma_mode == BBC_GAMMA_FIXED ? 100 : 4);
+    if (opts.gamma_mode == BBC_GAMMA_FIXED) value /= reference;
+    if (opts.gamma_mode == BBC_GAMMA_VARIANCE) value *= reference * reference;
+    caustics.sampling.value = value;
+    ctx.caustics = &caustics;
+    for (int i = 0; i < threads; i++) {
+      if (bbc__caustics_thread_init(&thread_state[i], opts.cache) != BBC_OK) {
+        for (int j = 0; j <= i; j++) bbc__caustics_thread_free(&thread_state[j]);
+        free(thread_state);
+        return BBC_ERR_OUT_OF_MEMORY;
+      }
+    }
+  }
   double *sum = calloc(pixels * 3, sizeof *sum);
-  if (!sum) return BBC_ERR_OUT_OF_MEMORY;
+  if (!sum) {
+    for (int i = 0; i < threads; i++) bbc__caustics_thread_free(&thread_state[i]);
+    free(thread_state);
+    return BBC_ERR_OUT_OF_MEMORY;
+  }
 
   bbc_result result = BBC_OK;
   uint64_t rays = 0;
   uint32_t done = 0, pass = 1;
+  double busy = 0; /* thread-seconds of rendering */
   double start = omp_get_wtime();
   while (done < planned) {
     uint32_t first = done, last = done + (pass < planned - done ? pass : planned - done);
@@ -265,6 +340,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     uint64_t pass_rays = 0;
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(+ : pass_rays)
     for (uint32_t y = 0; y < height; y++) {
+      bbc__caustics_thread *ct = &thread_state[omp_get_thread_num()];
       for (uint32_t x = 0; x < width; x++) {
         size_t pixel = (size_t)y * width + x;
         double *acc = sum + 3 * pixel;
@@ -273,7 +349,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
           double px = x + bbc_rng_next(&rng), py = y + bbc_rng_next(&rng);
           bbc_vec3 origin, dir;
           bbc_camera_ray(&scene->camera, width, height, px, py, &origin, &dir);
-          bbc_vec3 l = trace_path(&ctx, origin, dir, &rng, &pass_rays);
+          bbc_vec3 l = trace_path(&ctx, ct, origin, dir, &rng, &pass_rays);
           /* A non-finite sample would poison the pixel forever; it can only come from
            * a degenerate triangle, so drop it. */
           if (isfinite(l.x) && isfinite(l.y) && isfinite(l.z)) {
@@ -288,6 +364,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     done = last;
     double now = omp_get_wtime();
     double per_spp = (now - pass_start) / (last - first);
+    busy += (now - pass_start) * threads;
     if (opts.progress &&
         opts.progress(opts.progress_user, done, planned == UINT32_MAX ? 0 : planned)) {
       result = BBC_ERR_CANCELLED;
@@ -309,11 +386,26 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
   for (size_t i = 0; i < pixels * 3; i++) image->rgb[i] = (float)(sum[i] * scale);
   free(sum);
   if (stats) {
+    memset(stats, 0, sizeof *stats);
+    for (int i = 0; i < threads; i++) {
+      const bbc__caustics_thread *t = &thread_state[i];
+      stats->lookups += t->lookups;
+      stats->candidates += t->candidate_count;
+      stats->bins += t->bins;
+      stats->sampled += t->sampled;
+      stats->solutions += t->solutions;
+      stats->sampling_seconds += t->sampling_seconds;
+      stats->decoding_seconds += t->decoding_seconds;
+      stats->solving_seconds += t->solving_seconds;
+    }
+    stats->thread_seconds = busy;
     stats->seconds = omp_get_wtime() - start;
     stats->spp = done;
     stats->samples = (uint64_t)done * pixels;
     stats->rays = rays;
     stats->threads = threads;
   }
+  for (int i = 0; i < threads; i++) bbc__caustics_thread_free(&thread_state[i]);
+  free(thread_state);
   return result;
 }

@@ -1,0 +1,251 @@
+/* The persistent cache (.bbc): per receiver cell, the list of (tuple, irradiance bound)
+ * pairs of the precomputation (paper Sec. 6.1, Eq. 21). The format is specified in
+ * format-spec/bbc-format.md; this header is its C interface.
+ *
+ * Writing: a bbc_cache_builder collects tuples and splats and writes the file.
+ * Reading: bbc_cache_open maps a file; cells are decoded on demand through a
+ * per-thread bbc_cache_cursor. */
+#ifndef BBC_CACHE_H
+#define BBC_CACHE_H
+
+#include "bbc/common.h"
+#include "bbc/grid.h"
+#include "bbc/scene.h"
+#include "bbc/tuple.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ------------------------------------------------------------------ parameters */
+
+/* Bit of chain type c in bbc_precompute_params.chains. */
+#define BBC_CHAIN_BIT(c) (1u << (c))
+#define BBC_CHAIN_MASK_ALL 0x3Fu
+
+/* The precompute parameters a cache was computed with, stored as given (spec Sec. 5.1)
+ * and part of its fingerprint. A plain value type. */
+typedef struct bbc_precompute_params {
+  uint32_t chains;          /* BBC_CHAIN_BIT() of every chain type computed; not 0 */
+  uint32_t max_level;       /* maximal subdivision level of the u1 domain, <= 64 */
+  double sigma;             /* position-bound area threshold (>= 0) */
+  double alpha_single;      /* bound/lower-bound threshold, one bounce (>= 1) */
+  double alpha_double;      /* the same, two bounces (>= 1) */
+  double m;                 /* solutions assumed per tuple, Eq. 21 (> 0) */
+  uint32_t grid_resolution; /* cells along a receiver grid's longer side, 1..65536 */
+  uint32_t remainder;       /* 1 if remainder variables were used, else 0 */
+} bbc_precompute_params;
+
+/* The paper's defaults: all chains, level 10, sigma 1e-4, alpha 2 and 10, m 1, 512
+ * cells, remainder variables on. */
+BBC_API void bbc_precompute_params_default(bbc_precompute_params *params);
+
+/* ------------------------------------------------------------------ fingerprint */
+
+/* XXH64 hashes of the canonical byte streams of spec Sec. 8. */
+typedef struct bbc_fingerprint {
+  uint64_t total;    /* of the five below */
+  uint64_t geometry; /* positions, normals, uvs, indices, triangle meshes */
+  uint64_t materials;
+  uint64_t meshes; /* mesh table, including roles */
+  uint64_t lights; /* point lights */
+  uint64_t params; /* the precompute parameters */
+} bbc_fingerprint;
+
+/* Computes the fingerprint a cache of this scene and these parameters carries. Both
+ * must be non-NULL (BBC_ERR_INVALID_ARGUMENT). Thread-safe. */
+BBC_API bbc_result bbc_fingerprint_compute(const bbc_scene *scene,
+                                           const bbc_precompute_params *params,
+                                           bbc_fingerprint *out);
+
+/* The value a bound is stored as (spec R-BND-1): the smallest representable value that
+ * is >= bound (+inf stays +inf). A bound the cache returns is never below the bound
+ * given to the builder, and at most 2^-8 relatively above it. NaN gives NaN. */
+BBC_API float bbc_cache_quantize_bound(double bound);
+
+/* ------------------------------------------------------------------ writing */
+
+typedef struct bbc_cache_builder bbc_cache_builder;
+
+/* Creates a builder for a scene: the grids of its receivers at params->grid_resolution
+ * (bbc_grid_create) and its fingerprint. The scene is not referenced after the call.
+ * Fails with BBC_ERR_INVALID_ARGUMENT (NULL, parameters outside the ranges of
+ * bbc_precompute_params), BBC_ERR_SCENE (no receiver mesh) or BBC_ERR_OUT_OF_MEMORY;
+ * *out is NULL then.
+ *
+ * Thread-safety: bbc_cache_builder_splat may be called from any number of threads at
+ * once (cells are locked internally). Every other call on the builder, including
+ * bbc_cache_builder_add_tuple, must not overlap with any other call on it. */
+BBC_API bbc_result bbc_cache_builder_create(bbc_cache_builder **out, const bbc_scene *scene,
+                                            const bbc_precompute_params *params);
+
+/* Appends a tuple and returns its id in *id (ids are 0, 1, 2, ... in the order of the
+ * calls: add tuples in a deterministic order for a reproducible file). The tuple must
+ * be valid for the scene: light < point_light_count, chain in params->chains,
+ * specular[0] a scene triangle, specular[1] BBC_NO_TRIANGLE exactly for one-bounce
+ * chains, receiver a triangle of a receiver mesh (BBC_ERR_INVALID_ARGUMENT). */
+BBC_API bbc_result bbc_cache_builder_add_tuple(bbc_cache_builder *b, const bbc_tuple *tuple,
+                                               uint32_t *id);
+
+/* Records that the piece of tuple `tuple_id` whose position bound is the barycentric box
+ * [b1_lo, b1_hi] x [b2_lo, b2_hi] on `receiver_triangle` (which must be the tuple's
+ * receiver) has irradiance bound `bound` (>= 0, +inf allowed, NaN not): the value to
+ * store, with Eq. 21's m (params.m) and the light's intensity already applied by the
+ * caller and rounded upward. Every cell the box covers (bbc_grid_splat_range) keeps, per
+ * tuple, the maximum bound it was given (Eq. 21), quantised upward (spec R-BND-1).
+ * Splats may arrive in any order and from any thread: the result does not depend on it.
+ * A box that misses the triangle is no error and changes nothing. */
+BBC_API bbc_result bbc_cache_builder_splat(bbc_cache_builder *b, uint32_t tuple_id,
+                                           uint32_t receiver_triangle, double b1_lo, double b1_hi,
+                                           double b2_lo, double b2_hi, double bound);
+
+/* The builder's grids (owned by the builder) and counts. */
+BBC_API const bbc_grid *bbc_cache_builder_grid(const bbc_cache_builder *b);
+BBC_API uint32_t bbc_cache_builder_tuple_count(const bbc_cache_builder *b);
+/* Distinct (cell, tuple) entries so far. Not to be called during splats. */
+BBC_API uint64_t bbc_cache_builder_entry_count(bbc_cache_builder *b);
+
+typedef struct bbc_cache_write_options {
+  bbc_message_fn error_fn; /* optional: details of a failure */
+  void *user;
+  int compression_level;       /* zstd level 1..19; 0 means 9 */
+  uint32_t chunk_bytes;        /* target decoded chunk size; 0 means 256 KiB */
+  int omit_info;               /* non-zero: no INFO section (writer name) */
+  bbc_progress_fn progress_fn; /* optional; counts chunks */
+  void *progress_user;
+} bbc_cache_write_options;
+
+/* Writes the cache to path through a temporary file in the same folder renamed on
+ * success. The bytes depend only on the scene, the parameters, the tuples in id order,
+ * the set of splats (not their order or threads) and the options (spec Sec. 7.3).
+ * May be called more than once; the builder stays usable. options may be NULL. */
+BBC_API bbc_result bbc_cache_builder_write(bbc_cache_builder *b, const char *path,
+                                           const bbc_cache_write_options *options);
+
+/* The same into memory: *bytes (free with free()) and *size. */
+BBC_API bbc_result bbc_cache_builder_write_memory(bbc_cache_builder *b, void **bytes, size_t *size,
+                                                  const bbc_cache_write_options *options);
+
+/* NULL is allowed. */
+BBC_API void bbc_cache_builder_free(bbc_cache_builder *b);
+
+/* ------------------------------------------------------------------ reading */
+
+typedef struct bbc_cache bbc_cache;
+
+typedef struct bbc_cache_options {
+  bbc_message_fn error_fn; /* optional: one line per failure (file, section, offset) */
+  void *user;
+} bbc_cache_options;
+
+/* Maps a .bbc file read-only and checks its structure and every checksum except the
+ * chunk data's (spec Sec. 9). On failure *out is NULL and the result is BBC_ERR_IO,
+ * BBC_ERR_NOT_BBC, BBC_ERR_VERSION_UNSUPPORTED, BBC_ERR_TRUNCATED, BBC_ERR_CHECKSUM,
+ * BBC_ERR_CORRUPT or BBC_ERR_OUT_OF_MEMORY, with one line to options->error_fn.
+ * options may be NULL; the options are kept for later messages (lookups, checks).
+ *
+ * Thread-safety: an open cache is immutable; any number of threads may use it at once,
+ * each through its own cursor. */
+BBC_API bbc_result bbc_cache_open(bbc_cache **out, const char *path,
+                                  const bbc_cache_options *options);
+
+/* The same over bytes in memory, which the cache borrows: they must stay unchanged until
+ * bbc_cache_close. Bytes not aligned to 64 are copied (the format's alignment rules
+ * assume an aligned base). For tests and fuzzers. */
+BBC_API bbc_result bbc_cache_open_memory(bbc_cache **out, const void *bytes, size_t size,
+                                         const bbc_cache_options *options);
+
+/* Unmaps and frees; NULL is allowed. Every pointer obtained from the cache (tuples,
+ * grid, cursor entries) dies with it; cursors must be freed first. */
+BBC_API void bbc_cache_close(bbc_cache *cache);
+
+typedef struct bbc_cache_info {
+  uint32_t version_major, version_minor;
+  uint64_t file_size;
+  uint32_t section_count;
+  bbc_precompute_params params;
+  bbc_fingerprint fingerprint;
+  /* Counts of the scene the cache was computed for. */
+  uint32_t scene_vertex_count, scene_triangle_count, scene_mesh_count;
+  uint32_t scene_material_count, scene_light_count;
+  uint32_t tuple_count;
+  uint32_t receiver_count;
+  uint64_t cell_count, nonempty_cell_count;
+  uint32_t chunk_count;
+  uint64_t entry_count;      /* (cell, tuple) entries over all cells */
+  uint64_t decoded_bytes;    /* 6 * entry_count */
+  uint64_t compressed_bytes; /* size of the chunk data */
+  char writer[128];          /* INFO text (truncated), or "" */
+} bbc_cache_info;
+
+/* Fills *out; cheap (no decoding). */
+BBC_API void bbc_cache_get_info(const bbc_cache *cache, bbc_cache_info *out);
+
+typedef struct bbc_cache_section {
+  uint32_t type;  /* four characters, first in the lowest byte */
+  char name[5];   /* the same as a string */
+  uint32_t flags; /* bit 0: required */
+  uint64_t offset, size;
+  uint32_t checksum;
+} bbc_cache_section;
+
+/* Section i (< info.section_count) of the directory, in file order. */
+BBC_API void bbc_cache_get_section(const bbc_cache *cache, uint32_t i, bbc_cache_section *out);
+
+/* The tuple table (info.tuple_count entries), borrowed from the mapping. */
+BBC_API const bbc_tuple *bbc_cache_tuples(const bbc_cache *cache);
+
+/* The grids stored in the cache, owned by the cache (do not bbc_grid_free it). Lookups
+ * must use this grid, not one rebuilt from the scene. */
+BBC_API const bbc_grid *bbc_cache_grid(const bbc_cache *cache);
+
+/* BBC_OK if the cache was computed for this scene (its geometry, materials, meshes and
+ * lights hash as stored), else BBC_ERR_SCENE_MISMATCH with a line to the error callback
+ * saying which part differs. The camera is not compared. */
+BBC_API bbc_result bbc_cache_check_scene(const bbc_cache *cache, const bbc_scene *scene);
+
+/* BBC_OK if the cache was computed with these parameters, else BBC_ERR_SCENE_MISMATCH
+ * with a line naming the first parameter that differs. */
+BBC_API bbc_result bbc_cache_check_params(const bbc_cache *cache,
+                                          const bbc_precompute_params *params);
+
+/* Full validation: the CDAT checksum, every chunk's checksum, every frame and every
+ * cell list (spec Sec. 9). Every problem is reported as one line to report (may be NULL)
+ * and validation goes on with the next chunk; returns the first problem's code or
+ * BBC_OK. Structural rules were already checked by open. Thread-safe. */
+BBC_API bbc_result bbc_cache_validate(const bbc_cache *cache, bbc_message_fn report, void *user);
+
+/* One entry of a cell's list: the tuple id (index into bbc_cache_tuples) and its
+ * irradiance bound E~ (Eq. 21, quantised upward, possibly +inf). */
+typedef struct bbc_cache_entry {
+  uint32_t tuple;
+  float bound;
+} bbc_cache_entry;
+
+/* A per-thread decoding context: it keeps the last few decoded chunks. One cursor must
+ * not be used by two threads at once; make one per thread. */
+typedef struct bbc_cache_cursor bbc_cache_cursor;
+
+BBC_API bbc_result bbc_cache_cursor_create(bbc_cache_cursor **out, const bbc_cache *cache);
+/* NULL is allowed. */
+BBC_API void bbc_cache_cursor_free(bbc_cache_cursor *cursor);
+
+/* The list of global cell `cell` (< info.cell_count), sorted by tuple id. *entries
+ * points into the cursor and stays valid until the next call with this cursor. An
+ * empty cell gives count 0. A damaged chunk gives BBC_ERR_CHECKSUM or BBC_ERR_CORRUPT
+ * (with a line to the cache's error callback) and count 0; an index out of range
+ * BBC_ERR_INVALID_ARGUMENT. */
+BBC_API bbc_result bbc_cache_cell(bbc_cache_cursor *cursor, uint64_t cell,
+                                  const bbc_cache_entry **entries, uint32_t *count);
+
+/* The list of the cell holding the point (b1, b2) of scene triangle `triangle`
+ * (bbc_grid_locate on the cache's grid). A triangle that is not a receiver gives an
+ * empty list and BBC_OK. */
+BBC_API bbc_result bbc_cache_lookup(bbc_cache_cursor *cursor, uint32_t triangle, double b1,
+                                    double b2, const bbc_cache_entry **entries, uint32_t *count);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

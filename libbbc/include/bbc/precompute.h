@@ -1,0 +1,63 @@
+/* The precomputation (paper Sec. 6.1): tuples of a light, specular triangles and a
+ * receiver triangle, found by following beam bounds through a BVH; for each tuple the
+ * subdivision of its domain with position and irradiance bounds; and the recording of
+ * every kept piece's bound into the receiver grids of a cache builder. */
+#ifndef BBC_PRECOMPUTE_H
+#define BBC_PRECOMPUTE_H
+
+#include "bbc/bounds.h"
+#include "bbc/cache.h"
+#include "bbc/scene.h"
+#include "bbc/tuple.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* A zero-initialised struct is not valid: start from bbc_precompute_params_default. */
+typedef struct bbc_precompute_options {
+  bbc_precompute_params params;
+  int threads;                 /* 0 = every core; the result does not depend on it */
+  bbc_jacobian_form jacobian;  /* irradiance Jacobian form (default: determinant) */
+  bbc_progress_fn progress;    /* optional: tuples bounded / total; non-zero cancels */
+  void *progress_user;
+  bbc_message_fn error_fn;     /* optional: details of a failure */
+  void *user;
+} bbc_precompute_options;
+
+/* The paper's Table 2 precompute columns and more. Times are wall-clock seconds of
+ * the phases, the position/irradiance split taken from the threads' CPU time. */
+typedef struct bbc_precompute_stats {
+  uint64_t candidate_tuples;          /* tuples found by the beam bounds */
+  uint64_t tuples;                    /* tuples with at least one kept piece (stored) */
+  uint64_t tuples_per_chain[BBC_CHAIN_COUNT];
+  uint64_t position_pieces, irradiance_pieces, kept_pieces;
+  uint64_t entries;                   /* (cell, tuple) entries in the grids */
+  double construction_seconds;        /* finding tuples */
+  double bounding_seconds;            /* bounding (position + irradiance) */
+  double position_cpu_seconds, irradiance_cpu_seconds;
+  double recording_seconds;           /* splatting into the grids */
+  int threads;
+} bbc_precompute_stats;
+
+/* Precomputes the scene's bounds into a new cache builder (*out, free with
+ * bbc_cache_builder_free), ready to be written. Single-scattering chains (R for mirror
+ * casters, T for dielectric ones) are computed; requesting only chain types that are
+ * not implemented gives BBC_ERR_UNSUPPORTED. The tuples are stored in a deterministic
+ * order, so the written file does not depend on the number of threads. stats may be
+ * NULL. */
+BBC_API bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
+                                  const bbc_precompute_options *options,
+                                  bbc_precompute_stats *stats);
+
+/* The candidate tuples of the scene for the chain types in `chains` (a mask of
+ * BBC_CHAIN_BIT), in the deterministic order bbc_precompute uses: by light, then first
+ * specular triangle, then receiver triangle. *out is allocated with malloc. */
+BBC_API bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
+                                   size_t *count);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

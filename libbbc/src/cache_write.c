@@ -1,0 +1,874 @@
+/* Writing .bbc caches (format-spec/bbc-format.md): the fingerprint (Sec. 8), the
+ * builder that keeps, per cell and tuple, the maximum irradiance bound (Eq. 21), and
+ * the writer (Sec. 2-7). */
+#define _POSIX_C_SOURCE 200809L
+#include <errno.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/types.h>
+#include <zlib.h>
+#include <zstd.h>
+
+#include "bbc/cache.h"
+#include "cache_format_internal.h"
+#include "report_internal.h"
+
+_Static_assert(sizeof(bbc_tuple) == BBC__TUPL_SIZE, "bbc_tuple is the TUPL record");
+
+/* ------------------------------------------------------------------ XXH64 (Sec. 8) */
+
+#define P64_1 0x9E3779B185EBCA87ull
+#define P64_2 0xC2B2AE3D27D4EB4Full
+#define P64_3 0x165667B19E3779F9ull
+#define P64_4 0x85EBCA77C2B2AE63ull
+#define P64_5 0x27D4EB2F165667C5ull
+
+static uint64_t rotl64(uint64_t x, int r) {
+  return (x << r) | (x >> (64 - r));
+}
+
+static uint64_t xxh_round(uint64_t acc, uint64_t input) {
+  acc += input * P64_2;
+  acc = rotl64(acc, 31);
+  return acc * P64_1;
+}
+
+static uint64_t xxh_merge(uint64_t acc, uint64_t val) {
+  acc ^= xxh_round(0, val);
+  return acc * P64_1 + P64_4;
+}
+
+void bbc__xxh64_init(bbc__xxh64_state *s) {
+  memset(s, 0, sizeof *s);
+  s->v[0] = P64_1 + P64_2;
+  s->v[1] = P64_2;
+  s->v[2] = 0;
+  s->v[3] = (uint64_t)0 - P64_1;
+}
+
+static void xxh_stripe(bbc__xxh64_state *s, const uint8_t *p) {
+  for (int k = 0; k < 4; k++) s->v[k] = xxh_round(s->v[k], bbc__ld64(p + 8 * k));
+}
+
+void bbc__xxh64_update(bbc__xxh64_state *s, const void *data, size_t size) {
+  const uint8_t *p = data;
+  s->total += size;
+  if (s->buffered + size < 32) {
+    if (size) memcpy(s->buf + s->buffered, p, size);
+    s->buffered += (uint32_t)size;
+    return;
+  }
+  if (s->buffered) {
+    size_t fill = 32 - s->buffered;
+    memcpy(s->buf + s->buffered, p, fill);
+    xxh_stripe(s, s->buf);
+    p += fill;
+    size -= fill;
+    s->buffered = 0;
+  }
+  while (size >= 32) {
+    xxh_stripe(s, p);
+    p += 32;
+    size -= 32;
+  }
+  if (size) memcpy(s->buf, p, size);
+  s->buffered = (uint32_t)size;
+}
+
+uint64_t bbc__xxh64_final(const bbc__xxh64_state *s) {
+  uint64_t h;
+  if (s->total >= 32) {
+    h = rotl64(s->v[0], 1) + rotl64(s->v[1], 7) + rotl64(s->v[2], 12) + rotl64(s->v[3], 18);
+    for (int k = 0; k < 4; k++) h = xxh_merge(h, s->v[k]);
+  } else {
+    h = P64_5;
+  }
+  h += s->total;
+  const uint8_t *p = s->buf;
+  uint32_t n = s->buffered;
+  while (n >= 8) {
+    h ^= xxh_round(0, bbc__ld64(p));
+    h = rotl64(h, 27) * P64_1 + P64_4;
+    p += 8;
+    n -= 8;
+  }
+  if (n >= 4) {
+    h ^= (uint64_t)bbc__ld32(p) * P64_1;
+    h = rotl64(h, 23) * P64_2 + P64_3;
+    p += 4;
+    n -= 4;
+  }
+  while (n > 0) {
+    h ^= (uint64_t)(*p) * P64_5;
+    h = rotl64(h, 11) * P64_1;
+    p++;
+    n--;
+  }
+  h ^= h >> 33;
+  h *= P64_2;
+  h ^= h >> 29;
+  h *= P64_3;
+  h ^= h >> 32;
+  return h;
+}
+
+uint64_t bbc__xxh64(const void *data, size_t size) {
+  bbc__xxh64_state s;
+  bbc__xxh64_init(&s);
+  bbc__xxh64_update(&s, data, size);
+  return bbc__xxh64_final(&s);
+}
+
+/* ------------------------------------------------------------------ parameters */
+
+void bbc_precompute_params_default(bbc_precompute_params *p) {
+  memset(p, 0, sizeof *p);
+  p->chains = BBC_CHAIN_MASK_ALL;
+  p->max_level = 10;
+  p->sigma = 1e-4;
+  p->alpha_single = 2.0;
+  p->alpha_double = 10.0;
+  p->m = 1.0;
+  p->grid_resolution = 512;
+  p->remainder = 1;
+}
+
+int bbc__params_valid(const bbc_precompute_params *p) {
+  return p->chains != 0 && (p->chains & ~BBC_CHAIN_MASK_ALL) == 0 &&
+         p->max_level <= BBC__MAX_LEVEL && isfinite(p->sigma) && p->sigma >= 0 &&
+         isfinite(p->alpha_single) && p->alpha_single >= 1 && isfinite(p->alpha_double) &&
+         p->alpha_double >= 1 && isfinite(p->m) && p->m > 0 && p->grid_resolution >= 1 &&
+         p->grid_resolution <= BBC__MAX_RESOLUTION && p->remainder <= 1;
+}
+
+void bbc__params_encode(const bbc_precompute_params *p, uint8_t out[BBC__PARM_SIZE]) {
+  memset(out, 0, BBC__PARM_SIZE);
+  bbc__st32(out + 0, p->chains);
+  bbc__st32(out + 4, p->max_level);
+  bbc__stf64(out + 8, p->sigma);
+  bbc__stf64(out + 16, p->alpha_single);
+  bbc__stf64(out + 24, p->alpha_double);
+  bbc__stf64(out + 32, p->m);
+  bbc__st32(out + 40, p->grid_resolution);
+  bbc__st32(out + 44, p->remainder ? 1u : 0u);
+}
+
+/* ------------------------------------------------------------------ fingerprint */
+
+static void hash_u32(bbc__xxh64_state *s, uint32_t v) {
+  uint8_t b[4];
+  bbc__st32(b, v);
+  bbc__xxh64_update(s, b, 4);
+}
+
+static void hash_f32(bbc__xxh64_state *s, float v) {
+  uint8_t b[4];
+  memcpy(b, &v, 4);
+  bbc__xxh64_update(s, b, 4);
+}
+
+/* An array of 4-byte values, or the same number of zero bytes when it is absent. */
+static void hash_array(bbc__xxh64_state *s, const void *data, size_t size) {
+  if (data) {
+    bbc__xxh64_update(s, data, size);
+    return;
+  }
+  static const uint8_t zeros[256];
+  while (size) {
+    size_t n = size < sizeof zeros ? size : sizeof zeros;
+    bbc__xxh64_update(s, zeros, n);
+    size -= n;
+  }
+}
+
+bbc_result bbc_fingerprint_compute(const bbc_scene *scene, const bbc_precompute_params *params,
+                                   bbc_fingerprint *out) {
+  if (!scene || !params || !out) return BBC_ERR_INVALID_ARGUMENT;
+  bbc__xxh64_state s;
+  size_t v = scene->vertex_count, t = scene->triangle_count;
+
+  bbc__xxh64_init(&s);
+  hash_u32(&s, scene->vertex_count);
+  hash_u32(&s, scene->triangle_count);
+  hash_array(&s, scene->positions, 12 * v);
+  hash_array(&s, scene->normals, 12 * v);
+  hash_array(&s, scene->uvs, 8 * v);
+  hash_array(&s, scene->indices, 12 * t);
+  hash_array(&s, scene->triangle_mesh, 4 * t);
+  out->geometry = bbc__xxh64_final(&s);
+
+  bbc__xxh64_init(&s);
+  hash_u32(&s, scene->material_count);
+  for (uint32_t i = 0; i < scene->material_count; i++) {
+    const bbc_material *m = &scene->materials[i];
+    hash_u32(&s, (uint32_t)m->type);
+    for (int k = 0; k < 3; k++) hash_f32(&s, m->base_color[k]);
+    hash_f32(&s, m->ior);
+    for (int k = 0; k < 3; k++) hash_f32(&s, m->emission[k]);
+  }
+  out->materials = bbc__xxh64_final(&s);
+
+  bbc__xxh64_init(&s);
+  hash_u32(&s, scene->mesh_count);
+  for (uint32_t i = 0; i < scene->mesh_count; i++) {
+    const bbc_mesh *m = &scene->meshes[i];
+    uint32_t f[8] = {m->first_vertex,          m->vertex_count,     m->first_triangle,
+                     m->triangle_count,        m->material,         (uint32_t)m->role,
+                     (uint32_t)m->has_normals, (uint32_t)m->has_uvs};
+    for (int k = 0; k < 8; k++) hash_u32(&s, f[k]);
+  }
+  out->meshes = bbc__xxh64_final(&s);
+
+  bbc__xxh64_init(&s);
+  hash_u32(&s, scene->point_light_count);
+  for (uint32_t i = 0; i < scene->point_light_count; i++) {
+    const bbc_point_light *l = &scene->point_lights[i];
+    uint8_t b[24];
+    bbc__stf64(b, l->position.x);
+    bbc__stf64(b + 8, l->position.y);
+    bbc__stf64(b + 16, l->position.z);
+    bbc__xxh64_update(&s, b, 24);
+    for (int k = 0; k < 3; k++) hash_f32(&s, l->intensity[k]);
+  }
+  out->lights = bbc__xxh64_final(&s);
+
+  uint8_t parm[BBC__PARM_SIZE];
+  bbc__params_encode(params, parm);
+  out->params = bbc__xxh64(parm, sizeof parm);
+
+  uint8_t all[40];
+  bbc__st64(all, out->geometry);
+  bbc__st64(all + 8, out->materials);
+  bbc__st64(all + 16, out->meshes);
+  bbc__st64(all + 24, out->lights);
+  bbc__st64(all + 32, out->params);
+  out->total = bbc__xxh64(all, sizeof all);
+  return BBC_OK;
+}
+
+float bbc_cache_quantize_bound(double bound) {
+  if (isnan(bound)) return NAN;
+  return bbc__bound_decode(bbc__bound_encode(bound));
+}
+
+/* ------------------------------------------------------------------ builder */
+
+/* One (tuple, bound code) pair of a cell: 8 bytes. */
+typedef struct cell_entry {
+  uint32_t tuple;
+  uint32_t code;
+} cell_entry;
+
+/* A cell's entries: appended as splats come, sorted and merged (maximum per tuple)
+ * whenever the array fills up and once before writing, so memory stays within about
+ * twice the distinct entries. 16 bytes per cell. */
+typedef struct cell_list {
+  cell_entry *e;
+  uint32_t count, cap;
+} cell_list;
+
+/* Splats lock one row of cells at a time; rows map to a fixed set of mutexes. */
+#define BUILDER_LOCKS 256
+
+struct bbc_cache_builder {
+  bbc_grid *grid;
+  bbc_precompute_params params;
+  bbc_fingerprint fingerprint;
+  uint32_t scene_counts[5]; /* vertices, triangles, meshes, materials, point lights */
+  bbc_tuple *tuples;
+  uint32_t tuple_count, tuple_cap;
+  cell_list *cells;
+  pthread_mutex_t locks[BUILDER_LOCKS];
+};
+
+bbc_result bbc_cache_builder_create(bbc_cache_builder **out, const bbc_scene *scene,
+                                    const bbc_precompute_params *params) {
+  if (out) *out = NULL;
+  if (!out || !scene || !params || !bbc__params_valid(params)) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_cache_builder *b = calloc(1, sizeof *b);
+  if (!b) return BBC_ERR_OUT_OF_MEMORY;
+  bbc_result r = bbc_grid_create(&b->grid, scene, params->grid_resolution, NULL, NULL);
+  if (r != BBC_OK) {
+    free(b);
+    return r;
+  }
+  if (b->grid->receiver_count == 0) {
+    bbc_grid_free(b->grid);
+    free(b);
+    return BBC_ERR_SCENE;
+  }
+  b->params = *params;
+  b->params.remainder = params->remainder ? 1 : 0;
+  bbc_fingerprint_compute(scene, &b->params, &b->fingerprint);
+  b->scene_counts[0] = scene->vertex_count;
+  b->scene_counts[1] = scene->triangle_count;
+  b->scene_counts[2] = scene->mesh_count;
+  b->scene_counts[3] = scene->material_count;
+  b->scene_counts[4] = scene->point_light_count;
+  b->cells = calloc(b->grid->cell_count, sizeof *b->cells);
+  if (!b->cells) {
+    bbc_grid_free(b->grid);
+    free(b);
+    return BBC_ERR_OUT_OF_MEMORY;
+  }
+  for (int i = 0; i < BUILDER_LOCKS; i++) pthread_mutex_init(&b->locks[i], NULL);
+  *out = b;
+  return BBC_OK;
+}
+
+void bbc_cache_builder_free(bbc_cache_builder *b) {
+  if (!b) return;
+  if (b->cells)
+    for (uint64_t i = 0; i < b->grid->cell_count; i++) free(b->cells[i].e);
+  free(b->cells);
+  for (int i = 0; i < BUILDER_LOCKS; i++) pthread_mutex_destroy(&b->locks[i]);
+  bbc_grid_free(b->grid);
+  free(b->tuples);
+  free(b);
+}
+
+const bbc_grid *bbc_cache_builder_grid(const bbc_cache_builder *b) {
+  return b->grid;
+}
+uint32_t bbc_cache_builder_tuple_count(const bbc_cache_builder *b) {
+  return b->tuple_count;
+}
+
+bbc_result bbc_cache_builder_add_tuple(bbc_cache_builder *b, const bbc_tuple *t, uint32_t *id) {
+  if (!b || !t) return BBC_ERR_INVALID_ARGUMENT;
+  uint32_t triangles = b->scene_counts[1];
+  if (t->chain >= BBC_CHAIN_COUNT || !(b->params.chains & BBC_CHAIN_BIT(t->chain)) ||
+      t->light >= b->scene_counts[4] || t->specular[0] >= triangles ||
+      bbc_grid_receiver_of(b->grid, t->receiver) < 0)
+    return BBC_ERR_INVALID_ARGUMENT;
+  if (bbc_chain_length((bbc_chain)t->chain) == 1 ? t->specular[1] != BBC_NO_TRIANGLE
+                                                 : t->specular[1] >= triangles)
+    return BBC_ERR_INVALID_ARGUMENT;
+  if (b->tuple_count >= BBC__MAX_TUPLES) return BBC_ERR_UNSUPPORTED;
+  if (b->tuple_count == b->tuple_cap) {
+    uint32_t cap = b->tuple_cap ? b->tuple_cap : 1024;
+    cap = cap > BBC__MAX_TUPLES / 2 ? BBC__MAX_TUPLES : cap * 2;
+    bbc_tuple *n = realloc(b->tuples, sizeof *n * (size_t)cap);
+    if (!n) return BBC_ERR_OUT_OF_MEMORY;
+    b->tuples = n;
+    b->tuple_cap = cap;
+  }
+  b->tuples[b->tuple_count] = *t;
+  if (id) *id = b->tuple_count;
+  b->tuple_count++;
+  return BBC_OK;
+}
+
+static int entry_cmp(const void *a, const void *b) {
+  uint32_t x = ((const cell_entry *)a)->tuple, y = ((const cell_entry *)b)->tuple;
+  return (x > y) - (x < y);
+}
+
+/* Sorts a cell's entries by tuple and keeps the maximum code per tuple. */
+static void cell_compact(cell_list *c) {
+  if (c->count < 2) return;
+  if (c->count <= 16) {
+    for (uint32_t i = 1; i < c->count; i++) {
+      cell_entry x = c->e[i];
+      uint32_t j = i;
+      while (j > 0 && c->e[j - 1].tuple > x.tuple) {
+        c->e[j] = c->e[j - 1];
+        j--;
+      }
+      c->e[j] = x;
+    }
+  } else {
+    qsort(c->e, c->count, sizeof *c->e, entry_cmp);
+  }
+  uint32_t n = 1;
+  for (uint32_t i = 1; i < c->count; i++) {
+    if (c->e[i].tuple == c->e[n - 1].tuple) {
+      if (c->e[i].code > c->e[n - 1].code) c->e[n - 1].code = c->e[i].code;
+    } else {
+      c->e[n++] = c->e[i];
+    }
+  }
+  c->count = n;
+}
+
+static bbc_result cell_add(cell_list *c, uint32_t tuple, uint32_t code) {
+  /* Pieces of one tuple usually arrive together, so most repeats hit the last entry. */
+  if (c->count > 0 && c->e[c->count - 1].tuple == tuple) {
+    if (code > c->e[c->count - 1].code) c->e[c->count - 1].code = code;
+    return BBC_OK;
+  }
+  if (c->count == c->cap) {
+    cell_compact(c);
+    if (c->count > c->cap / 4 * 3 || c->cap == 0) {
+      if (c->cap >= UINT32_MAX / 2) return BBC_ERR_OUT_OF_MEMORY;
+      uint32_t cap = c->cap ? c->cap * 2 : 4;
+      cell_entry *n = realloc(c->e, sizeof *n * (size_t)cap);
+      if (!n) return BBC_ERR_OUT_OF_MEMORY;
+      c->e = n;
+      c->cap = cap;
+    }
+  }
+  c->e[c->count].tuple = tuple;
+  c->e[c->count].code = code;
+  c->count++;
+  return BBC_OK;
+}
+
+bbc_result bbc_cache_builder_splat(bbc_cache_builder *b, uint32_t tuple_id,
+                                   uint32_t receiver_triangle, double b1_lo, double b1_hi,
+                                   double b2_lo, double b2_hi, double bound) {
+  if (!b || tuple_id >= b->tuple_count || b->tuples[tuple_id].receiver != receiver_triangle ||
+      isnan(bound) || bound < 0)
+    return BBC_ERR_INVALID_ARGUMENT;
+  bbc_cell_range range;
+  if (!bbc_grid_splat_range(b->grid, receiver_triangle, b1_lo, b1_hi, b2_lo, b2_hi, &range))
+    return BBC_OK;
+  /* The caller passes E~ with Eq. 21's m (and the light's intensity) already applied,
+   * rounded upward; the builder only keeps the maximum, and the code rounds up again
+   * (R-BND-1). */
+  double e = bound;
+  uint32_t code = bbc__bound_encode(e);
+  const bbc_receiver *r = &b->grid->receivers[range.receiver];
+  for (uint32_t y = range.y0; y <= range.y1; y++) {
+    uint64_t row = r->first_cell + (uint64_t)y * r->width;
+    pthread_mutex_t *lock = &b->locks[(range.receiver * 7919u + y) % BUILDER_LOCKS];
+    pthread_mutex_lock(lock);
+    bbc_result res = BBC_OK;
+    for (uint32_t x = range.x0; x <= range.x1 && res == BBC_OK; x++)
+      res = cell_add(&b->cells[row + x], tuple_id, code);
+    pthread_mutex_unlock(lock);
+    if (res != BBC_OK) return res;
+  }
+  return BBC_OK;
+}
+
+static void compact_all(bbc_cache_builder *b) {
+  int64_t n = (int64_t)b->grid->cell_count;
+#pragma omp parallel for schedule(dynamic, 4096)
+  for (int64_t i = 0; i < n; i++) cell_compact(&b->cells[i]);
+}
+
+uint64_t bbc_cache_builder_entry_count(bbc_cache_builder *b) {
+  compact_all(b);
+  uint64_t total = 0;
+  for (uint64_t i = 0; i < b->grid->cell_count; i++) total += b->cells[i].count;
+  return total;
+}
+
+/* ------------------------------------------------------------------ encoding */
+
+void bbc__cache_encode_records(const uint32_t *deltas, const uint16_t *codes, size_t n,
+                               uint8_t *out) {
+  for (size_t i = 0; i < n; i++) {
+    bbc__st32(out + 6 * i, deltas[i]);
+    bbc__st16(out + 6 * i + 4, codes[i]);
+  }
+}
+
+size_t bbc__cache_compress_bound(size_t size) {
+  return ZSTD_compressBound(size);
+}
+
+size_t bbc__cache_compress(void *dst, size_t capacity, const void *src, size_t size, int level) {
+  size_t n = ZSTD_compress(dst, capacity, src, size, level);
+  return ZSTD_isError(n) ? 0 : n;
+}
+
+/* ------------------------------------------------------------------ writing */
+
+/* Where the bytes go: a file (positioned writes) or a growing memory buffer. */
+typedef struct sink {
+  FILE *file;
+  const char *path;
+  uint64_t pos;
+  uint8_t *mem;
+  size_t mem_size, mem_cap;
+  bbc_message_fn error_fn;
+  void *user;
+} sink;
+
+static bbc_result sink_write(sink *s, uint64_t offset, const void *data, size_t size) {
+  if (size == 0) return BBC_OK;
+  if (s->file) {
+    if (offset != s->pos && fseeko(s->file, (off_t)offset, SEEK_SET) != 0)
+      return bbc__report(s->error_fn, s->user, BBC_ERR_IO, "%s: cannot seek: %s", s->path,
+                         strerror(errno));
+    if (fwrite(data, 1, size, s->file) != size)
+      return bbc__report(s->error_fn, s->user, BBC_ERR_IO, "%s: cannot write: %s", s->path,
+                         strerror(errno));
+    s->pos = offset + size;
+    return BBC_OK;
+  }
+  if (offset + size > s->mem_cap) {
+    size_t cap = s->mem_cap ? s->mem_cap : 4096;
+    while (cap < offset + size) cap *= 2;
+    uint8_t *n = realloc(s->mem, cap);
+    if (!n) return BBC_ERR_OUT_OF_MEMORY;
+    s->mem = n;
+    s->mem_cap = cap;
+  }
+  if (offset > s->mem_size) memset(s->mem + s->mem_size, 0, offset - s->mem_size);
+  memcpy(s->mem + offset, data, size);
+  if (offset + size > s->mem_size) s->mem_size = offset + size;
+  return BBC_OK;
+}
+
+static uint32_t crc_of(uint32_t crc, const void *data, size_t size) {
+  return (uint32_t)crc32_z(crc, data, size);
+}
+
+enum {
+  SEC_INFO,
+  SEC_PARM,
+  SEC_FPRT,
+  SEC_RCVR,
+  SEC_TRUV,
+  SEC_TUPL,
+  SEC_CIDX,
+  SEC_CDAT,
+  SEC_CHNK,
+  SEC_COUNT
+};
+
+typedef struct section {
+  uint32_t type, flags;
+  uint64_t offset, size;
+  uint32_t crc;
+} section;
+
+/* Writes one section's bytes and the zero padding up to the next section (R-LAY-1/2). */
+static bbc_result write_section(sink *s, section *sec, const void *data) {
+  sec->crc = crc_of(crc32_z(0, NULL, 0), data, sec->size);
+  return sink_write(s, sec->offset, data, sec->size);
+}
+
+static bbc_result write_zeros(sink *s, uint64_t from, uint64_t to) {
+  static const uint8_t zeros[256];
+  while (from < to) {
+    size_t n = to - from < sizeof zeros ? (size_t)(to - from) : sizeof zeros;
+    bbc_result r = sink_write(s, from, zeros, n);
+    if (r != BBC_OK) return r;
+    from += n;
+  }
+  return BBC_OK;
+}
+
+/* The chunk layout: which cells go into which chunk (Sec. 7.3). */
+typedef struct chunking {
+  uint32_t count;
+  uint64_t *first_cell; /* first non-empty cell of each chunk */
+  uint32_t *entries;
+  uint8_t *cidx; /* the CIDX section */
+} chunking;
+
+static bbc_result make_chunking(const bbc_cache_builder *b, uint32_t target, chunking *ch) {
+  uint64_t cells = b->grid->cell_count;
+  uint32_t cap = 64;
+  memset(ch, 0, sizeof *ch);
+  ch->first_cell = malloc(sizeof *ch->first_cell * cap);
+  ch->entries = malloc(sizeof *ch->entries * cap);
+  ch->cidx = calloc(cells ? cells : 1, BBC__CIDX_SIZE);
+  if (!ch->first_cell || !ch->entries || !ch->cidx) return BBC_ERR_OUT_OF_MEMORY;
+  for (uint64_t i = 0; i < cells; i++) {
+    uint32_t n = b->cells[i].count;
+    if (n == 0) continue;
+    if (n > BBC__MAX_CHUNK_ENTRIES) return BBC_ERR_UNSUPPORTED;
+    if (ch->count == 0 || (uint64_t)ch->entries[ch->count - 1] + n > target) {
+      if (ch->count == cap) {
+        cap *= 2;
+        uint64_t *f = realloc(ch->first_cell, sizeof *f * cap);
+        if (f) ch->first_cell = f;
+        uint32_t *e = realloc(ch->entries, sizeof *e * cap);
+        if (e) ch->entries = e;
+        if (!f || !e) return BBC_ERR_OUT_OF_MEMORY;
+      }
+      if (ch->count == UINT32_MAX) return BBC_ERR_UNSUPPORTED;
+      ch->first_cell[ch->count] = i;
+      ch->entries[ch->count] = 0;
+      ch->count++;
+    }
+    uint8_t *rec = ch->cidx + BBC__CIDX_SIZE * i;
+    bbc__st32(rec, ch->count - 1);
+    bbc__st32(rec + 4, ch->entries[ch->count - 1]);
+    bbc__st32(rec + 8, n);
+    ch->entries[ch->count - 1] += n;
+  }
+  return BBC_OK;
+}
+
+static void chunking_free(chunking *ch) {
+  free(ch->first_cell);
+  free(ch->entries);
+  free(ch->cidx);
+}
+
+/* Builds the decoded bytes of chunk k (Sec. 7.2) into `planes` and compresses them. */
+static size_t encode_chunk(const bbc_cache_builder *b, const chunking *ch, uint32_t k,
+                           uint32_t *deltas, uint16_t *codes, uint8_t *planes, uint8_t *dst,
+                           size_t capacity, ZSTD_CCtx *cctx, int level) {
+  uint32_t n = ch->entries[k], at = 0;
+  for (uint64_t cell = ch->first_cell[k]; at < n; cell++) {
+    const cell_list *c = &b->cells[cell];
+    for (uint32_t i = 0; i < c->count; i++) {
+      deltas[at + i] = i == 0 ? c->e[0].tuple : c->e[i].tuple - c->e[i - 1].tuple - 1;
+      codes[at + i] = (uint16_t)c->e[i].code;
+    }
+    at += c->count;
+  }
+  bbc__cache_encode_records(deltas, codes, n, planes);
+  size_t size = ZSTD_compressCCtx(cctx, dst, capacity, planes, (size_t)n * BBC__ENTRY_BYTES, level);
+  return ZSTD_isError(size) ? 0 : size;
+}
+
+static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_write_options *o) {
+  bbc_cache_write_options defaults;
+  memset(&defaults, 0, sizeof defaults);
+  if (!o) o = &defaults;
+  int level = o->compression_level ? o->compression_level : BBC__DEFAULT_LEVEL;
+  if (level < 1 || level > 19)
+    return bbc__report(o->error_fn, o->user, BBC_ERR_INVALID_ARGUMENT,
+                       "%s: compression level %d outside [1, 19]", s->path, level);
+  uint32_t chunk_bytes = o->chunk_bytes ? o->chunk_bytes : BBC__DEFAULT_CHUNK_BYTES;
+  uint32_t target = chunk_bytes / BBC__ENTRY_BYTES;
+  if (target < 1) target = 1;
+  if (target > BBC__MAX_CHUNK_ENTRIES) target = BBC__MAX_CHUNK_ENTRIES;
+
+  compact_all(b);
+  chunking ch;
+  bbc_result r = make_chunking(b, target, &ch);
+  if (r != BBC_OK) {
+    chunking_free(&ch);
+    return bbc__report(
+        o->error_fn, o->user, r, "%s: %s", s->path,
+        r == BBC_ERR_UNSUPPORTED ? "a cell list exceeds 2^24 entries" : "out of memory");
+  }
+
+  const bbc_grid *g = b->grid;
+  const char *writer = bbc_version_string();
+  char info[64];
+  snprintf(info, sizeof info, "bbc %s", writer);
+
+  section sec[SEC_COUNT];
+  static const uint32_t types[SEC_COUNT] = {BBC__SEC_INFO, BBC__SEC_PARM, BBC__SEC_FPRT,
+                                            BBC__SEC_RCVR, BBC__SEC_TRUV, BBC__SEC_TUPL,
+                                            BBC__SEC_CIDX, BBC__SEC_CDAT, BBC__SEC_CHNK};
+  uint32_t first = o->omit_info ? 1 : 0, nsec = SEC_COUNT - first;
+  memset(sec, 0, sizeof sec);
+  for (int i = 0; i < SEC_COUNT; i++) {
+    sec[i].type = types[i];
+    sec[i].flags = i == SEC_INFO ? 0 : BBC__SECTION_REQUIRED;
+  }
+  sec[SEC_INFO].size = strlen(info);
+  sec[SEC_PARM].size = BBC__PARM_SIZE;
+  sec[SEC_FPRT].size = BBC__FPRT_SIZE;
+  sec[SEC_RCVR].size = (uint64_t)BBC__RCVR_SIZE * g->receiver_count;
+  sec[SEC_TRUV].size = (uint64_t)BBC__TRUV_SIZE * g->uv_triangle_count;
+  sec[SEC_TUPL].size = (uint64_t)BBC__TUPL_SIZE * b->tuple_count;
+  sec[SEC_CIDX].size = (uint64_t)BBC__CIDX_SIZE * g->cell_count;
+  sec[SEC_CHNK].size = (uint64_t)BBC__CHNK_SIZE * ch.count;
+  /* R-LAY-1: offsets up to CDAT are known now; CDAT's size only after compression. */
+  uint64_t end = BBC__HEADER_SIZE + (uint64_t)BBC__DIR_ENTRY_SIZE * nsec;
+  for (uint32_t i = first; i <= SEC_CDAT; i++) {
+    sec[i].offset = bbc__align64(end + BBC__MIN_PADDING);
+    end = sec[i].offset + sec[i].size;
+  }
+
+  uint8_t parm[BBC__PARM_SIZE], fprt[BBC__FPRT_SIZE];
+  bbc__params_encode(&b->params, parm);
+  memset(fprt, 0, sizeof fprt);
+  bbc__st64(fprt, b->fingerprint.total);
+  bbc__st64(fprt + 8, b->fingerprint.geometry);
+  bbc__st64(fprt + 16, b->fingerprint.materials);
+  bbc__st64(fprt + 24, b->fingerprint.meshes);
+  bbc__st64(fprt + 32, b->fingerprint.lights);
+  bbc__st64(fprt + 40, b->fingerprint.params);
+  for (int k = 0; k < 5; k++) bbc__st32(fprt + 48 + 4 * k, b->scene_counts[k]);
+
+  uint8_t *rcvr = calloc(g->receiver_count, BBC__RCVR_SIZE);
+  uint8_t *chnk = calloc(ch.count ? ch.count : 1, BBC__CHNK_SIZE);
+  if (!rcvr || !chnk) {
+    free(rcvr);
+    free(chnk);
+    chunking_free(&ch);
+    return bbc__report(o->error_fn, o->user, BBC_ERR_OUT_OF_MEMORY, "%s: out of memory", s->path);
+  }
+  for (uint32_t i = 0; i < g->receiver_count; i++) {
+    const bbc_receiver *rc = &g->receivers[i];
+    uint8_t *p = rcvr + BBC__RCVR_SIZE * i;
+    bbc__st32(p, rc->mesh);
+    bbc__st32(p + 4, rc->parameterisation);
+    bbc__st32(p + 8, rc->first_triangle);
+    bbc__st32(p + 12, rc->triangle_count);
+    bbc__st32(p + 16, rc->width);
+    bbc__st32(p + 20, rc->height);
+    bbc__st64(p + 24, rc->first_cell);
+    bbc__st64(p + 32, rc->first_uv);
+    for (int k = 0; k < 4; k++) bbc__stf64(p + 40 + 8 * k, rc->domain[k]);
+    for (int k = 0; k < 3; k++) bbc__stf64(p + 72 + 8 * k, rc->axis_u[k]);
+    for (int k = 0; k < 3; k++) bbc__stf64(p + 96 + 8 * k, rc->axis_v[k]);
+  }
+
+  if (!o->omit_info) r = write_section(s, &sec[SEC_INFO], info);
+  if (r == BBC_OK) r = write_section(s, &sec[SEC_PARM], parm);
+  if (r == BBC_OK) r = write_section(s, &sec[SEC_FPRT], fprt);
+  if (r == BBC_OK) r = write_section(s, &sec[SEC_RCVR], rcvr);
+  if (r == BBC_OK) r = write_section(s, &sec[SEC_TRUV], g->triangle_uv);
+  if (r == BBC_OK) r = write_section(s, &sec[SEC_TUPL], b->tuples);
+  if (r == BBC_OK) r = write_section(s, &sec[SEC_CIDX], ch.cidx);
+  free(rcvr);
+
+  /* CDAT: chunks are encoded and compressed in parallel batches and written in chunk
+   * order, so the bytes do not depend on the number of threads. */
+  uint64_t cdat_size = 0;
+  uint32_t cdat_crc = (uint32_t)crc32_z(0, NULL, 0);
+  uint32_t max_entries = 0;
+  for (uint32_t k = 0; k < ch.count; k++)
+    if (ch.entries[k] > max_entries) max_entries = ch.entries[k];
+  size_t capacity = ZSTD_compressBound((size_t)max_entries * BBC__ENTRY_BYTES);
+  enum { BATCH = 64 };
+  uint8_t *out[BATCH];
+  size_t out_size[BATCH];
+  memset(out, 0, sizeof out);
+  for (int i = 0; i < BATCH && r == BBC_OK; i++)
+    if (!(out[i] = malloc(capacity ? capacity : 1))) r = BBC_ERR_OUT_OF_MEMORY;
+  for (uint32_t k0 = 0; k0 < ch.count && r == BBC_OK; k0 += BATCH) {
+    uint32_t n = ch.count - k0 < BATCH ? ch.count - k0 : BATCH;
+    int failed = 0;
+#pragma omp parallel reduction(| : failed)
+    {
+      uint32_t *deltas = malloc(sizeof *deltas * ((size_t)max_entries + 1));
+      uint16_t *codes = malloc(sizeof *codes * ((size_t)max_entries + 1));
+      uint8_t *planes = malloc((size_t)max_entries * BBC__ENTRY_BYTES + 1);
+      ZSTD_CCtx *cctx = ZSTD_createCCtx();
+      if (!deltas || !codes || !planes || !cctx) failed = 1;
+#pragma omp for schedule(dynamic, 1)
+      for (uint32_t i = 0; i < n; i++) {
+        if (failed) continue;
+        out_size[i] =
+            encode_chunk(b, &ch, k0 + i, deltas, codes, planes, out[i], capacity, cctx, level);
+        if (out_size[i] == 0) failed = 1;
+      }
+      ZSTD_freeCCtx(cctx);
+      free(deltas);
+      free(codes);
+      free(planes);
+    }
+    if (failed) {
+      r = bbc__report(o->error_fn, o->user, BBC_ERR_OUT_OF_MEMORY,
+                      "%s: cannot compress chunks %u..%u", s->path, k0, k0 + n - 1);
+      break;
+    }
+    for (uint32_t i = 0; i < n && r == BBC_OK; i++) {
+      uint8_t *rec = chnk + BBC__CHNK_SIZE * (size_t)(k0 + i);
+      bbc__st64(rec, cdat_size);
+      bbc__st32(rec + 8, (uint32_t)out_size[i]);
+      bbc__st32(rec + 12, ch.entries[k0 + i]);
+      bbc__st32(rec + 16, crc_of(crc32_z(0, NULL, 0), out[i], out_size[i]));
+      cdat_crc = crc_of(cdat_crc, out[i], out_size[i]);
+      r = sink_write(s, sec[SEC_CDAT].offset + cdat_size, out[i], out_size[i]);
+      cdat_size += out_size[i];
+    }
+    if (r == BBC_OK && o->progress_fn && o->progress_fn(o->progress_user, k0 + n, ch.count) != 0)
+      r = bbc__report(o->error_fn, o->user, BBC_ERR_CANCELLED, "%s: cancelled", s->path);
+  }
+  for (int i = 0; i < BATCH; i++) free(out[i]);
+
+  if (r == BBC_OK) {
+    sec[SEC_CDAT].size = cdat_size;
+    sec[SEC_CDAT].crc = cdat_crc;
+    end = sec[SEC_CDAT].offset + cdat_size;
+    sec[SEC_CHNK].offset = bbc__align64(end + BBC__MIN_PADDING);
+    r = write_section(s, &sec[SEC_CHNK], chnk);
+  }
+  free(chnk);
+  chunking_free(&ch);
+  if (r != BBC_OK) return r;
+
+  /* Padding (R-LAY-2), then the directory and the header, which need every size and
+   * checksum. */
+  uint64_t file_size = bbc__align64(sec[SEC_CHNK].offset + sec[SEC_CHNK].size + BBC__MIN_PADDING);
+  uint64_t prev_end = BBC__HEADER_SIZE + (uint64_t)BBC__DIR_ENTRY_SIZE * nsec;
+  for (uint32_t i = first; i < SEC_COUNT && r == BBC_OK; i++) {
+    r = write_zeros(s, prev_end, sec[i].offset);
+    prev_end = sec[i].offset + sec[i].size;
+  }
+  if (r == BBC_OK) r = write_zeros(s, prev_end, file_size);
+
+  uint8_t dir[BBC__DIR_ENTRY_SIZE * SEC_COUNT];
+  memset(dir, 0, sizeof dir);
+  for (uint32_t i = first; i < SEC_COUNT; i++) {
+    uint8_t *e = dir + BBC__DIR_ENTRY_SIZE * (i - first);
+    bbc__st32(e, sec[i].type);
+    bbc__st32(e + 4, sec[i].flags);
+    bbc__st64(e + 8, sec[i].offset);
+    bbc__st64(e + 16, sec[i].size);
+    bbc__st32(e + 24, sec[i].crc);
+  }
+  uint8_t header[BBC__HEADER_SIZE];
+  memset(header, 0, sizeof header);
+  memcpy(header, BBC__MAGIC, 8);
+  bbc__st16(header + 8, BBC_FORMAT_VERSION_MAJOR);
+  bbc__st16(header + 10, BBC_FORMAT_VERSION_MINOR);
+  bbc__st32(header + 12, nsec);
+  bbc__st64(header + 16, file_size);
+  bbc__st32(header + 28, crc_of(crc32_z(0, NULL, 0), dir, BBC__DIR_ENTRY_SIZE * nsec));
+  bbc__st32(header + 60, crc_of(crc32_z(0, NULL, 0), header, 60));
+  if (r == BBC_OK) r = sink_write(s, BBC__HEADER_SIZE, dir, BBC__DIR_ENTRY_SIZE * nsec);
+  if (r == BBC_OK) r = sink_write(s, 0, header, sizeof header);
+  return r;
+}
+
+typedef struct file_job {
+  bbc_cache_builder *b;
+  const bbc_cache_write_options *o;
+  const char *path;
+} file_job;
+
+static bbc_result write_file(void *ctx, const char *tmp_path) {
+  file_job *job = ctx;
+  bbc_message_fn fn = job->o ? job->o->error_fn : NULL;
+  void *user = job->o ? job->o->user : NULL;
+  sink s;
+  memset(&s, 0, sizeof s);
+  s.path = job->path;
+  s.error_fn = fn;
+  s.user = user;
+  s.file = fopen(tmp_path, "wb");
+  if (!s.file)
+    return bbc__report(fn, user, BBC_ERR_IO, "%s: cannot create %s: %s", job->path, tmp_path,
+                       strerror(errno));
+  bbc_result r = write_cache(job->b, &s, job->o);
+  if (fclose(s.file) != 0 && r == BBC_OK)
+    r = bbc__report(fn, user, BBC_ERR_IO, "%s: cannot write: %s", job->path, strerror(errno));
+  return r;
+}
+
+bbc_result bbc_cache_builder_write(bbc_cache_builder *b, const char *path,
+                                   const bbc_cache_write_options *options) {
+  if (!b || !path) return BBC_ERR_INVALID_ARGUMENT;
+  file_job job = {b, options, path};
+  return bbc__write_atomically(path, write_file, &job, options ? options->error_fn : NULL,
+                               options ? options->user : NULL);
+}
+
+bbc_result bbc_cache_builder_write_memory(bbc_cache_builder *b, void **bytes, size_t *size,
+                                          const bbc_cache_write_options *options) {
+  if (bytes) *bytes = NULL;
+  if (size) *size = 0;
+  if (!b || !bytes || !size) return BBC_ERR_INVALID_ARGUMENT;
+  sink s;
+  memset(&s, 0, sizeof s);
+  s.path = "(memory)";
+  s.error_fn = options ? options->error_fn : NULL;
+  s.user = options ? options->user : NULL;
+  bbc_result r = write_cache(b, &s, options);
+  if (r != BBC_OK) {
+    free(s.mem);
+    return r;
+  }
+  *bytes = s.mem;
+  *size = s.mem_size;
+  return BBC_OK;
+}

@@ -1,0 +1,388 @@
+/* Receiver grids (format-spec/bbc-format.md Sec. 6): parameterisations, grid
+ * coordinates of receiver triangles, point location and conservative splats. */
+#include "bbc/grid.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "report_internal.h"
+
+const char *bbc_parameterisation_name(uint32_t parameterisation) {
+  switch (parameterisation) {
+    case BBC_PARAM_TEXCOORD:
+      return "texcoord";
+    case BBC_PARAM_PLANAR:
+      return "planar";
+    case BBC_PARAM_BOX:
+      return "box";
+  }
+  return "unknown";
+}
+
+static void load3(const float *p, double out[3]) {
+  out[0] = p[0];
+  out[1] = p[1];
+  out[2] = p[2];
+}
+
+static double dot3(const double a[3], const double b[3]) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void cross3(const double a[3], const double b[3], double out[3]) {
+  out[0] = a[1] * b[2] - a[2] * b[1];
+  out[1] = a[2] * b[0] - a[0] * b[2];
+  out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* Sec. 6.1: TEXCOORD_0 is usable when present, finite and of positive extent in u and
+ * in v; a degenerate uv set would put the whole receiver into one row or column. */
+static int uvs_usable(const bbc_scene *scene, const bbc_mesh *mesh) {
+  if (!mesh->has_uvs || !scene->uvs || mesh->vertex_count == 0) return 0;
+  double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+  for (uint32_t i = 0; i < mesh->vertex_count; i++) {
+    const float *uv = &scene->uvs[2 * (size_t)(mesh->first_vertex + i)];
+    for (int k = 0; k < 2; k++) {
+      if (!isfinite(uv[k])) return 0;
+      if (uv[k] < lo[k]) lo[k] = uv[k];
+      if (uv[k] > hi[k]) hi[k] = uv[k];
+    }
+  }
+  return hi[0] > lo[0] && hi[1] > lo[1];
+}
+
+/* Sec. 6.2: the normal of a planar mesh, or 0 if the mesh is not planar. */
+static int planar_normal(const bbc_scene *scene, const bbc_mesh *mesh, double n[3]) {
+  double s[3] = {0, 0, 0};
+  for (uint32_t t = 0; t < mesh->triangle_count; t++) {
+    const uint32_t *idx = &scene->indices[3 * (size_t)(mesh->first_triangle + t)];
+    double p0[3], p1[3], p2[3], e1[3], e2[3], c[3];
+    load3(&scene->positions[3 * (size_t)idx[0]], p0);
+    load3(&scene->positions[3 * (size_t)idx[1]], p1);
+    load3(&scene->positions[3 * (size_t)idx[2]], p2);
+    for (int k = 0; k < 3; k++) e1[k] = p1[k] - p0[k], e2[k] = p2[k] - p0[k];
+    cross3(e1, e2, c);
+    for (int k = 0; k < 3; k++) s[k] += c[k];
+  }
+  double len = sqrt(dot3(s, s));
+  if (!(len > 0) || !isfinite(len)) return 0;
+  for (int k = 0; k < 3; k++) n[k] = s[k] / len;
+
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (uint32_t i = 0; i < mesh->vertex_count; i++) {
+    const float *p = &scene->positions[3 * (size_t)(mesh->first_vertex + i)];
+    for (int k = 0; k < 3; k++) {
+      if (p[k] < lo[k]) lo[k] = p[k];
+      if (p[k] > hi[k]) hi[k] = p[k];
+    }
+  }
+  double diag[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+  double tolerance = 1e-5 * sqrt(dot3(diag, diag));
+  double q[3];
+  load3(&scene->positions[3 * (size_t)mesh->first_vertex], q);
+  for (uint32_t i = 0; i < mesh->vertex_count; i++) {
+    double p[3], d[3];
+    load3(&scene->positions[3 * (size_t)(mesh->first_vertex + i)], p);
+    for (int k = 0; k < 3; k++) d[k] = p[k] - q[k];
+    if (fabs(dot3(d, n)) > tolerance) return 0;
+  }
+  return 1;
+}
+
+/* The parameter (u, v) of scene vertex i for a receiver. */
+static void vertex_param(const bbc_scene *scene, const bbc_receiver *r, uint32_t i, double out[2]) {
+  if (r->parameterisation == BBC_PARAM_TEXCOORD) {
+    out[0] = scene->uvs[2 * (size_t)i];
+    out[1] = scene->uvs[2 * (size_t)i + 1];
+  } else {
+    double p[3];
+    load3(&scene->positions[3 * (size_t)i], p);
+    out[0] = dot3(p, r->axis_u);
+    out[1] = dot3(p, r->axis_v);
+  }
+}
+
+/* Chooses the parameterisation of a receiver mesh and its axes (Sec. 6.1-6.3). */
+static void choose_parameterisation(const bbc_scene *scene, const bbc_mesh *mesh, bbc_receiver *r) {
+  double n[3];
+  memset(r->axis_u, 0, sizeof r->axis_u);
+  memset(r->axis_v, 0, sizeof r->axis_v);
+  if (uvs_usable(scene, mesh)) {
+    r->parameterisation = BBC_PARAM_TEXCOORD;
+  } else if (planar_normal(scene, mesh, n)) {
+    r->parameterisation = BBC_PARAM_PLANAR;
+    int k = 0;
+    for (int j = 1; j < 3; j++)
+      if (fabs(n[j]) < fabs(n[k])) k = j;
+    double e[3] = {0, 0, 0};
+    e[k] = 1;
+    double d = dot3(e, n), t[3];
+    for (int j = 0; j < 3; j++) t[j] = e[j] - d * n[j];
+    double len = sqrt(dot3(t, t));
+    for (int j = 0; j < 3; j++) r->axis_u[j] = t[j] / len;
+    cross3(n, r->axis_u, r->axis_v);
+  } else {
+    r->parameterisation = BBC_PARAM_BOX;
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t i = 0; i < mesh->vertex_count; i++) {
+      const float *p = &scene->positions[3 * (size_t)(mesh->first_vertex + i)];
+      for (int k = 0; k < 3; k++) {
+        if (p[k] < lo[k]) lo[k] = p[k];
+        if (p[k] > hi[k]) hi[k] = p[k];
+      }
+    }
+    int order[3] = {0, 1, 2};
+    double ext[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+    /* A stable sort of three axes by decreasing extent, ties by increasing index. */
+    for (int a = 0; a < 3; a++)
+      for (int b = 0; b + 1 < 3 - a; b++)
+        if (ext[order[b + 1]] > ext[order[b]]) {
+          int tmp = order[b];
+          order[b] = order[b + 1];
+          order[b + 1] = tmp;
+        }
+    r->axis_u[order[0]] = 1;
+    r->axis_v[order[1]] = 1;
+  }
+}
+
+/* Grid size of a projected receiver (Sec. 6.3): the longer side gets `resolution`
+ * cells and cells are square on the surface. */
+static uint32_t short_side(uint32_t resolution, double longer, double shorter) {
+  double c = ceil((double)resolution * (shorter / longer));
+  if (!(c >= 1)) return 1;
+  if (c > resolution) return resolution;
+  return (uint32_t)c;
+}
+
+/* Sec. 6.4: grid coordinate of a parameter, rounded to binary32 and clamped. */
+static float grid_coord(double p, double lo, double scale, uint32_t cells) {
+  float g = (float)((p - lo) * scale);
+  if (!(g >= 0.0f)) g = 0.0f;
+  if (g > (float)cells) g = (float)cells;
+  return g;
+}
+
+bbc_result bbc_grid_create(bbc_grid **out, const bbc_scene *scene, uint32_t resolution,
+                           bbc_message_fn error_fn, void *user) {
+  if (out) *out = NULL;
+  if (!out || !scene)
+    return bbc__report(error_fn, user, BBC_ERR_INVALID_ARGUMENT, "bbc_grid_create: NULL argument");
+  if (resolution < 1 || resolution > 65536)
+    return bbc__report(error_fn, user, BBC_ERR_INVALID_ARGUMENT,
+                       "grid resolution %u is outside [1, 65536]", resolution);
+
+  uint32_t count = 0;
+  uint64_t uv_count = 0;
+  uint32_t last_end = 0;
+  for (uint32_t m = 0; m < scene->mesh_count; m++) {
+    const bbc_mesh *mesh = &scene->meshes[m];
+    if (mesh->role != BBC_ROLE_RECEIVER || mesh->triangle_count == 0) continue;
+    /* Lookups find a triangle's receiver by bisection over the triangle ranges, which
+     * therefore must increase with the mesh index (the loader builds them that way). */
+    if (mesh->first_triangle < last_end ||
+        (uint64_t)mesh->first_triangle + mesh->triangle_count > scene->triangle_count)
+      return bbc__report(error_fn, user, BBC_ERR_INVALID_ARGUMENT,
+                         "%s: mesh %u: triangle range not increasing or out of the scene",
+                         scene->path, m);
+    last_end = mesh->first_triangle + mesh->triangle_count;
+    count++;
+    uv_count += mesh->triangle_count;
+  }
+
+  bbc_grid *g = calloc(1, sizeof *g);
+  bbc_receiver *receivers = calloc(count ? count : 1, sizeof *receivers);
+  float *uv = malloc(sizeof(float) * 6 * (uv_count ? uv_count : 1));
+  if (!g || !receivers || !uv) {
+    free(g);
+    free(receivers);
+    free(uv);
+    return bbc__report(error_fn, user, BBC_ERR_OUT_OF_MEMORY, "%s: out of memory for grids",
+                       scene->path);
+  }
+
+  uint32_t ri = 0;
+  uint64_t first_cell = 0, first_uv = 0;
+  for (uint32_t m = 0; m < scene->mesh_count; m++) {
+    const bbc_mesh *mesh = &scene->meshes[m];
+    if (mesh->role != BBC_ROLE_RECEIVER || mesh->triangle_count == 0) continue;
+    bbc_receiver *r = &receivers[ri++];
+    r->mesh = m;
+    r->first_triangle = mesh->first_triangle;
+    r->triangle_count = mesh->triangle_count;
+    choose_parameterisation(scene, mesh, r);
+
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (uint32_t i = 0; i < mesh->vertex_count; i++) {
+      double p[2];
+      vertex_param(scene, r, mesh->first_vertex + i, p);
+      for (int k = 0; k < 2; k++) {
+        if (p[k] < lo[k]) lo[k] = p[k];
+        if (p[k] > hi[k]) hi[k] = p[k];
+      }
+    }
+    if (!(lo[0] <= hi[0])) lo[0] = hi[0] = 0; /* no vertex: a degenerate domain */
+    if (!(lo[1] <= hi[1])) lo[1] = hi[1] = 0;
+    double lu = hi[0] - lo[0], lv = hi[1] - lo[1];
+    if (r->parameterisation == BBC_PARAM_TEXCOORD) {
+      r->width = r->height = resolution;
+    } else if (lu == 0 && lv == 0) {
+      r->width = r->height = 1;
+    } else if (lu >= lv) {
+      /* Square cells on the surface: the shorter side of the domain is extended to a
+       * whole number of cells of the longer side's size (Sec. 6.3). */
+      r->width = resolution;
+      r->height = short_side(resolution, lu, lv);
+      hi[1] = lo[1] + (double)r->height * (lu / (double)r->width);
+    } else {
+      r->height = resolution;
+      r->width = short_side(resolution, lv, lu);
+      hi[0] = lo[0] + (double)r->width * (lv / (double)r->height);
+    }
+    lu = hi[0] - lo[0];
+    lv = hi[1] - lo[1];
+    r->domain[0] = lo[0];
+    r->domain[1] = lo[1];
+    r->domain[2] = hi[0];
+    r->domain[3] = hi[1];
+    r->first_cell = first_cell;
+    r->first_uv = first_uv;
+    first_cell += (uint64_t)r->width * r->height;
+
+    double su = lu > 0 ? (double)r->width / lu : 0.0;
+    double sv = lv > 0 ? (double)r->height / lv : 0.0;
+    for (uint32_t t = 0; t < mesh->triangle_count; t++) {
+      const uint32_t *idx = &scene->indices[3 * (size_t)(mesh->first_triangle + t)];
+      float *dst = &uv[6 * (first_uv + t)];
+      for (int k = 0; k < 3; k++) {
+        double p[2];
+        vertex_param(scene, r, idx[k], p);
+        dst[2 * k] = grid_coord(p[0], lo[0], su, r->width);
+        dst[2 * k + 1] = grid_coord(p[1], lo[1], sv, r->height);
+      }
+    }
+    first_uv += mesh->triangle_count;
+  }
+
+  g->resolution = resolution;
+  g->receiver_count = count;
+  g->receivers = receivers;
+  g->cell_count = first_cell;
+  g->uv_triangle_count = uv_count;
+  g->triangle_uv = uv;
+  *out = g;
+  return BBC_OK;
+}
+
+void bbc_grid_free(bbc_grid *grid) {
+  if (!grid) return;
+  free((void *)grid->receivers);
+  free((void *)grid->triangle_uv);
+  free(grid);
+}
+
+int64_t bbc_grid_receiver_of(const bbc_grid *grid, uint32_t triangle) {
+  uint32_t lo = 0, hi = grid->receiver_count;
+  /* The last receiver whose range starts at or before the triangle. */
+  while (lo < hi) {
+    uint32_t mid = lo + (hi - lo) / 2;
+    if (grid->receivers[mid].first_triangle <= triangle)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  if (lo == 0) return -1;
+  const bbc_receiver *r = &grid->receivers[lo - 1];
+  if (triangle - r->first_triangle >= r->triangle_count) return -1;
+  return (int64_t)(lo - 1);
+}
+
+/* The cell of a grid coordinate along an axis of `cells` cells; NaN goes to 0. */
+static uint32_t cell_of(double g, uint32_t cells) {
+  if (!(g >= 0)) return 0;
+  if (g >= (double)cells) return cells - 1;
+  return (uint32_t)floor(g);
+}
+
+static const float *triangle_coords(const bbc_grid *grid, const bbc_receiver *r,
+                                    uint32_t triangle) {
+  return &grid->triangle_uv[6 * (r->first_uv + (triangle - r->first_triangle))];
+}
+
+/* Sec. 6.4: the affine map of a triangle, in this exact order of operations, shared by
+ * lookups and splats so both round alike. */
+static double affine(const float *g, int axis, double b1, double b2) {
+  double g0 = g[axis], g1 = g[2 + axis], g2 = g[4 + axis];
+  return g0 + b1 * (g1 - g0) + b2 * (g2 - g0);
+}
+
+int bbc_grid_locate(const bbc_grid *grid, uint32_t triangle, double b1, double b2, bbc_cell *out) {
+  int64_t ri = bbc_grid_receiver_of(grid, triangle);
+  if (ri < 0) return 0;
+  const bbc_receiver *r = &grid->receivers[ri];
+  const float *g = triangle_coords(grid, r, triangle);
+  out->receiver = (uint32_t)ri;
+  out->x = cell_of(affine(g, 0, b1, b2), r->width);
+  out->y = cell_of(affine(g, 1, b1, b2), r->height);
+  return 1;
+}
+
+int bbc_grid_splat_range(const bbc_grid *grid, uint32_t triangle, double b1_lo, double b1_hi,
+                         double b2_lo, double b2_hi, bbc_cell_range *out) {
+  int64_t ri = bbc_grid_receiver_of(grid, triangle);
+  if (ri < 0) return 0;
+  const bbc_receiver *r = &grid->receivers[ri];
+  const float *g = triangle_coords(grid, r, triangle);
+
+  /* Unknown ends are unbounded; true points lie in the triangle, so clipping the box
+   * to [0,1]^2 and testing the corner nearest the origin against b1 + b2 <= 1 loses no
+   * point (the rounded sum of two doubles exceeds 1 only if the exact sum does). */
+  if (!(b1_lo >= 0)) b1_lo = 0;
+  if (!(b2_lo >= 0)) b2_lo = 0;
+  if (!(b1_hi <= 1)) b1_hi = 1;
+  if (!(b2_hi <= 1)) b2_hi = 1;
+  if (b1_lo > b1_hi || b2_lo > b2_hi || b1_lo + b2_lo > 1) return 0;
+
+  double gmax = 0;
+  for (int k = 0; k < 6; k++)
+    if (fabs(g[k]) > gmax) gmax = fabs(g[k]);
+  /* Margin of Sec. 6.4: far above the few-ulp rounding of `affine` at any coordinate up
+   * to 65536 cells, far below a cell. */
+  const double margin = ldexp(1.0, -30) * (1.0 + gmax);
+
+  uint32_t lo_cell[2], hi_cell[2];
+  const uint32_t cells[2] = {r->width, r->height};
+  for (int axis = 0; axis < 2; axis++) {
+    double c[4] = {affine(g, axis, b1_lo, b2_lo), affine(g, axis, b1_hi, b2_lo),
+                   affine(g, axis, b1_lo, b2_hi), affine(g, axis, b1_hi, b2_hi)};
+    double lo = c[0], hi = c[0];
+    for (int k = 1; k < 4; k++) {
+      if (c[k] < lo) lo = c[k];
+      if (c[k] > hi) hi = c[k];
+    }
+    /* Clip to the triangle's own bounding rectangle: every true point is inside it. */
+    double tlo = g[axis], thi = g[axis];
+    for (int k = 1; k < 3; k++) {
+      if (g[2 * k + axis] < tlo) tlo = g[2 * k + axis];
+      if (g[2 * k + axis] > thi) thi = g[2 * k + axis];
+    }
+    if (tlo > lo) lo = tlo;
+    if (thi < hi) hi = thi;
+    /* The exact intersection is not empty (the box holds (b1_lo, b2_lo), a point of
+     * the triangle), so an inversion is rounding, smaller than the margin. */
+    if (lo > hi) {
+      double t = lo;
+      lo = hi;
+      hi = t;
+    }
+    lo_cell[axis] = cell_of(lo - margin, cells[axis]);
+    hi_cell[axis] = cell_of(hi + margin, cells[axis]);
+  }
+  out->receiver = (uint32_t)ri;
+  out->x0 = lo_cell[0];
+  out->x1 = hi_cell[0];
+  out->y0 = lo_cell[1];
+  out->y1 = hi_cell[1];
+  return 1;
+}

@@ -1,0 +1,155 @@
+/* The precompute driver: candidate tuples (tuples.c), bounded in parallel batches; the
+ * kept pieces of each batch are recorded in tuple order, so tuple ids and the written
+ * cache do not depend on the number of threads. Only tuples with a kept piece are
+ * stored. Memory stays bounded by one batch of pieces. */
+#include "bbc/precompute.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <omp.h>
+
+#include "report_internal.h"
+
+#define BATCH_TUPLES 2048
+
+typedef struct piece_list {
+  bbc_piece *items;
+  size_t count, capacity;
+  int failed;
+} piece_list;
+
+static int keep_piece(void *user, const bbc_piece *piece) {
+  piece_list *l = user;
+  if (piece->status != BBC_PIECE_KEPT) return 0;
+  if (l->count == l->capacity) {
+    size_t capacity = l->capacity ? 2 * l->capacity : 16;
+    bbc_piece *items = realloc(l->items, capacity * sizeof *items);
+    if (!items) {
+      l->failed = 1;
+      return 1;
+    }
+    l->items = items;
+    l->capacity = capacity;
+  }
+  l->items[l->count++] = *piece;
+  return 0;
+}
+
+bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
+                          const bbc_precompute_options *options, bbc_precompute_stats *stats) {
+  *out = NULL;
+  if (!scene || !options) return BBC_ERR_INVALID_ARGUMENT;
+  const bbc_precompute_params *params = &options->params;
+  const uint32_t single = (1u << BBC_CHAIN_R) | (1u << BBC_CHAIN_T);
+  if (!(params->chains & single))
+    return bbc__report(options->error_fn, options->user, BBC_ERR_UNSUPPORTED,
+                       "%s: only the chain types R and T are implemented", scene->path);
+  bbc_precompute_stats st;
+  memset(&st, 0, sizeof st);
+  st.threads = options->threads > 0 ? options->threads : omp_get_max_threads();
+
+  bbc_cache_builder *builder = NULL;
+  bbc_result result = bbc_cache_builder_create(&builder, scene, params);
+  if (result != BBC_OK)
+    return bbc__report(options->error_fn, options->user, result,
+                       "%s: cannot set up the receiver grids: %s", scene->path,
+                       bbc_result_string(result));
+
+  double t0 = omp_get_wtime();
+  bbc_tuple *tuples = NULL;
+  size_t tuple_count = 0;
+  result = bbc_tuples_find(scene, params->chains & single, &tuples, &tuple_count);
+  st.construction_seconds = omp_get_wtime() - t0;
+  st.candidate_tuples = tuple_count;
+
+  bbc_bound_params bound;
+  memset(&bound, 0, sizeof bound);
+  bound.max_level = (int)params->max_level;
+  bound.sigma = params->sigma;
+  bound.alpha = params->alpha_single;
+  bound.no_remainder = !params->remainder;
+  bound.jacobian = options->jacobian;
+
+  const int threads = st.threads;
+  bbc_bounder **bounders = calloc((size_t)threads, sizeof *bounders);
+  piece_list *pieces = calloc(BATCH_TUPLES, sizeof *pieces);
+  bbc_bound_stats *thread_stats = calloc((size_t)threads, sizeof *thread_stats);
+  if (result == BBC_OK && (!bounders || !pieces || !thread_stats)) result = BBC_ERR_OUT_OF_MEMORY;
+  for (int i = 0; i < threads && result == BBC_OK; i++) result = bbc_bounder_create(&bounders[i]);
+
+  for (size_t first = 0; first < tuple_count && result == BBC_OK; first += BATCH_TUPLES) {
+    size_t n = tuple_count - first < BATCH_TUPLES ? tuple_count - first : BATCH_TUPLES;
+    double b0 = omp_get_wtime();
+    int failed = 0;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(| : failed)
+    for (size_t i = 0; i < n; i++) {
+      int id = omp_get_thread_num();
+      bbc_tuple_geometry g;
+      pieces[i].count = 0;
+      if (bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) != BBC_OK ||
+          bbc_bound_tuple(bounders[id], &g, &bound, keep_piece, &pieces[i],
+                          &thread_stats[id]) != BBC_OK ||
+          pieces[i].failed)
+        failed = 1;
+    }
+    double b1 = omp_get_wtime();
+    st.bounding_seconds += b1 - b0;
+    if (failed) {
+      result = BBC_ERR_OUT_OF_MEMORY;
+      break;
+    }
+    /* Record in tuple order: ids, and so the file, are the same for any thread count. */
+    for (size_t i = 0; i < n && result == BBC_OK; i++) {
+      if (pieces[i].count == 0) continue;
+      const bbc_tuple *tuple = &tuples[first + i];
+      uint32_t id;
+      if ((result = bbc_cache_builder_add_tuple(builder, tuple, &id)) != BBC_OK) break;
+      st.tuples++;
+      st.tuples_per_chain[tuple->chain]++;
+      const float *intensity = scene->point_lights[tuple->light].intensity;
+      double power = fmax(intensity[0], fmax(intensity[1], intensity[2])) * params->m;
+      for (size_t k = 0; k < pieces[i].count && result == BBC_OK; k++) {
+        const bbc_piece *p = &pieces[i].items[k];
+        /* Products of non-negative doubles, pushed up by an ulp: the stored bound stays
+         * above the true one. */
+        double e = isfinite(p->e_hi) ? nextafter(p->e_hi * power, INFINITY) : INFINITY;
+        result = bbc_cache_builder_splat(builder, id, tuple->receiver, p->uk_lo, p->uk_hi,
+                                         p->vk_lo, p->vk_hi, e);
+      }
+    }
+    st.recording_seconds += omp_get_wtime() - b1;
+    if (options->progress &&
+        options->progress(options->progress_user, first + n, tuple_count)) {
+      result = BBC_ERR_CANCELLED;
+    }
+  }
+
+  for (int i = 0; i < threads; i++) {
+    if (bounders) bbc_bounder_free(bounders[i]);
+    if (thread_stats) {
+      st.position_pieces += thread_stats[i].position_pieces;
+      st.irradiance_pieces += thread_stats[i].irradiance_pieces;
+      st.kept_pieces += thread_stats[i].kept_pieces;
+      st.position_cpu_seconds += thread_stats[i].position_seconds;
+      st.irradiance_cpu_seconds += thread_stats[i].irradiance_seconds;
+    }
+  }
+  for (size_t i = 0; pieces && i < BATCH_TUPLES; i++) free(pieces[i].items);
+  free(bounders);
+  free(pieces);
+  free(thread_stats);
+  free(tuples);
+  if (result != BBC_OK) {
+    bbc_cache_builder_free(builder);
+    if (result != BBC_ERR_CANCELLED)
+      bbc__report(options->error_fn, options->user, result, "%s: precompute failed: %s",
+                  scene->path, bbc_result_string(result));
+    return result;
+  }
+  st.entries = bbc_cache_builder_entry_count(builder);
+  if (stats) *stats = st;
+  *out = builder;
+  return BBC_OK;
+}

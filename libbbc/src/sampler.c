@@ -1,0 +1,199 @@
+/* Bound-driven tuple sampling (paper Sec. 5.3-5.4, Alg. 1 with bins). */
+#include "sampler_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+void bbc__sampler_free(bbc__tuple_sampler *s) {
+  if (!s) return;
+  free(s->tuple);
+  free(s->p);
+  free(s->prefix);
+  free(s->bin_end);
+  free(s->keys);
+  free(s->scratch);
+  memset(s, 0, sizeof *s);
+}
+
+/* Sorting keys: (probability, position in the cell list), decreasing probability and
+ * then increasing position, so the order is total and deterministic. */
+typedef struct sort_key {
+  double p;
+  uint32_t i;
+} sort_key;
+
+static int reserve(bbc__tuple_sampler *s, uint32_t n) {
+  if (n <= s->capacity) return 1;
+  uint32_t capacity = s->capacity ? s->capacity : 64;
+  while (capacity < n) capacity *= 2;
+  uint32_t *tuple = realloc(s->tuple, capacity * sizeof *tuple);
+  if (tuple) s->tuple = tuple;
+  double *p = realloc(s->p, capacity * sizeof *p);
+  if (p) s->p = p;
+  double *prefix = realloc(s->prefix, capacity * sizeof *prefix);
+  if (prefix) s->prefix = prefix;
+  uint32_t *bin_end = realloc(s->bin_end, capacity * sizeof *bin_end);
+  if (bin_end) s->bin_end = bin_end;
+  void *keys = realloc(s->keys, capacity * sizeof(sort_key));
+  if (keys) s->keys = keys;
+  double *scratch = realloc(s->scratch, capacity * sizeof *scratch);
+  if (scratch) s->scratch = scratch;
+  if (!tuple || !p || !prefix || !bin_end || !keys || !scratch) return 0;
+  s->capacity = capacity;
+  return 1;
+}
+
+/* Expected |S| for gamma: sum min(gamma E, 1) (an infinite bound always counts 1). */
+static double expected_count(const bbc_cache_entry *e, uint32_t n, double gamma) {
+  double sum = 0;
+  for (uint32_t i = 0; i < n; i++) sum += fmin(gamma * (double)e[i].bound, 1.0);
+  return sum;
+}
+
+/* The variance bound of Eq. 25, sum E^2 / min(gamma E, 1), over finite bounds (an
+ * infinite bound has P = 1 and its term is unknown either way). */
+static double variance_bound(const bbc_cache_entry *e, uint32_t n, double gamma) {
+  double sum = 0;
+  for (uint32_t i = 0; i < n; i++) {
+    double b = e[i].bound;
+    if (!isfinite(b) || b <= 0) continue;
+    sum += b * b / fmin(gamma * b, 1.0);
+  }
+  return sum;
+}
+
+double bbc__sampler_gamma(const bbc_cache_entry *entries, uint32_t n, bbc__gamma_source source,
+                          double value) {
+  if (source == BBC__GAMMA_FIXED) return value;
+  if (source == BBC__GAMMA_EXPECTED && value >= n) return INFINITY;
+  /* Bisection in log space between tiny and huge gamma: both functions are monotonic
+   * (the count increases, the variance bound decreases with gamma). */
+  double lo = -80, hi = 80;
+  if (source == BBC__GAMMA_VARIANCE && variance_bound(entries, n, exp2(hi)) > value)
+    return INFINITY;
+  for (int it = 0; it < 60; it++) {
+    double mid = 0.5 * (lo + hi);
+    double g = exp2(mid);
+    int too_small = source == BBC__GAMMA_EXPECTED ? expected_count(entries, n, g) < value
+                                                  : variance_bound(entries, n, g) > value;
+    if (too_small) lo = mid;
+    else hi = mid;
+  }
+  return exp2(hi);
+}
+
+static int by_decreasing_p(const void *a, const void *b) {
+  const sort_key *x = a, *y = b;
+  if (x->p != y->p) return (x->p < y->p) - (x->p > y->p);
+  return (x->i > y->i) - (x->i < y->i);
+}
+
+int bbc__sampler_prepare(bbc__tuple_sampler *s, const bbc_cache_entry *entries, uint32_t n,
+                         const bbc__sampling *sampling) {
+  s->n = s->bins = 0;
+  s->one_sample = 0;
+  if (n == 0) return 1;
+  if (!reserve(s, n)) return 0;
+  s->n = n;
+  if (sampling->method == BBC__SAMPLE_ONE) {
+    /* Eq. 23: one tuple, proportional to E~. Infinite bounds cannot be weighed, so they
+     * are always taken (P = 1) and the finite ones share one draw. */
+    s->one_sample = 1;
+    double total = 0;
+    uint32_t finite = 0;
+    for (uint32_t i = 0; i < n; i++) {
+      double b = entries[i].bound;
+      if (isfinite(b)) {
+        total += b;
+        s->tuple[finite] = entries[i].tuple;
+        s->prefix[finite++] = total;
+      }
+    }
+    uint32_t k = finite;
+    for (uint32_t i = 0; i < n; i++)
+      if (!isfinite(entries[i].bound)) s->tuple[k++] = entries[i].tuple;
+    for (uint32_t i = 0; i < finite; i++)
+      s->p[i] = total > 0 ? (s->prefix[i] - (i ? s->prefix[i - 1] : 0)) / total : 0;
+    s->bins = finite; /* the first `bins` tuples share the draw */
+    s->total = total;
+    return 1;
+  }
+  double gamma = INFINITY;
+  if (sampling->method != BBC__SAMPLE_ENUMERATE)
+    gamma = bbc__sampler_gamma(entries, n, sampling->source, sampling->value);
+  double *p = s->scratch;
+  if (sampling->method == BBC__SAMPLE_UNIFORM) {
+    double w = isfinite(gamma) ? expected_count(entries, n, gamma) : n;
+    for (uint32_t i = 0; i < n; i++) p[i] = fmin(w / n, 1.0);
+  } else {
+    for (uint32_t i = 0; i < n; i++) {
+      double b = entries[i].bound;
+      p[i] = sampling->method == BBC__SAMPLE_ENUMERATE ? 1.0 : fmin(gamma * b, 1.0);
+      if (!(p[i] >= 0)) p[i] = 1.0; /* inf * 0 and the like: take it */
+    }
+  }
+  sort_key *keys = (sort_key *)s->keys;
+  for (uint32_t i = 0; i < n; i++) keys[i] = (sort_key){p[i], i};
+  qsort(keys, n, sizeof *keys, by_decreasing_p);
+  /* Next-fit packing of the sorted list into bins of total probability <= 1. */
+  double in_bin = 0;
+  uint32_t k = 0;
+  for (uint32_t j = 0; j < n; j++) {
+    uint32_t i = keys[j].i;
+    if (p[i] <= 0) break; /* zero bounds are never chosen (they carry no light) */
+    if (k > 0 && in_bin + p[i] > 1.0) {
+      s->bin_end[s->bins++] = k;
+      in_bin = 0;
+    }
+    in_bin += p[i];
+    s->tuple[k] = entries[i].tuple;
+    s->p[k] = p[i];
+    s->prefix[k] = in_bin;
+    k++;
+  }
+  if (k > 0) s->bin_end[s->bins++] = k;
+  s->n = k;
+  return 1;
+}
+
+uint32_t bbc__sampler_draw(const bbc__tuple_sampler *s, bbc_rng *rng,
+                           void (*emit)(void *user, uint32_t tuple, double p), void *user) {
+  uint32_t chosen = 0;
+  if (s->one_sample) {
+    if (s->bins > 0 && s->total > 0) {
+      double u = bbc_rng_next(rng) * s->total;
+      uint32_t lo = 0, hi = s->bins - 1;
+      while (lo < hi) {
+        uint32_t mid = (lo + hi) / 2;
+        if (s->prefix[mid] > u) hi = mid;
+        else lo = mid + 1;
+      }
+      if (s->p[lo] > 0) {
+        emit(user, s->tuple[lo], s->p[lo]);
+        chosen++;
+      }
+    }
+    for (uint32_t i = s->bins; i < s->n; i++, chosen++) emit(user, s->tuple[i], 1.0);
+    return chosen;
+  }
+  uint32_t start = 0;
+  for (uint32_t b = 0; b < s->bins; b++) {
+    uint32_t end = s->bin_end[b];
+    /* One uniform per bin: tuple j is chosen when u falls in its slice of the bin's
+     * prefix sums, an event of probability exactly p[j]. */
+    double u = bbc_rng_next(rng);
+    if (u < s->prefix[end - 1]) {
+      uint32_t lo = start, hi = end - 1;
+      while (lo < hi) {
+        uint32_t mid = (lo + hi) / 2;
+        if (s->prefix[mid] > u) hi = mid;
+        else lo = mid + 1;
+      }
+      emit(user, s->tuple[lo], s->p[lo]);
+      chosen++;
+    }
+    start = end;
+  }
+  return chosen;
+}

@@ -1,0 +1,236 @@
+/* Tuple construction (paper Sec. 6.1, DESIGN 3.7): from a prefix (light, T1), bound the
+ * first vertex x1 and the outgoing direction d1 over all of T1, then walk a BVH over the
+ * receiver triangles keeping every node whose box B can meet the beam: the bound of
+ * (x - x1) x d1 over x in B must contain zero, and (x - x1) . d1 must be able to be
+ * positive. Never all pairs: the work follows the beam. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bbc/interval.h"
+#include "bbc/precompute.h"
+#include "chain_internal.h"
+#include "vec_internal.h"
+
+typedef struct bvh_node {
+  double lo[3], hi[3];
+  uint32_t first, count; /* leaf: triangles order[first, first + count) */
+  uint32_t left, right;  /* inner node children (count == 0) */
+} bvh_node;
+
+typedef struct bvh {
+  bvh_node *nodes;
+  uint32_t node_count;
+  uint32_t *order;
+} bvh;
+
+static void triangle_bounds(const bbc_scene *scene, uint32_t t, double lo[3], double hi[3]) {
+  for (int a = 0; a < 3; a++) {
+    lo[a] = INFINITY;
+    hi[a] = -INFINITY;
+  }
+  for (int j = 0; j < 3; j++) {
+    const float *p = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t + j];
+    for (int a = 0; a < 3; a++) {
+      lo[a] = fmin(lo[a], p[a]);
+      hi[a] = fmax(hi[a], p[a]);
+    }
+  }
+}
+
+/* Midpoint split on the longest axis of the node (supplement Sec. 4.1). */
+static uint32_t bvh_build(bvh *b, const bbc_scene *scene, uint32_t first, uint32_t count) {
+  uint32_t index = b->node_count++;
+  bvh_node node;
+  memset(&node, 0, sizeof node);
+  for (int a = 0; a < 3; a++) {
+    node.lo[a] = INFINITY;
+    node.hi[a] = -INFINITY;
+  }
+  for (uint32_t i = first; i < first + count; i++) {
+    double lo[3], hi[3];
+    triangle_bounds(scene, b->order[i], lo, hi);
+    for (int a = 0; a < 3; a++) {
+      node.lo[a] = fmin(node.lo[a], lo[a]);
+      node.hi[a] = fmax(node.hi[a], hi[a]);
+    }
+  }
+  int axis = 0;
+  for (int a = 1; a < 3; a++)
+    if (node.hi[a] - node.lo[a] > node.hi[axis] - node.lo[axis]) axis = a;
+  double mid = 0.5 * (node.lo[axis] + node.hi[axis]);
+  uint32_t split = first;
+  if (count > 4) {
+    for (uint32_t i = first; i < first + count; i++) {
+      double lo[3], hi[3];
+      triangle_bounds(scene, b->order[i], lo, hi);
+      if (0.5 * (lo[axis] + hi[axis]) < mid) {
+        uint32_t tmp = b->order[i];
+        b->order[i] = b->order[split];
+        b->order[split++] = tmp;
+      }
+    }
+    if (split == first || split == first + count) split = first + count / 2;
+  }
+  if (count <= 4) {
+    node.first = first;
+    node.count = count;
+  } else {
+    node.left = bvh_build(b, scene, first, split - first);
+    node.right = bvh_build(b, scene, split, first + count - split);
+  }
+  b->nodes[index] = node;
+  return index;
+}
+
+/* Can a point of the box lie on the ray x1 + t d1, t > 0, for some x1 in X, d1 in D? */
+static int beam_meets(const bbc_ivec3 *x, const bbc_ivec3 *d, const double lo[3],
+                      const double hi[3]) {
+  bbc_ivec3 box = {bbc_interval_make(lo[0], hi[0]), bbc_interval_make(lo[1], hi[1]),
+                   bbc_interval_make(lo[2], hi[2])};
+  bbc_ivec3 w = bbc_ivec3_sub(box, *x);
+  bbc_ivec3 c = bbc_ivec3_cross(w, *d);
+  if (!(bbc_interval_contains(c.x, 0) && bbc_interval_contains(c.y, 0) &&
+        bbc_interval_contains(c.z, 0)))
+    return 0;
+  return bbc_ivec3_dot(w, *d).hi > 0;
+}
+
+typedef struct tuple_list {
+  bbc_tuple *items;
+  size_t count, capacity;
+} tuple_list;
+
+static int tuple_push(tuple_list *l, const bbc_tuple *t) {
+  if (l->count == l->capacity) {
+    size_t capacity = l->capacity ? 2 * l->capacity : 1024;
+    bbc_tuple *items = realloc(l->items, capacity * sizeof *items);
+    if (!items) return 0;
+    l->items = items;
+    l->capacity = capacity;
+  }
+  l->items[l->count++] = *t;
+  return 1;
+}
+
+static int compare_u32(const void *a, const void *b) {
+  uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+  return (x > y) - (x < y);
+}
+
+/* The beam of T1: x1 over the triangle and d1 over the whole domain, bounded with the
+ * chain forms of the root piece (the receiver is irrelevant here; T1 stands in). */
+static bbc_result beam_of(bbc_arena *arena, const bbc_tuple_geometry *g, bbc_ivec3 *x,
+                          bbc_ivec3 *d) {
+  bbc_arena_reset(arena, 0);
+  bbc_space space;
+  memset(&space, 0, sizeof space);
+  int s_axis, t_axis;
+  bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &s_axis);
+  bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &t_axis);
+  const double box[4] = {0, 1, 0, 1};
+  chain_forms f;
+  bbc_result r = bbc__chain_forms(arena, &space, g, box, s_axis, t_axis, CHAIN_SQRT_PRIMAL, &f);
+  if (r != BBC_OK) return r;
+  x->x = bbc_poly_bound(&f.x1.x);
+  x->y = bbc_poly_bound(&f.x1.y);
+  x->z = bbc_poly_bound(&f.x1.z);
+  d->x = bbc_poly_bound(&f.d1.x);
+  d->y = bbc_poly_bound(&f.d1.y);
+  d->z = bbc_poly_bound(&f.d1.z);
+  return BBC_OK;
+}
+
+bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
+                           size_t *count) {
+  *out = NULL;
+  *count = 0;
+  bvh tree;
+  memset(&tree, 0, sizeof tree);
+  uint32_t receivers = 0;
+  for (uint32_t t = 0; t < scene->triangle_count; t++)
+    if (scene->meshes[scene->triangle_mesh[t]].role == BBC_ROLE_RECEIVER) receivers++;
+  if (receivers == 0) return BBC_OK;
+  tree.order = malloc(receivers * sizeof *tree.order);
+  tree.nodes = malloc(2 * (size_t)receivers * sizeof *tree.nodes);
+  const size_t arena_bytes = (size_t)4 << 20;
+  void *arena_memory = malloc(arena_bytes);
+  uint32_t *found = malloc(receivers * sizeof *found);
+  tuple_list list = {NULL, 0, 0};
+  bbc_result result = BBC_OK;
+  if (!tree.order || !tree.nodes || !arena_memory || !found) {
+    result = BBC_ERR_OUT_OF_MEMORY;
+    goto done;
+  }
+  receivers = 0;
+  for (uint32_t t = 0; t < scene->triangle_count; t++)
+    if (scene->meshes[scene->triangle_mesh[t]].role == BBC_ROLE_RECEIVER) tree.order[receivers++] = t;
+  bvh_build(&tree, scene, 0, receivers);
+  bbc_arena arena;
+  bbc_arena_init(&arena, arena_memory, arena_bytes);
+
+  /* A stack as deep as the tree has nodes: an unbalanced tree cannot overflow it. */
+  uint32_t *stack = malloc((size_t)tree.node_count * sizeof *stack);
+  if (!stack) {
+    result = BBC_ERR_OUT_OF_MEMORY;
+    goto done;
+  }
+  for (uint32_t l = 0; l < scene->point_light_count && result == BBC_OK; l++) {
+    for (uint32_t t = 0; t < scene->triangle_count && result == BBC_OK; t++) {
+      const bbc_mesh *mesh = &scene->meshes[scene->triangle_mesh[t]];
+      if (mesh->role != BBC_ROLE_CASTER) continue;
+      const bbc_material *m = &scene->materials[mesh->material];
+      bbc_chain chain;
+      if (m->type == BBC_MATERIAL_MIRROR) chain = BBC_CHAIN_R;
+      else if (m->type == BBC_MATERIAL_DIELECTRIC) chain = BBC_CHAIN_T;
+      else continue;
+      if (!(chains & (1u << chain))) continue;
+      /* The beam does not depend on the receiver: use any as a stand-in. */
+      bbc_tuple tuple = {l, (uint32_t)chain, {t, BBC_NO_TRIANGLE}, tree.order[0]};
+      bbc_tuple_geometry g;
+      if ((result = bbc_tuple_geometry_init(&g, scene, &tuple)) != BBC_OK) break;
+      /* A light in T1's plane sees it edge-on: no light passes through. */
+      bbc_vec3 ng = v3_cross(v3_sub(g.p[1], g.p[0]), v3_sub(g.p[2], g.p[0]));
+      if (v3_dot(ng, v3_sub(g.light, g.p[0])) == 0) continue;
+      bbc_ivec3 x, d;
+      if ((result = beam_of(&arena, &g, &x, &d)) != BBC_OK) break;
+      uint32_t n = 0, top = 0;
+      stack[top++] = 0;
+      while (top) {
+        const bvh_node *node = &tree.nodes[stack[--top]];
+        if (!beam_meets(&x, &d, node->lo, node->hi)) continue;
+        if (node->count) {
+          for (uint32_t i = node->first; i < node->first + node->count; i++) {
+            double lo[3], hi[3];
+            triangle_bounds(scene, tree.order[i], lo, hi);
+            if (beam_meets(&x, &d, lo, hi)) found[n++] = tree.order[i];
+          }
+        } else {
+          stack[top++] = node->right;
+          stack[top++] = node->left;
+        }
+      }
+      qsort(found, n, sizeof *found, compare_u32);
+      for (uint32_t i = 0; i < n; i++) {
+        tuple.receiver = found[i];
+        if (!tuple_push(&list, &tuple)) {
+          result = BBC_ERR_OUT_OF_MEMORY;
+          break;
+        }
+      }
+    }
+  }
+  free(stack);
+done:
+  free(tree.order);
+  free(tree.nodes);
+  free(arena_memory);
+  free(found);
+  if (result != BBC_OK) {
+    free(list.items);
+    return result;
+  }
+  *out = list.items;
+  *count = list.count;
+  return BBC_OK;
+}
