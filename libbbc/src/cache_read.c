@@ -757,11 +757,16 @@ static bbc_result decode_list(const reporter *rp, const uint8_t *planes, uint32_
   return BBC_OK;
 }
 
-#define CURSOR_SLOTS 4
+/* Decoded chunks a cursor keeps (allocated as they are first used). A render thread
+ * visits the cells under its pixels in an order unrelated to the chunk order, so a few
+ * slots thrash; 256 chunks of the default 256 KiB cover caches of 64 MiB of decoded
+ * lists without decoding anything twice. */
+#define CURSOR_SLOTS 256
 
 struct bbc_cache_cursor {
   const bbc_cache *c;
   ZSTD_DCtx *dctx;
+  int32_t *slot_of; /* per chunk: the slot holding it, or -1 */
   struct {
     int valid;
     uint32_t chunk;
@@ -781,10 +786,14 @@ bbc_result bbc_cache_cursor_create(bbc_cache_cursor **out, const bbc_cache *c) {
   if (!cur) return BBC_ERR_OUT_OF_MEMORY;
   cur->c = c;
   cur->dctx = ZSTD_createDCtx();
-  if (!cur->dctx) {
+  cur->slot_of = malloc(sizeof *cur->slot_of * ((size_t)c->chunk_count + 1));
+  if (!cur->dctx || !cur->slot_of) {
+    ZSTD_freeDCtx(cur->dctx);
+    free(cur->slot_of);
     free(cur);
     return BBC_ERR_OUT_OF_MEMORY;
   }
+  for (uint32_t k = 0; k < c->chunk_count; k++) cur->slot_of[k] = -1;
   *out = cur;
   return BBC_OK;
 }
@@ -793,6 +802,7 @@ void bbc_cache_cursor_free(bbc_cache_cursor *cur) {
   if (!cur) return;
   for (int i = 0; i < CURSOR_SLOTS; i++) free(cur->slot[i].planes);
   free(cur->out);
+  free(cur->slot_of);
   ZSTD_freeDCtx(cur->dctx);
   free(cur);
 }
@@ -809,9 +819,7 @@ bbc_result bbc_cache_cell(bbc_cache_cursor *cur, uint64_t cell, const bbc_cache_
   if (n == 0) return BBC_OK;
   reporter rp = {c, c->options.error_fn, c->options.user};
 
-  int s = -1;
-  for (int i = 0; i < CURSOR_SLOTS; i++)
-    if (cur->slot[i].valid && cur->slot[i].chunk == k) s = i;
+  int s = cur->slot_of[k];
   uint32_t chunk_entries = bbc__ld32(c->sec[K_CHNK] + BBC__CHNK_SIZE * (size_t)k + 12);
   if (s < 0) {
     s = 0;
@@ -825,11 +833,13 @@ bbc_result bbc_cache_cell(bbc_cache_cursor *cur, uint64_t cell, const bbc_cache_
       cur->slot[s].planes = p;
       cur->slot[s].cap = need;
     }
+    if (cur->slot[s].valid) cur->slot_of[cur->slot[s].chunk] = -1;
     cur->slot[s].valid = 0;
     bbc_result r = decode_chunk(&rp, cur->dctx, k, cur->slot[s].planes, 0);
     if (r != BBC_OK) return r;
     cur->slot[s].valid = 1;
     cur->slot[s].chunk = k;
+    cur->slot_of[k] = s;
   }
   cur->slot[s].used = ++cur->clock;
   if (n > cur->out_cap) {

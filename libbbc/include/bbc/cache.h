@@ -222,7 +222,8 @@ typedef struct bbc_cache_entry {
   float bound;
 } bbc_cache_entry;
 
-/* A per-thread decoding context: it keeps the last few decoded chunks. One cursor must
+/* A per-thread decoding context: it keeps up to 256 decoded chunks (least recently used
+ * ones are replaced). One cursor must
  * not be used by two threads at once; make one per thread. */
 typedef struct bbc_cache_cursor bbc_cache_cursor;
 
