@@ -444,6 +444,33 @@ bbc_result bbc_cache_builder_splat(bbc_cache_builder *b, uint32_t tuple_id,
   return BBC_OK;
 }
 
+bbc_result bbc_cache_builder_splat_cells(bbc_cache_builder *b, uint32_t tuple_id,
+                                         const bbc_cell_range *range, const double *bounds) {
+  if (!b || !range || !bounds || tuple_id >= b->tuple_count ||
+      range->receiver >= b->grid->receiver_count)
+    return BBC_ERR_INVALID_ARGUMENT;
+  const bbc_receiver *r = &b->grid->receivers[range->receiver];
+  if (range->x0 > range->x1 || range->y0 > range->y1 || range->x1 >= r->width ||
+      range->y1 >= r->height)
+    return BBC_ERR_INVALID_ARGUMENT;
+  const size_t stride = (size_t)range->x1 - range->x0 + 1;
+  for (uint32_t y = range->y0; y <= range->y1; y++) {
+    const double *in = bounds + (size_t)(y - range->y0) * stride;
+    uint64_t row = r->first_cell + (uint64_t)y * r->width;
+    pthread_mutex_t *lock = &b->locks[(range->receiver * 7919u + y) % BUILDER_LOCKS];
+    pthread_mutex_lock(lock);
+    bbc_result res = BBC_OK;
+    for (uint32_t x = range->x0; x <= range->x1 && res == BBC_OK; x++) {
+      double e = in[x - range->x0];
+      if (isnan(e) || e < 0) res = BBC_ERR_INVALID_ARGUMENT;
+      else if (e > 0) res = cell_add(&b->cells[row + x], tuple_id, bbc__bound_encode(e));
+    }
+    pthread_mutex_unlock(lock);
+    if (res != BBC_OK) return res;
+  }
+  return BBC_OK;
+}
+
 static void compact_all(bbc_cache_builder *b) {
   int64_t n = (int64_t)b->grid->cell_count;
 #pragma omp parallel for schedule(dynamic, 4096)

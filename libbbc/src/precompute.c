@@ -37,6 +37,60 @@ static int keep_piece(void *user, const bbc_piece *piece) {
   return 0;
 }
 
+/* A per-thread raster of one tuple's bounds over the cells its pieces cover. */
+typedef struct raster {
+  double *cells;
+  size_t capacity;
+} raster;
+
+/* Rasterises the kept pieces of one tuple into the cells they cover, keeping the
+ * maximum bound per cell (Eq. 21), and hands every cell to the builder once. */
+static bbc_result record_tuple(bbc_cache_builder *builder, const bbc_grid *grid,
+                               const bbc_scene *scene, const bbc_precompute_params *params,
+                               const bbc_tuple *tuple, uint32_t id, const piece_list *pieces,
+                               raster *r) {
+  const float *intensity = scene->point_lights[tuple->light].intensity;
+  double power = fmax(intensity[0], fmax(intensity[1], intensity[2])) * params->m;
+  bbc_cell_range all = {0, UINT32_MAX, UINT32_MAX, 0, 0};
+  int any = 0;
+  for (size_t k = 0; k < pieces->count; k++) {
+    const bbc_piece *p = &pieces->items[k];
+    bbc_cell_range c;
+    if (!bbc_grid_splat_range(grid, tuple->receiver, p->uk_lo, p->uk_hi, p->vk_lo, p->vk_hi, &c))
+      continue;
+    all.receiver = c.receiver;
+    all.x0 = c.x0 < all.x0 ? c.x0 : all.x0;
+    all.y0 = c.y0 < all.y0 ? c.y0 : all.y0;
+    all.x1 = c.x1 > all.x1 ? c.x1 : all.x1;
+    all.y1 = c.y1 > all.y1 ? c.y1 : all.y1;
+    any = 1;
+  }
+  if (!any) return BBC_OK;
+  size_t w = (size_t)all.x1 - all.x0 + 1, h = (size_t)all.y1 - all.y0 + 1;
+  if (w * h > r->capacity) {
+    double *cells = realloc(r->cells, w * h * sizeof *cells);
+    if (!cells) return BBC_ERR_OUT_OF_MEMORY;
+    r->cells = cells;
+    r->capacity = w * h;
+  }
+  memset(r->cells, 0, w * h * sizeof *r->cells);
+  for (size_t k = 0; k < pieces->count; k++) {
+    const bbc_piece *p = &pieces->items[k];
+    bbc_cell_range c;
+    if (!bbc_grid_splat_range(grid, tuple->receiver, p->uk_lo, p->uk_hi, p->vk_lo, p->vk_hi, &c))
+      continue;
+    /* Products of non-negative doubles, pushed up by an ulp: the stored bound stays
+     * above the true one. */
+    double e = isfinite(p->e_hi) ? nextafter(p->e_hi * power, INFINITY) : INFINITY;
+    for (uint32_t y = c.y0; y <= c.y1; y++) {
+      double *row = r->cells + (y - all.y0) * w - all.x0;
+      for (uint32_t x = c.x0; x <= c.x1; x++)
+        if (e > row[x]) row[x] = e;
+    }
+  }
+  return bbc_cache_builder_splat_cells(builder, id, &all, r->cells);
+}
+
 bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
                           const bbc_precompute_options *options, bbc_precompute_stats *stats) {
   *out = NULL;
@@ -75,8 +129,12 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   const int threads = st.threads;
   bbc_bounder **bounders = calloc((size_t)threads, sizeof *bounders);
   piece_list *pieces = calloc(BATCH_TUPLES, sizeof *pieces);
+  uint32_t *ids = calloc(BATCH_TUPLES, sizeof *ids);
+  raster *rasters = calloc((size_t)threads, sizeof *rasters);
+  const bbc_grid *grid = bbc_cache_builder_grid(builder);
   bbc_bound_stats *thread_stats = calloc((size_t)threads, sizeof *thread_stats);
-  if (result == BBC_OK && (!bounders || !pieces || !thread_stats)) result = BBC_ERR_OUT_OF_MEMORY;
+  if (result == BBC_OK && (!bounders || !pieces || !ids || !rasters || !thread_stats))
+    result = BBC_ERR_OUT_OF_MEMORY;
   for (int i = 0; i < threads && result == BBC_OK; i++) result = bbc_bounder_create(&bounders[i]);
 
   for (size_t first = 0; first < tuple_count && result == BBC_OK; first += BATCH_TUPLES) {
@@ -100,25 +158,26 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       result = BBC_ERR_OUT_OF_MEMORY;
       break;
     }
-    /* Record in tuple order: ids, and so the file, are the same for any thread count. */
+    /* Ids are given in tuple order, so they (and the file) are the same for any thread
+     * count; the splats themselves may then run in parallel (the builder keeps the
+     * maximum per cell and tuple, which does not depend on their order). */
     for (size_t i = 0; i < n && result == BBC_OK; i++) {
+      ids[i] = UINT32_MAX;
       if (pieces[i].count == 0) continue;
       const bbc_tuple *tuple = &tuples[first + i];
-      uint32_t id;
-      if ((result = bbc_cache_builder_add_tuple(builder, tuple, &id)) != BBC_OK) break;
+      if ((result = bbc_cache_builder_add_tuple(builder, tuple, &ids[i])) != BBC_OK) break;
       st.tuples++;
       st.tuples_per_chain[tuple->chain]++;
-      const float *intensity = scene->point_lights[tuple->light].intensity;
-      double power = fmax(intensity[0], fmax(intensity[1], intensity[2])) * params->m;
-      for (size_t k = 0; k < pieces[i].count && result == BBC_OK; k++) {
-        const bbc_piece *p = &pieces[i].items[k];
-        /* Products of non-negative doubles, pushed up by an ulp: the stored bound stays
-         * above the true one. */
-        double e = isfinite(p->e_hi) ? nextafter(p->e_hi * power, INFINITY) : INFINITY;
-        result = bbc_cache_builder_splat(builder, id, tuple->receiver, p->uk_lo, p->uk_hi,
-                                         p->vk_lo, p->vk_hi, e);
-      }
     }
+    int splat_failed = 0;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(| : splat_failed)
+    for (size_t i = 0; i < n; i++) {
+      if (ids[i] == UINT32_MAX || result != BBC_OK) continue;
+      if (record_tuple(builder, grid, scene, params, &tuples[first + i], ids[i], &pieces[i],
+                       &rasters[omp_get_thread_num()]) != BBC_OK)
+        splat_failed = 1;
+    }
+    if (splat_failed && result == BBC_OK) result = BBC_ERR_OUT_OF_MEMORY;
     st.recording_seconds += omp_get_wtime() - b1;
     if (options->progress &&
         options->progress(options->progress_user, first + n, tuple_count)) {
@@ -139,6 +198,9 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   for (size_t i = 0; pieces && i < BATCH_TUPLES; i++) free(pieces[i].items);
   free(bounders);
   free(pieces);
+  free(ids);
+  for (int i = 0; rasters && i < threads; i++) free(rasters[i].cells);
+  free(rasters);
   free(thread_stats);
   free(tuples);
   if (result != BBC_OK) {

@@ -99,6 +99,15 @@ BBC_API bbc_result bbc_cache_builder_splat(bbc_cache_builder *b, uint32_t tuple_
                                            uint32_t receiver_triangle, double b1_lo, double b1_hi,
                                            double b2_lo, double b2_hi, double bound);
 
+/* Records a tuple's bounds already rasterised by the caller: `bounds` holds one value
+ * per cell of `range` (row-major, (x1 - x0 + 1) per row), 0 meaning "no entry". Each
+ * cell keeps, per tuple, the maximum it was given, as with bbc_cache_builder_splat, and
+ * the same thread-safety applies. BBC_ERR_INVALID_ARGUMENT for a range outside the
+ * receiver's grid, NaN or negative values. */
+BBC_API bbc_result bbc_cache_builder_splat_cells(bbc_cache_builder *b, uint32_t tuple_id,
+                                                 const bbc_cell_range *range,
+                                                 const double *bounds);
+
 /* The builder's grids (owned by the builder) and counts. */
 BBC_API const bbc_grid *bbc_cache_builder_grid(const bbc_cache_builder *b);
 BBC_API uint32_t bbc_cache_builder_tuple_count(const bbc_cache_builder *b);
