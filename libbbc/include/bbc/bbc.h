@@ -16,5 +16,6 @@
 #include "bbc/solver.h"
 #include "bbc/specular_path.h"
 #include "bbc/tuple.h"
+#include "bbc/validate.h"
 
 #endif

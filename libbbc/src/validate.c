@@ -1,0 +1,495 @@
+/* Bounds against true paths (Fig. 17): sampling, the renderer's admissibility rule, the
+ * piece lookup and the accumulator with its printers. */
+#include "bbc/validate.h"
+
+#include <inttypes.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bbc/specular_path.h"
+#include "rng_internal.h"
+#include "vec_internal.h"
+
+/* ---- the leaves of one tuple and a grid to find the one holding u1 ------------------ */
+
+/* The leaves are the cells of a quadtree of varying depth, so a lookup by linear search
+ * would cost O(leaves) per sample (thousands at the default depth). A uniform grid over
+ * their bounding box, each cell listing the leaves whose closed box touches it, brings
+ * that down to a handful. */
+typedef struct leaf_set {
+  bbc_piece *items;
+  size_t count, capacity;
+  int failed; /* out of memory while collecting */
+  /* The grid: G x G cells over [x0, x0 + G / sx] x [y0, y0 + G / sy]; cell c lists
+   * index[start[c] .. start[c + 1]). */
+  int grid;
+  double x0, y0, sx, sy;
+  uint32_t *start, *index;
+} leaf_set;
+
+static int collect_leaf(void *user, const bbc_piece *piece) {
+  leaf_set *l = user;
+  if (l->count == l->capacity) {
+    size_t capacity = l->capacity ? 2 * l->capacity : 256;
+    bbc_piece *grown = realloc(l->items, capacity * sizeof *grown);
+    if (!grown) {
+      l->failed = 1;
+      return 1; /* stops the bounder, which then reports BBC_ERR_CANCELLED */
+    }
+    l->items = grown;
+    l->capacity = capacity;
+  }
+  l->items[l->count++] = *piece;
+  return 0;
+}
+
+/* The grid cell of a coordinate, clamped to the grid. The map (x - x0) * s followed by
+ * floor is monotonic in x under IEEE rounding, so a point inside a closed leaf box gets
+ * a cell between the cells of the box's two edges: exactly the cells the leaf is listed
+ * in, and no containing leaf can be missed. */
+static int cell_of(double x, double x0, double s, int grid) {
+  double f = floor((x - x0) * s);
+  if (!(f >= 0)) return 0; /* also catches NaN */
+  if (f >= grid - 1) return grid - 1;
+  return (int)f;
+}
+
+static int build_grid(leaf_set *l) {
+  if (l->count == 0) return 1;
+  double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+  for (size_t i = 0; i < l->count; i++) {
+    x0 = fmin(x0, l->items[i].u_lo), x1 = fmax(x1, l->items[i].u_hi);
+    y0 = fmin(y0, l->items[i].v_lo), y1 = fmax(y1, l->items[i].v_hi);
+  }
+  int grid = (int)ceil(sqrt((double)l->count));
+  if (grid < 1) grid = 1;
+  if (grid > 256) grid = 256;
+  l->grid = grid;
+  l->x0 = x0, l->y0 = y0;
+  /* A zero-width extent maps everything to cell 0 rather than dividing by zero. */
+  l->sx = x1 > x0 ? grid / (x1 - x0) : 0.0;
+  l->sy = y1 > y0 ? grid / (y1 - y0) : 0.0;
+  size_t cells = (size_t)grid * (size_t)grid;
+  l->start = calloc(cells + 1, sizeof *l->start);
+  if (!l->start) return 0;
+  /* Two passes: count the entries of every cell, then fill them in leaf order, so a
+   * cell lists its leaves in the bounder's breadth-first order. */
+  size_t total = 0;
+  for (int pass = 0; pass < 2; pass++) {
+    for (size_t i = 0; i < l->count; i++) {
+      const bbc_piece *q = &l->items[i];
+      int cx0 = cell_of(q->u_lo, l->x0, l->sx, grid), cx1 = cell_of(q->u_hi, l->x0, l->sx, grid);
+      int cy0 = cell_of(q->v_lo, l->y0, l->sy, grid), cy1 = cell_of(q->v_hi, l->y0, l->sy, grid);
+      for (int cy = cy0; cy <= cy1; cy++)
+        for (int cx = cx0; cx <= cx1; cx++) {
+          size_t c = (size_t)cy * grid + cx;
+          if (pass == 0)
+            l->start[c + 1]++;
+          else
+            l->index[l->start[c]++] = (uint32_t)i;
+        }
+    }
+    if (pass == 0) {
+      for (size_t c = 0; c < cells; c++) l->start[c + 1] += l->start[c];
+      total = l->start[cells];
+      l->index = malloc((total ? total : 1) * sizeof *l->index);
+      if (!l->index) return 0;
+    } else {
+      /* The fill advanced every start to the next cell's; shift them back. */
+      memmove(l->start + 1, l->start, cells * sizeof *l->start);
+      l->start[0] = 0;
+    }
+  }
+  return 1;
+}
+
+/* The leaf holding (u, v): the first kept leaf whose closed box contains it, else the
+ * first discarded one, else NULL. Kept leaves win on shared edges because their bounds
+ * hold on their whole closed box, while a discarded neighbour only proves its own
+ * interior empty of paths up to the edge. */
+static const bbc_piece *find_leaf(const leaf_set *l, double u, double v) {
+  if (l->count == 0) return NULL;
+  size_t c = (size_t)cell_of(v, l->y0, l->sy, l->grid) * l->grid +
+             (size_t)cell_of(u, l->x0, l->sx, l->grid);
+  const bbc_piece *discarded = NULL;
+  for (uint32_t k = l->start[c]; k < l->start[c + 1]; k++) {
+    const bbc_piece *q = &l->items[l->index[k]];
+    if (!(u >= q->u_lo && u <= q->u_hi && v >= q->v_lo && v <= q->v_hi)) continue;
+    if (q->status == BBC_PIECE_KEPT) return q;
+    if (!discarded) discarded = q;
+  }
+  return discarded;
+}
+
+static void free_leaves(leaf_set *l) {
+  free(l->items);
+  free(l->start);
+  free(l->index);
+}
+
+/* ---- the accumulator ---------------------------------------------------------------- */
+
+void bbc_validation_reset(bbc_validation *acc) {
+  if (acc) memset(acc, 0, sizeof *acc);
+}
+
+void bbc_validation_merge(bbc_validation *dst, const bbc_validation *src) {
+  if (!dst || !src || dst == src) return;
+  if (src->failing && !dst->failing) dst->first_failure = src->first_failure;
+  if (src->ratio_count) {
+    dst->min_log_ratio =
+        dst->ratio_count ? fmin(dst->min_log_ratio, src->min_log_ratio) : src->min_log_ratio;
+    dst->max_log_ratio =
+        dst->ratio_count ? fmax(dst->max_log_ratio, src->max_log_ratio) : src->max_log_ratio;
+    dst->sum_log_ratio += src->sum_log_ratio;
+  }
+  dst->tuples += src->tuples;
+  dst->samples += src->samples;
+  dst->admissible += src->admissible;
+  dst->position_violations += src->position_violations;
+  dst->upper_violations += src->upper_violations;
+  dst->lower_violations += src->lower_violations;
+  dst->in_discarded += src->in_discarded;
+  dst->uncovered += src->uncovered;
+  dst->failing += src->failing;
+  dst->unbounded += src->unbounded;
+  dst->ratio_count += src->ratio_count;
+  dst->underflow += src->underflow;
+  dst->overflow += src->overflow;
+  for (int i = 0; i < BBC_VALIDATION_BINS; i++) dst->bins[i] += src->bins[i];
+}
+
+uint64_t bbc_validation_failures(const bbc_validation *acc) {
+  return acc ? acc->failing : 0;
+}
+
+static void add_ratio(bbc_validation *acc, double lr) {
+  if (acc->ratio_count == 0) {
+    acc->min_log_ratio = acc->max_log_ratio = lr;
+  } else {
+    acc->min_log_ratio = fmin(acc->min_log_ratio, lr);
+    acc->max_log_ratio = fmax(acc->max_log_ratio, lr);
+  }
+  acc->ratio_count++;
+  acc->sum_log_ratio += lr;
+  double f = floor((lr - BBC_VALIDATION_LOG_MIN) * BBC_VALIDATION_BINS_PER_DECADE);
+  if (f < 0)
+    acc->underflow++;
+  else if (f >= BBC_VALIDATION_BINS)
+    acc->overflow++;
+  else
+    acc->bins[(int)f]++;
+}
+
+/* The histogram position LOG_MIN + (numerator / denominator) bin widths, computed from
+ * integers with one rounding so that edges and midpoints print as the round decimals
+ * they are (0.105, not 0.10499999999999998). */
+static double bin_edge(int numerator, int denominator) {
+  const double per_decade = (double)BBC_VALIDATION_BINS_PER_DECADE * denominator;
+  return (BBC_VALIDATION_LOG_MIN * per_decade + numerator) / per_decade;
+}
+
+double bbc_validation_log_ratio_quantile(const bbc_validation *acc, double q) {
+  if (!acc || acc->ratio_count == 0 || !(q >= 0 && q <= 1)) return NAN;
+  /* The rank (1-based) of the wanted ratio in sorted order. */
+  uint64_t n = acc->ratio_count;
+  uint64_t rank = (uint64_t)ceil(q * (double)n);
+  if (rank < 1) rank = 1;
+  if (rank > n) rank = n;
+  uint64_t seen = acc->underflow;
+  if (rank <= seen) return acc->min_log_ratio;
+  for (int i = 0; i < BBC_VALIDATION_BINS; i++) {
+    seen += acc->bins[i];
+    if (rank <= seen) return bin_edge(2 * i + 1, 2);
+  }
+  return acc->max_log_ratio;
+}
+
+/* ---- validating a tuple ------------------------------------------------------------- */
+
+void bbc_validation_sample_u1(uint64_t seed, const bbc_tuple *tuple, uint32_t sample,
+                              double u1[2]) {
+  /* The tuple's own indices, not its position in some list, key the stream: the same
+   * tuple gets the same samples whichever subset of tuples a tool validates. */
+  uint64_t key = bbc__mix64(((uint64_t)tuple->light << 32) ^ tuple->chain) ^
+                 (((uint64_t)tuple->specular[0] << 32) | tuple->receiver);
+  bbc_rng rng = bbc_rng_make(seed, sample, key);
+  double a = bbc_rng_next(&rng), c = bbc_rng_next(&rng);
+  /* Folding the unit square's upper triangle onto the lower one keeps the density
+   * uniform over T1. */
+  if (a + c > 1) {
+    a = 1 - a;
+    c = 1 - c;
+  }
+  u1[0] = a;
+  u1[1] = c;
+}
+
+static void record_failure(bbc_validation *acc, const bbc_tuple *tuple, uint32_t sample,
+                           uint32_t kinds, const bbc_specular_path *path, const bbc_piece *piece) {
+  if (acc->failing++ > 0) return;
+  bbc_validation_failure *f = &acc->first_failure;
+  memset(f, 0, sizeof *f);
+  f->tuple = *tuple;
+  f->sample = sample;
+  f->kinds = kinds;
+  f->u1[0] = path->u1[0], f->u1[1] = path->u1[1];
+  f->uk[0] = path->uk[0], f->uk[1] = path->uk[1];
+  f->irradiance = path->irradiance;
+  if (piece) f->piece = *piece;
+}
+
+bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, const bbc_tuple *tuple,
+                              const bbc_bound_params *params, uint32_t samples, uint64_t seed,
+                              bbc_validation *acc) {
+  if (!bounder || !scene || !tuple || !acc) return BBC_ERR_INVALID_ARGUMENT;
+  if (tuple->chain != BBC_CHAIN_R && tuple->chain != BBC_CHAIN_T) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_tuple_geometry tg;
+  bbc_path_geometry pg;
+  bbc_result r = bbc_tuple_geometry_init(&tg, scene, tuple);
+  if (r != BBC_OK) return r;
+  if ((r = bbc_path_geometry_init(&pg, scene, tuple)) != BBC_OK) return r;
+
+  /* The bounder turned T1's normals toward the light (bounds.h) and the path geometry
+   * keeps a refracting triangle's normals as loaded, so the two agree exactly when the
+   * light is in front of T1. The bounder negates all three or none, so the sign of the
+   * summed dot products is that of each. */
+  double agree = 0;
+  for (int i = 0; i < 3; i++) agree += v3_dot(tg.n[i], pg.specular[0].n[i]);
+  const int light_in_front = agree > 0;
+
+  bbc_bound_params defaults;
+  if (!params) {
+    memset(&defaults, 0, sizeof defaults);
+    params = &defaults;
+  }
+  leaf_set leaves;
+  memset(&leaves, 0, sizeof leaves);
+  r = bbc_bound_tuple(bounder, &tg, params, collect_leaf, &leaves, NULL);
+  if (leaves.failed) r = BBC_ERR_OUT_OF_MEMORY;
+  if (r == BBC_OK && !build_grid(&leaves)) r = BBC_ERR_OUT_OF_MEMORY;
+  if (r != BBC_OK) {
+    free_leaves(&leaves);
+    return r;
+  }
+
+  /* Every failure is behind us: from here on only counts are added, so a failing call
+   * leaves *acc as it was. */
+  acc->tuples++;
+  for (uint32_t i = 0; i < samples; i++) {
+    double u1[2];
+    bbc_validation_sample_u1(seed, tuple, i, u1);
+    acc->samples++;
+    bbc_specular_path path;
+    if (bbc_specular_path_trace(&pg, u1[0], u1[1], &path) != BBC_OK) continue;
+    /* The renderer's rule (caustics.c): no rejecting flag and, for refraction, the light
+     * on the side of T1 the bounds were computed for. */
+    if (path.flags & BBC_PATH_REJECT) continue;
+    if (tuple->chain == BBC_CHAIN_T) {
+      int against = v3_dot(v3_sub(path.x1, pg.light), path.n1) < 0;
+      if (against != light_in_front) continue;
+    }
+    acc->admissible++;
+
+    const bbc_piece *piece = find_leaf(&leaves, u1[0], u1[1]);
+    if (!piece) {
+      acc->uncovered++;
+      record_failure(acc, tuple, i, BBC_VALIDATION_UNCOVERED, &path, NULL);
+      continue;
+    }
+    if (piece->status == BBC_PIECE_DISCARDED) {
+      acc->in_discarded++;
+      record_failure(acc, tuple, i, BBC_VALIDATION_DISCARDED, &path, piece);
+      continue;
+    }
+    uint32_t kinds = 0;
+    if (!(path.uk[0] >= piece->uk_lo && path.uk[0] <= piece->uk_hi && path.uk[1] >= piece->vk_lo &&
+          path.uk[1] <= piece->vk_hi)) {
+      kinds |= BBC_VALIDATION_POSITION;
+      acc->position_violations++;
+    }
+    /* Written as negations so that a NaN irradiance fails both tests. */
+    const double e = path.irradiance;
+    if (!(e <= piece->e_hi)) {
+      kinds |= BBC_VALIDATION_UPPER;
+      acc->upper_violations++;
+    }
+    if (!(e >= piece->e_lo)) {
+      kinds |= BBC_VALIDATION_LOWER;
+      acc->lower_violations++;
+    }
+    if (kinds) record_failure(acc, tuple, i, kinds, &path, piece);
+
+    if (!isfinite(piece->e_hi)) {
+      acc->unbounded++;
+    } else if (e >= 0 && e < INFINITY) {
+      /* e = 0 makes the ratio +inf, which lands in the overflow count. */
+      add_ratio(acc, e > 0 ? log10(piece->e_hi / e) : INFINITY);
+    }
+  }
+  free_leaves(&leaves);
+  return BBC_OK;
+}
+
+/* ---- printing ----------------------------------------------------------------------- */
+
+bbc_result bbc_validation_print_summary(const bbc_validation *acc, const char *label, FILE *out) {
+  if (!acc || !out) return BBC_ERR_INVALID_ARGUMENT;
+  if (label) fprintf(out, "%s: ", label);
+  fprintf(
+      out,
+      "%" PRIu64 " tuples, %" PRIu64 " samples, %" PRIu64 " admissible paths; violations: %" PRIu64
+      " position, %" PRIu64 " upper, %" PRIu64 " lower, %" PRIu64 " in discarded pieces, %" PRIu64
+      " uncovered (%" PRIu64 " failing paths); %" PRIu64 " unbounded",
+      acc->tuples, acc->samples, acc->admissible, acc->position_violations, acc->upper_violations,
+      acc->lower_violations, acc->in_discarded, acc->uncovered, acc->failing, acc->unbounded);
+  if (acc->ratio_count)
+    fprintf(out,
+            "; log10(E_hi/E) over %" PRIu64 " paths: median %.3f, p99 %.3f, min %.3g, max %.3g",
+            acc->ratio_count, bbc_validation_log_ratio_quantile(acc, 0.5),
+            bbc_validation_log_ratio_quantile(acc, 0.99), acc->min_log_ratio, acc->max_log_ratio);
+  fputc('\n', out);
+  return ferror(out) ? BBC_ERR_IO : BBC_OK;
+}
+
+/* One row of the text histogram: its label, count and a bar scaled to the peak row. A
+ * non-zero count gets at least one mark, so rare rows (a few violations below 0) stay
+ * visible. */
+static void histogram_row(FILE *out, const char *label, uint64_t n, uint64_t peak) {
+  static const char marks[] = "##################################################";
+  const uint64_t width = sizeof marks - 1;
+  int bar = n && peak ? (int)((width * n + peak - 1) / peak) : 0;
+  fprintf(out, "  %-18s %10" PRIu64 "%s%.*s\n", label, n, bar ? " " : "", bar, marks);
+}
+
+bbc_result bbc_validation_print_histogram(const bbc_validation *acc, FILE *out) {
+  if (!acc || !out) return BBC_ERR_INVALID_ARGUMENT;
+  enum { MAX_ROWS = 40 };
+  int first = -1, last = -1;
+  for (int i = 0; i < BBC_VALIDATION_BINS; i++)
+    if (acc->bins[i]) {
+      if (first < 0) first = i;
+      last = i;
+    }
+  /* Rows group a round number of bins, aligned to multiples of it, so their edges are
+   * round numbers too. */
+  static const int groups[] = {1, 2, 5, 10, 20, 50, 100, 200, 500, 1000};
+  int group = 1;
+  if (first >= 0)
+    for (size_t g = 0; g < sizeof groups / sizeof *groups; g++) {
+      group = groups[g];
+      if (last / group - first / group + 1 <= MAX_ROWS) break;
+    }
+  const int rows = first >= 0 ? last / group - first / group + 1 : 0;
+  uint64_t peak = acc->underflow > acc->overflow ? acc->underflow : acc->overflow;
+  for (int pass = 0; pass < 2; pass++) {
+    if (pass == 1) {
+      fprintf(out, "log10(E_hi / E), %" PRIu64 " paths:\n", acc->ratio_count);
+      if (acc->underflow) {
+        char label[32];
+        snprintf(label, sizeof label, "< %.2f", BBC_VALIDATION_LOG_MIN);
+        histogram_row(out, label, acc->underflow, peak);
+      }
+    }
+    /* The first pass finds the peak row, the second prints. */
+    for (int row = first / group; row < first / group + rows; row++) {
+      uint64_t n = 0;
+      for (int i = row * group; i < (row + 1) * group && i < BBC_VALIDATION_BINS; i++)
+        n += acc->bins[i];
+      if (pass == 0) {
+        if (n > peak) peak = n;
+        continue;
+      }
+      char label[32];
+      snprintf(label, sizeof label, "[%.2f, %.2f)", bin_edge(row * group, 1),
+               bin_edge((row + 1) * group, 1));
+      histogram_row(out, label, n, peak);
+    }
+  }
+  if (acc->overflow) {
+    char label[32];
+    snprintf(label, sizeof label, ">= %.2f", bin_edge(BBC_VALIDATION_BINS, 1));
+    histogram_row(out, label, acc->overflow, peak);
+  }
+  return ferror(out) ? BBC_ERR_IO : BBC_OK;
+}
+
+/* A JSON number, or null for NaN and infinities (JSON has neither). */
+static void json_number(FILE *out, double x) {
+  if (!isfinite(x)) {
+    fputs("null", out);
+    return;
+  }
+  /* The shortest of %.15g and %.17g that reads back as x: 0.01 stays "0.01". */
+  char text[32];
+  snprintf(text, sizeof text, "%.15g", x);
+  if (strtod(text, NULL) != x) snprintf(text, sizeof text, "%.17g", x);
+  fputs(text, out);
+}
+
+bbc_result bbc_validation_write_json(const bbc_validation *acc, FILE *out) {
+  if (!acc || !out) return BBC_ERR_INVALID_ARGUMENT;
+  fprintf(out,
+          "{\"tuples\":%" PRIu64 ",\"samples\":%" PRIu64 ",\"admissible\":%" PRIu64
+          ",\"position_violations\":%" PRIu64 ",\"upper_violations\":%" PRIu64
+          ",\"lower_violations\":%" PRIu64 ",\"in_discarded\":%" PRIu64 ",\"uncovered\":%" PRIu64
+          ",\"failing\":%" PRIu64 ",\"unbounded\":%" PRIu64,
+          acc->tuples, acc->samples, acc->admissible, acc->position_violations,
+          acc->upper_violations, acc->lower_violations, acc->in_discarded, acc->uncovered,
+          acc->failing, acc->unbounded);
+  int any = acc->ratio_count > 0;
+  fprintf(out, ",\"log10_ratio\":{\"count\":%" PRIu64 ",\"min\":", acc->ratio_count);
+  json_number(out, any ? acc->min_log_ratio : NAN);
+  fputs(",\"max\":", out);
+  json_number(out, any ? acc->max_log_ratio : NAN);
+  fputs(",\"mean\":", out);
+  json_number(out, any ? acc->sum_log_ratio / (double)acc->ratio_count : NAN);
+  fputs(",\"median\":", out);
+  json_number(out, bbc_validation_log_ratio_quantile(acc, 0.5));
+  fputs(",\"p99\":", out);
+  json_number(out, bbc_validation_log_ratio_quantile(acc, 0.99));
+  fputs("}", out);
+  fputs(",\"first_failure\":", out);
+  if (acc->failing) {
+    const bbc_validation_failure *f = &acc->first_failure;
+    fprintf(out,
+            "{\"light\":%" PRIu32 ",\"chain\":\"%s\",\"caster\":%" PRIu32 ",\"receiver\":%" PRIu32
+            ",\"sample\":%" PRIu32 ",\"kinds\":%" PRIu32 ",\"u1\":[",
+            f->tuple.light, bbc_chain_name((bbc_chain)f->tuple.chain), f->tuple.specular[0],
+            f->tuple.receiver, f->sample, f->kinds);
+    json_number(out, f->u1[0]);
+    fputc(',', out);
+    json_number(out, f->u1[1]);
+    fputs("],\"uk\":[", out);
+    json_number(out, f->uk[0]);
+    fputc(',', out);
+    json_number(out, f->uk[1]);
+    fputs("],\"irradiance\":", out);
+    json_number(out, f->irradiance);
+    const bbc_piece *p = &f->piece;
+    const double box[] = {p->u_lo,  p->u_hi,  p->v_lo,  p->v_hi, p->uk_lo,
+                          p->uk_hi, p->vk_lo, p->vk_hi, p->e_lo, p->e_hi};
+    static const char *const names[] = {"u_lo",  "u_hi",  "v_lo",  "v_hi", "uk_lo",
+                                        "uk_hi", "vk_lo", "vk_hi", "e_lo", "e_hi"};
+    fprintf(out, ",\"piece\":{\"level\":%d,\"kept\":%s", p->level,
+            p->status == BBC_PIECE_KEPT ? "true" : "false");
+    for (int i = 0; i < 10; i++) {
+      fprintf(out, ",\"%s\":", names[i]);
+      json_number(out, box[i]);
+    }
+    fputs("}}", out);
+  } else {
+    fputs("null", out);
+  }
+  fprintf(out, ",\"histogram\":{\"log10_min\":");
+  json_number(out, BBC_VALIDATION_LOG_MIN);
+  fputs(",\"bin_width\":", out);
+  json_number(out, BBC_VALIDATION_BIN_WIDTH);
+  fprintf(out, ",\"underflow\":%" PRIu64 ",\"overflow\":%" PRIu64 ",\"counts\":[", acc->underflow,
+          acc->overflow);
+  for (int i = 0; i < BBC_VALIDATION_BINS; i++)
+    fprintf(out, i ? ",%" PRIu64 : "%" PRIu64, acc->bins[i]);
+  fputs("]}}", out);
+  return ferror(out) ? BBC_ERR_IO : BBC_OK;
+}
