@@ -240,6 +240,29 @@ static void record_failure(bbc_validation *acc, const bbc_tuple *tuple, uint32_t
   if (piece) f->piece = *piece;
 }
 
+/* The bounder turned T1's normals toward the light (bounds.h) and the path geometry
+ * keeps a refracting triangle's normals as loaded, so the two agree exactly when the
+ * light is in front of T1. The bounder negates all three or none, so the sign of the
+ * summed dot products is that of each. */
+static int light_in_front_of(const bbc_tuple_geometry *tg, const bbc_path_geometry *pg) {
+  double agree = 0;
+  for (int i = 0; i < 3; i++) agree += v3_dot(tg->n[i], pg->specular[0].n[i]);
+  return agree > 0;
+}
+
+/* Traces u1 and applies the renderer's rule (caustics.c): no rejecting flag and, for
+ * refraction, the light on the side of T1 the bounds were computed for. */
+static int admissible_path(const bbc_path_geometry *pg, const bbc_tuple *tuple,
+                           int light_in_front, const double u1[2], bbc_specular_path *path) {
+  if (bbc_specular_path_trace(pg, u1[0], u1[1], path) != BBC_OK) return 0;
+  if (path->flags & BBC_PATH_REJECT) return 0;
+  if (tuple->chain == BBC_CHAIN_T) {
+    int against = v3_dot(v3_sub(path->x1, pg->light), path->n1) < 0;
+    if (against != light_in_front) return 0;
+  }
+  return 1;
+}
+
 bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, const bbc_tuple *tuple,
                               const bbc_bound_params *params, uint32_t samples, uint64_t seed,
                               bbc_validation *acc) {
@@ -251,13 +274,7 @@ bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, cons
   if (r != BBC_OK) return r;
   if ((r = bbc_path_geometry_init(&pg, scene, tuple)) != BBC_OK) return r;
 
-  /* The bounder turned T1's normals toward the light (bounds.h) and the path geometry
-   * keeps a refracting triangle's normals as loaded, so the two agree exactly when the
-   * light is in front of T1. The bounder negates all three or none, so the sign of the
-   * summed dot products is that of each. */
-  double agree = 0;
-  for (int i = 0; i < 3; i++) agree += v3_dot(tg.n[i], pg.specular[0].n[i]);
-  const int light_in_front = agree > 0;
+  const int light_in_front = light_in_front_of(&tg, &pg);
 
   bbc_bound_params defaults;
   if (!params) {
@@ -282,14 +299,7 @@ bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, cons
     bbc_validation_sample_u1(seed, tuple, i, u1);
     acc->samples++;
     bbc_specular_path path;
-    if (bbc_specular_path_trace(&pg, u1[0], u1[1], &path) != BBC_OK) continue;
-    /* The renderer's rule (caustics.c): no rejecting flag and, for refraction, the light
-     * on the side of T1 the bounds were computed for. */
-    if (path.flags & BBC_PATH_REJECT) continue;
-    if (tuple->chain == BBC_CHAIN_T) {
-      int against = v3_dot(v3_sub(path.x1, pg.light), path.n1) < 0;
-      if (against != light_in_front) continue;
-    }
+    if (!admissible_path(&pg, tuple, light_in_front, u1, &path)) continue;
     acc->admissible++;
 
     const bbc_piece *piece = find_leaf(&leaves, u1[0], u1[1]);
@@ -329,6 +339,65 @@ bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, cons
     }
   }
   free_leaves(&leaves);
+  return BBC_OK;
+}
+
+bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *cursor,
+                                     const bbc_scene *scene, const bbc_tuple *tuple,
+                                     int64_t tuple_id, uint32_t samples, uint64_t seed,
+                                     bbc_validation *acc) {
+  if (!cache || !cursor || !scene || !tuple || !acc) return BBC_ERR_INVALID_ARGUMENT;
+  if (tuple->chain != BBC_CHAIN_R && tuple->chain != BBC_CHAIN_T) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_tuple_geometry tg;
+  bbc_path_geometry pg;
+  bbc_result r = bbc_tuple_geometry_init(&tg, scene, tuple);
+  if (r != BBC_OK) return r;
+  if ((r = bbc_path_geometry_init(&pg, scene, tuple)) != BBC_OK) return r;
+  const int light_in_front = light_in_front_of(&tg, &pg);
+  bbc_cache_info info;
+  bbc_cache_get_info(cache, &info);
+  const bbc_precompute_params params = info.params;
+  /* The stored bound is per tuple and cell, with the light's brightest channel and m. */
+  const float *intensity = scene->point_lights[tuple->light].intensity;
+  const double scale = fmax(intensity[0], fmax(intensity[1], intensity[2])) * params.m;
+  bbc_validation local;
+  bbc_validation_reset(&local);
+  local.tuples = 1;
+  for (uint32_t i = 0; i < samples; i++) {
+    double u1[2];
+    bbc_validation_sample_u1(seed, tuple, i, u1);
+    local.samples++;
+    bbc_specular_path path;
+    if (!admissible_path(&pg, tuple, light_in_front, u1, &path)) continue;
+    local.admissible++;
+    if (tuple_id < 0) {
+      /* The precompute proved this tuple empty and stored nothing. */
+      local.in_discarded++;
+      record_failure(&local, tuple, i, BBC_VALIDATION_DISCARDED, &path, NULL);
+      continue;
+    }
+    const bbc_cache_entry *entries = NULL;
+    uint32_t n = 0;
+    if ((r = bbc_cache_lookup(cursor, tuple->receiver, path.uk[0], path.uk[1], &entries, &n)) !=
+        BBC_OK)
+      return r;
+    const bbc_cache_entry *found = NULL;
+    for (uint32_t k = 0; k < n && !found; k++)
+      if (entries[k].tuple == (uint32_t)tuple_id) found = &entries[k];
+    if (!found) {
+      local.position_violations++;
+      record_failure(&local, tuple, i, BBC_VALIDATION_POSITION, &path, NULL);
+      continue;
+    }
+    const double e = path.irradiance * scale;
+    if (!(e <= (double)found->bound)) {
+      local.upper_violations++;
+      record_failure(&local, tuple, i, BBC_VALIDATION_UPPER, &path, NULL);
+    }
+    if (!isfinite(found->bound)) local.unbounded++;
+    else if (e >= 0 && e < INFINITY) add_ratio(&local, e > 0 ? log10(found->bound / e) : INFINITY);
+  }
+  bbc_validation_merge(acc, &local);
   return BBC_OK;
 }
 

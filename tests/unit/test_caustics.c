@@ -179,3 +179,43 @@ TEST(bbc_converges_to_enumeration_reflection) {
 TEST(bbc_converges_to_enumeration_refraction) {
   converges_to_enumeration(TEST_SCENE("pool.glb"), 3);
 }
+
+/* Every candidate tuple of a precomputed cache against true paths: for a stored tuple,
+ * the path's cell lists it with a bound of at least the path's irradiance; a candidate
+ * the precompute dropped has no admissible path. */
+static void cache_covers_true_paths(const char *path, int max_level) {
+  fixture f;
+  REQUIRE(setup(&f, path, max_level));
+  bbc_tuple *candidates = NULL;
+  size_t count = 0;
+  REQUIRE(bbc_tuples_find(f.scene, BBC_CHAIN_MASK_ALL, &candidates, &count) == BBC_OK);
+  bbc_cache_info info;
+  bbc_cache_get_info(f.cache, &info);
+  const bbc_tuple *stored = bbc_cache_tuples(f.cache);
+  bbc_cache_cursor *cursor = NULL;
+  REQUIRE(bbc_cache_cursor_create(&cursor, f.cache) == BBC_OK);
+  bbc_validation acc;
+  bbc_validation_reset(&acc);
+  /* Stored tuples keep the candidates' order, so one pass pairs them up. */
+  uint32_t next = 0;
+  uint32_t samples = (uint32_t)harness_scale(60, 1000);
+  for (size_t i = 0; i < count; i++) {
+    int64_t id = -1;
+    if (next < info.tuple_count && memcmp(&stored[next], &candidates[i], sizeof *stored) == 0)
+      id = next++;
+    REQUIRE(bbc_validate_cached_tuple(f.cache, cursor, f.scene, &candidates[i], id, samples, 3,
+                                      &acc) == BBC_OK);
+  }
+  CHECK_INT(next, info.tuple_count);
+  bbc_validation_print_summary(&acc, path, stderr);
+  CHECK(acc.admissible > 1000);
+  CHECK_INT(bbc_validation_failures(&acc), 0);
+  bbc_cache_cursor_free(cursor);
+  free(candidates);
+  teardown(&f);
+}
+
+TEST(cache_covers_true_paths_reflection) {
+  cache_covers_true_paths(TEST_SCENE("wavy-mirror.gltf"), 5);
+}
+TEST(cache_covers_true_paths_refraction) { cache_covers_true_paths(TEST_SCENE("pool.glb"), 3); }

@@ -18,6 +18,7 @@
 #include <stdio.h>
 
 #include "bbc/bounds.h"
+#include "bbc/cache.h"
 #include "bbc/scene.h"
 #include "bbc/tuple.h"
 
@@ -120,6 +121,20 @@ BBC_API void bbc_validation_sample_u1(uint64_t seed, const bbc_tuple *tuple, uin
 BBC_API bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene,
                                       const bbc_tuple *tuple, const bbc_bound_params *params,
                                       uint32_t samples, uint64_t seed, bbc_validation *acc);
+
+/* Validates what a cache stores for one single-scattering tuple of its scene: for each
+ * of `samples` true paths (drawn and judged admissible as by bbc_validate_tuple), the
+ * path's cell (bbc_cache_lookup at its u_k) must list the tuple with a bound of at
+ * least the path's irradiance times the light's brightest channel and the cache's m.
+ * tuple_id is the tuple's id in the cache, or -1 for a candidate tuple the precompute
+ * did not store, which must then have no admissible path at all. A missing entry counts
+ * as a position violation, a low bound as an upper violation, an admissible path of an
+ * unstored tuple as in_discarded; the ratio histogram is of log10(stored / true).
+ * cursor is the caller's (one per thread). Thread safety as bbc_validate_tuple. */
+BBC_API bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *cursor,
+                                             const bbc_scene *scene, const bbc_tuple *tuple,
+                                             int64_t tuple_id, uint32_t samples, uint64_t seed,
+                                             bbc_validation *acc);
 
 /* Violations of any kind (the `failing` count): 0 means the bounds held on every
  * sampled path. */

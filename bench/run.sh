@@ -1,0 +1,76 @@
+#!/bin/sh
+# Regenerates the benchmark tables in bench/results/ (Markdown) on this machine:
+#   precompute.md  precompute of the shared scenes: time by phase, tuples, pieces,
+#                  peak memory, file size and compression of the cell lists;
+#   render.md      equal-time renders of the caustic alone: relMSE of bbc, uniform and
+#                  enumerate against a converged enumeration.
+# Usage: sh bench/run.sh [SHARED_SCENES_DIR] [SECONDS_PER_RENDER]
+# Needs a Release build in build/ (sh scripts/build.sh).
+set -eu
+root=$(cd "$(dirname "$0")/.." && pwd)
+scenes=${1:-$root/../shared/scenes}
+seconds=${2:-10}
+bin=$root/build
+out=$root/bench/results
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+mkdir -p "$out"
+
+machine() {
+  cpu=$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //')
+  echo "Machine: $cpu, $(nproc) cores, $(free -g | awk '/Mem:/ {print $2}') GiB; $(date -u +%Y-%m-%d)."
+}
+
+# json FIELD FILE: a number from bbc-precompute's --json output.
+json() { sed -n "s/.*\"$1\": \([-0-9.e+]*\).*/\1/p" "$2"; }
+
+{
+  echo "# Precompute"
+  echo
+  machine
+  echo "Command: \`bbc-precompute SCENE -o OUT.bbc --json S.json\` (defaults: level 10,"
+  echo "sigma 1e-4, alpha 2, 512x512 grids, remainder variables on), $(nproc) threads."
+  echo
+  echo "| scene | chain | tuples | pos. pieces/tuple | irr. pieces/tuple | time s | bounding s | recording s | peak MB | file MB | list compression |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|"
+  for s in plane1k plane7k plane28k pool4k pool20k; do
+    [ -f "$scenes/$s.gltf" ] || continue
+    "$bin/bbc-precompute/bbc-precompute" "$scenes/$s.gltf" -o "$work/$s.bbc" --json "$work/$s.json" \
+      --no-progress
+    ratio=$("$bin/bbc-inspect/bbc-inspect" info "$work/$s.bbc" | sed -n 's/.*ratio[^0-9]*\([0-9.]*\).*/\1/p' | head -1)
+    chain=R; case $s in pool*) chain=T ;; esac
+    printf '| %s | %s | %s | %.1f | %.1f | %.2f | %.2f | %.2f | %.0f | %.1f | %s |\n' "$s" "$chain" \
+      "$(json tuples "$work/$s.json")" "$(json position_pieces_per_tuple "$work/$s.json")" \
+      "$(json irradiance_pieces_per_tuple "$work/$s.json")" "$(json seconds "$work/$s.json")" \
+      "$(json bounding_seconds "$work/$s.json")" "$(json recording_seconds "$work/$s.json")" \
+      "$(json peak_memory_mb "$work/$s.json")" \
+      "$(echo "$(json file_bytes "$work/$s.json")" | awk '{printf "%.1f", $1 / 1e6}')" "${ratio:-?}"
+  done
+} > "$out/precompute.md"
+
+{
+  echo "# Equal-time renders of the caustic"
+  echo
+  machine
+  echo "Each method renders only the caustic estimator (\`--only caustics --max-depth 3\`)"
+  echo "for ${seconds} s at 240 pixels wide; the reference is \`--method enumerate\` at 128 spp."
+  echo "relMSE: mean over pixels of the mean over RGB of (I-R)^2/(R^2+0.01)."
+  echo
+  echo "| scene | method | seconds | spp | relMSE |"
+  echo "|---|---|---|---|---|"
+  for s in plane1k plane7k pool4k; do
+    [ -f "$work/$s.bbc" ] || continue
+    common="$scenes/$s.gltf --cache $work/$s.bbc --only caustics --max-depth 3 --width 240 --no-progress"
+    # shellcheck disable=SC2086
+    "$bin/bbc-render/bbc-render" $common --method enumerate --spp 128 --seed 1 -o "$work/$s-ref.exr"
+    for m in bbc uniform enumerate; do
+      # shellcheck disable=SC2086
+      "$bin/bbc-render/bbc-render" $common --method $m --time "$seconds" --seed 2 \
+        -o "$work/$s-$m.exr" --reference "$work/$s-ref.exr" --stats > "$work/out" 2> "$work/err"
+      spp=$(sed -n 's/.*, \([0-9]*\) spp.*/\1/p' "$work/err" | head -1)
+      t=$(sed -n 's/^time *\([0-9.]*\) s.*/\1/p' "$work/err" | head -1)
+      printf '| %s | %s | %s | %s | %s |\n' "$s" "$m" "$t" "$spp" "$(sed -n 's/relMSE //p' "$work/out")"
+    done
+  done
+} > "$out/render.md"
+cat "$out/precompute.md" "$out/render.md"
