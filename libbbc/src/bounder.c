@@ -93,10 +93,12 @@ static double cpu_seconds(void) {
  * lie in [0, 1]; *wide is set when the range reaches beyond the tolerance band. */
 static int clip_unit(const bbc_range *r, double *lo, double *hi, int *wide) {
   const double tol = POSITION_TOLERANCE;
+  /* Only a bounded range (a denominator of one sign) asks for subdivision by its width,
+   * as the supplement's pbad_u2 does; near a sign change of the denominator the bound is
+   * a complement or unbounded at every level, and splitting cannot cure that. */
   if (r->kind == BBC_RANGE_UNBOUNDED) {
     *lo = 0;
     *hi = 1;
-    *wide = 1;
     return 1;
   }
   if (r->kind == BBC_RANGE_BOUNDED) {
@@ -109,7 +111,6 @@ static int clip_unit(const bbc_range *r, double *lo, double *hi, int *wide) {
   /* COMPLEMENT: f <= r->lo or f >= r->hi; keep the bounding box of what is left of
    * [0, 1]. */
   int low_part = r->lo >= 0, high_part = r->hi <= 1;
-  *wide = 1;
   if (!low_part && !high_part) return 0;
   *lo = low_part ? 0.0 : fmax(r->hi, 0.0);
   *hi = high_part ? 1.0 : fmin(r->lo, 1.0);
