@@ -53,16 +53,16 @@ json() { sed -n "s/.*\"$1\": \([-0-9.e+]*\).*/\1/p" "$2"; }
   echo
   machine
   echo "Each method renders only the caustic estimator (\`--only caustics --max-depth 3\`)"
-  echo "for ${seconds} s at 240 pixels wide; the reference is \`--method enumerate\` at 128 spp."
+  echo "for ${seconds} s at 160 pixels wide; the reference is \`--method enumerate\` at 64 spp."
   echo "relMSE: mean over pixels of the mean over RGB of (I-R)^2/(R^2+0.01)."
   echo
   echo "| scene | method | seconds | spp | relMSE |"
   echo "|---|---|---|---|---|"
   for s in plane1k plane7k pool4k; do
     [ -f "$work/$s.bbc" ] || continue
-    common="$scenes/$s.gltf --cache $work/$s.bbc --only caustics --max-depth 3 --width 240 --no-progress"
+    common="$scenes/$s.gltf --cache $work/$s.bbc --only caustics --max-depth 3 --width 160 --no-progress"
     # shellcheck disable=SC2086
-    "$bin/bbc-render/bbc-render" $common --method enumerate --spp 128 --seed 1 -o "$work/$s-ref.exr"
+    "$bin/bbc-render/bbc-render" $common --method enumerate --spp 64 --seed 1 -o "$work/$s-ref.exr"
     for m in bbc uniform enumerate; do
       # shellcheck disable=SC2086
       "$bin/bbc-render/bbc-render" $common --method $m --time "$seconds" --seed 2 \
