@@ -123,8 +123,9 @@ typedef enum verdict { VERDICT_DISCARD, VERDICT_PARTIAL, VERDICT_FULL } verdict;
  * condition proved false everywhere discards the piece; one that may fail somewhere
  * makes it partial (subdivided while the level allows). */
 static bbc_result position_check(bbc_arena *arena, const chain_forms *f, const double box[4],
-                                 bbc_piece *piece, verdict *out) {
+                                 bbc_piece *piece, verdict *out, int *contained) {
   *out = VERDICT_DISCARD;
+  if (contained) *contained = 0;
   /* The box must meet T1: u + v <= 1 somewhere. A box straddling T1's hypotenuse is
    * not subdivided for that alone (every level would have such boxes along it); its
    * bounds simply cover the part outside T1 too, which only loosens them (the
@@ -161,6 +162,10 @@ static bbc_result position_check(bbc_arena *arena, const chain_forms *f, const d
   /* u_k + v_k <= 1 inside the receiver. */
   if (!clip_unit(&rw, &w_lo, &w_hi, &wide)) return BBC_OK;
   if (piece->uk_lo + piece->vk_lo > 1.0) return BBC_OK;
+  /* Every path of the piece lands inside the receiver: nothing to trim off. */
+  if (contained)
+    *contained = ru.kind == BBC_RANGE_BOUNDED && rv.kind == BBC_RANGE_BOUNDED &&
+                 rw.kind == BBC_RANGE_BOUNDED && ru.lo >= 0 && rv.lo >= 0 && rw.hi <= 1;
   *out = partial || wide ? VERDICT_PARTIAL : VERDICT_FULL;
   return BBC_OK;
 }
@@ -296,6 +301,81 @@ static bbc_result push(bbc_bounder *b, size_t *count, const bbc_piece *piece) {
   return BBC_OK;
 }
 
+/* Domain initialisation (paper Sec. 6.1): a breadth-first pass of position checks alone,
+ * down to DOMAIN_INIT_LEVELS (at most 4 + 16 + 64 pieces), finds where u1 can send light
+ * into the receiver; the subdivision then starts from the bounding box of those pieces.
+ * Only a piece whose position bound reaches past the receiver's edges is split here: a
+ * piece whose light all lands inside cannot be trimmed. Pieces proved empty are
+ * reported as discarded leaves (with the later leaves they cover all of T1). *root is
+ * the box, or marked discarded when nothing survives. */
+#define DOMAIN_INIT_LEVELS 3
+
+static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain_sqrt_mode mode,
+                              bbc_piece_fn fn, void *user, bbc_piece *root,
+                              bbc_bound_stats *local) {
+  memset(root, 0, sizeof *root);
+  root->status = BBC_PIECE_DISCARDED;
+  double lo_u = 1, lo_v = 1, hi_u = 0, hi_v = 0;
+  double t0 = cpu_seconds();
+  bbc_piece stack[4 * DOMAIN_INIT_LEVELS + 1];
+  int top = 0;
+  memset(&stack[0], 0, sizeof stack[0]);
+  stack[0].u_hi = stack[0].v_hi = 1;
+  top = 1;
+  bbc_result result = BBC_OK;
+  while (top > 0 && result == BBC_OK) {
+    bbc_piece piece = stack[--top];
+    const double box[4] = {piece.u_lo, piece.u_hi, piece.v_lo, piece.v_hi};
+    bbc_arena_reset(&b->arena, 0);
+    bbc_space space;
+    memset(&space, 0, sizeof space);
+    int s_axis, t_axis;
+    bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &s_axis);
+    bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &t_axis);
+    chain_forms forms;
+    verdict v = VERDICT_PARTIAL;
+    int contained = 0;
+    result = bbc__chain_forms(&b->arena, &space, g, box, s_axis, t_axis, mode, &forms);
+    if (result == BBC_OK) result = position_check(&b->arena, &forms, box, &piece, &v, &contained);
+    local->position_pieces++;
+    if (result != BBC_OK) break;
+    if (v == VERDICT_DISCARD) {
+      piece.status = BBC_PIECE_DISCARDED;
+      local->discarded_pieces++;
+      if (fn && fn(user, &piece)) result = BBC_ERR_CANCELLED;
+      continue;
+    }
+    if (!contained && piece.level < DOMAIN_INIT_LEVELS) {
+      /* Depth first, so the stack holds at most 3 siblings per level plus one. */
+      double um = 0.5 * (piece.u_lo + piece.u_hi), vm = 0.5 * (piece.v_lo + piece.v_hi);
+      const double us[3] = {piece.u_lo, um, piece.u_hi}, vs[3] = {piece.v_lo, vm, piece.v_hi};
+      for (int q = 0; q < 4; q++) {
+        bbc_piece child;
+        memset(&child, 0, sizeof child);
+        child.level = piece.level + 1;
+        child.u_lo = us[q & 1], child.u_hi = us[(q & 1) + 1];
+        child.v_lo = vs[q >> 1], child.v_hi = vs[(q >> 1) + 1];
+        if (child.u_lo + child.v_lo >= 1.0) continue; /* outside T1 but for a corner */
+        stack[top++] = child;
+      }
+      continue;
+    }
+    lo_u = fmin(lo_u, piece.u_lo);
+    lo_v = fmin(lo_v, piece.v_lo);
+    hi_u = fmax(hi_u, piece.u_hi);
+    hi_v = fmax(hi_v, piece.v_hi);
+  }
+  local->position_seconds += cpu_seconds() - t0;
+  if (result != BBC_OK || hi_u <= lo_u) return result;
+  root->status = BBC_PIECE_KEPT;
+  root->u_lo = lo_u, root->u_hi = hi_u, root->v_lo = lo_v, root->v_hi = hi_v;
+  /* Levels count halvings of T1's unit box: the box's longer side is 2^-level. */
+  double span = fmax(hi_u - lo_u, hi_v - lo_v);
+  while (root->level < DOMAIN_INIT_LEVELS && span <= ldexp(1.0, -(root->level + 1)))
+    root->level++;
+  return BBC_OK;
+}
+
 bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
                            const bbc_bound_params *params, bbc_piece_fn fn, void *user,
                            bbc_bound_stats *stats) {
@@ -313,12 +393,13 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
   memset(&local, 0, sizeof local);
   local.tuples = 1;
 
+  bbc_piece root;
+  bbc_result result = domain_init(b, g, position_mode, fn, user, &root, &local);
+  if (result != BBC_OK || root.status == BBC_PIECE_DISCARDED) goto done;
+
   /* Breadth-first: a FIFO over the queue array, compacted when it drains. */
   size_t head = 0, count = 0;
-  bbc_piece root;
-  memset(&root, 0, sizeof root);
-  root.u_hi = root.v_hi = 1.0;
-  bbc_result result = push(b, &count, &root);
+  result = push(b, &count, &root);
   while (result == BBC_OK && head < count) {
     bbc_piece piece = b->queue[head++];
     if (head == count) head = count = 0;
@@ -334,7 +415,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     chain_forms forms;
     verdict v = VERDICT_PARTIAL;
     result = bbc__chain_forms(&b->arena, &space, g, box, s_axis, t_axis, position_mode, &forms);
-    if (result == BBC_OK) result = position_check(&b->arena, &forms, box, &piece, &v);
+    if (result == BBC_OK) result = position_check(&b->arena, &forms, box, &piece, &v, NULL);
     local.position_pieces++;
     double t1 = cpu_seconds();
     local.position_seconds += t1 - t0;
@@ -394,6 +475,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     local.kept_pieces++;
     if (fn && fn(user, &piece)) result = BBC_ERR_CANCELLED;
   }
+done:
   if (stats) {
     stats->tuples += local.tuples;
     stats->position_pieces += local.position_pieces;
