@@ -301,6 +301,29 @@ static bbc_result push(bbc_bounder *b, size_t *count, const bbc_piece *piece) {
   return BBC_OK;
 }
 
+/* The forms of a piece in a fresh arena and variable space, and its position check. */
+typedef struct piece_forms {
+  double box[4];
+  bbc_space space;
+  int s_axis, t_axis;
+  chain_forms forms;
+} piece_forms;
+
+static bbc_result examine_position(bbc_bounder *b, const bbc_tuple_geometry *g,
+                                   chain_sqrt_mode mode, bbc_piece *piece, piece_forms *pf,
+                                   verdict *v, int *contained) {
+  pf->box[0] = piece->u_lo, pf->box[1] = piece->u_hi;
+  pf->box[2] = piece->v_lo, pf->box[3] = piece->v_hi;
+  bbc_arena_reset(&b->arena, 0);
+  memset(&pf->space, 0, sizeof pf->space);
+  bbc_space_add_axis(&pf->space, BBC_AXIS_GEOMETRIC, &pf->s_axis);
+  bbc_space_add_axis(&pf->space, BBC_AXIS_GEOMETRIC, &pf->t_axis);
+  bbc_result r = bbc__chain_forms(&b->arena, &pf->space, g, pf->box, pf->s_axis, pf->t_axis,
+                                  mode, &pf->forms);
+  if (r == BBC_OK) r = position_check(&b->arena, &pf->forms, pf->box, piece, v, contained);
+  return r;
+}
+
 /* Domain initialisation (paper Sec. 6.1): a breadth-first pass of position checks alone,
  * down to DOMAIN_INIT_LEVELS (at most 4 + 16 + 64 pieces), finds where u1 can send light
  * into the receiver; the subdivision then starts from the bounding box of those pieces.
@@ -325,18 +348,10 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
   bbc_result result = BBC_OK;
   while (top > 0 && result == BBC_OK) {
     bbc_piece piece = stack[--top];
-    const double box[4] = {piece.u_lo, piece.u_hi, piece.v_lo, piece.v_hi};
-    bbc_arena_reset(&b->arena, 0);
-    bbc_space space;
-    memset(&space, 0, sizeof space);
-    int s_axis, t_axis;
-    bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &s_axis);
-    bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &t_axis);
-    chain_forms forms;
+    piece_forms pf;
     verdict v = VERDICT_PARTIAL;
     int contained = 0;
-    result = bbc__chain_forms(&b->arena, &space, g, box, s_axis, t_axis, mode, &forms);
-    if (result == BBC_OK) result = position_check(&b->arena, &forms, box, &piece, &v, &contained);
+    result = examine_position(b, g, mode, &piece, &pf, &v, &contained);
     local->position_pieces++;
     if (result != BBC_OK) break;
     if (v == VERDICT_DISCARD) {
@@ -403,19 +418,14 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
   while (result == BBC_OK && head < count) {
     bbc_piece piece = b->queue[head++];
     if (head == count) head = count = 0;
-    const double box[4] = {piece.u_lo, piece.u_hi, piece.v_lo, piece.v_hi};
-
     double t0 = cpu_seconds();
-    bbc_arena_reset(&b->arena, 0);
-    bbc_space space;
-    memset(&space, 0, sizeof space);
-    int s_axis, t_axis;
-    bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &s_axis);
-    bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &t_axis);
-    chain_forms forms;
+    piece_forms pf;
     verdict v = VERDICT_PARTIAL;
-    result = bbc__chain_forms(&b->arena, &space, g, box, s_axis, t_axis, position_mode, &forms);
-    if (result == BBC_OK) result = position_check(&b->arena, &forms, box, &piece, &v, NULL);
+    result = examine_position(b, g, position_mode, &piece, &pf, &v, NULL);
+    const double *box = pf.box;
+    const int s_axis = pf.s_axis, t_axis = pf.t_axis;
+    bbc_space space = pf.space;
+    const chain_forms forms = pf.forms;
     local.position_pieces++;
     double t1 = cpu_seconds();
     local.position_seconds += t1 - t0;
