@@ -190,6 +190,10 @@ int main(int argc, char **argv) {
     bbc_scene_free(scene);
     return 1;
   }
+  if (st.candidate_tuples == 0)
+    fprintf(stderr, "bbc-precompute: warning: %s has %s; the cache holds no tuples\n", scene_path,
+            scene->point_light_count == 0 ? "no point light (area lights are path traced)"
+                                          : "no specular caster that reaches a receiver");
   double w0 = cli_now();
   bbc_cache_write_options write_options;
   memset(&write_options, 0, sizeof write_options);
