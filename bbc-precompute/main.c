@@ -80,6 +80,18 @@ static int on_write_progress(void *user, uint64_t done, uint64_t total) {
   return interrupted;
 }
 
+/* Writes s as a JSON string literal. */
+static void json_string(FILE *f, const char *s) {
+  fputc('"', f);
+  for (; *s; s++) {
+    unsigned char c = (unsigned char)*s;
+    if (c == '"' || c == '\\') fprintf(f, "\\%c", c);
+    else if (c < 0x20) fprintf(f, "\\u%04x", c);
+    else fputc(c, f);
+  }
+  fputc('"', f);
+}
+
 static uint32_t parse_chains(const cli_args *a, const char *text) {
   uint32_t mask = 0;
   char buffer[256];
@@ -244,15 +256,17 @@ int main(int argc, char **argv) {
   if (json) {
     FILE *f = fopen(json, "w");
     if (!f) cli_fail("%s: cannot write the statistics", json);
+    fputs("{\n  \"scene\": ", f);
+    json_string(f, scene_path);
     fprintf(f,
-            "{\n  \"scene\": \"%s\",\n  \"seconds\": %.6f,\n  \"tuple_seconds\": %.6f,\n"
+            ",\n  \"seconds\": %.6f,\n  \"tuple_seconds\": %.6f,\n"
             "  \"bounding_seconds\": %.6f,\n  \"position_cpu_seconds\": %.6f,\n"
             "  \"irradiance_cpu_seconds\": %.6f,\n  \"recording_seconds\": %.6f,\n"
             "  \"writing_seconds\": %.6f,\n  \"threads\": %d,\n  \"candidate_tuples\": %llu,\n"
             "  \"tuples\": %llu,\n  \"tuples_R\": %llu,\n  \"tuples_T\": %llu,\n"
             "  \"position_pieces_per_tuple\": %.4f,\n  \"irradiance_pieces_per_tuple\": %.4f,\n"
             "  \"entries\": %llu,\n  \"file_bytes\": %lld,\n  \"peak_memory_mb\": %.1f\n}\n",
-            scene_path, total, st.construction_seconds, st.bounding_seconds,
+            total, st.construction_seconds, st.bounding_seconds,
             st.position_cpu_seconds, st.irradiance_cpu_seconds, st.recording_seconds,
             write_seconds, st.threads, (unsigned long long)st.candidate_tuples,
             (unsigned long long)st.tuples,
