@@ -1,7 +1,10 @@
 /* bbc-inspect: shows, validates and draws .bbc caches (format-spec/bbc-format.md).
  * In the manner of OpenEXR's exrinfo: one subcommand per question, data on stdout,
  * diagnostics on stderr, exit 1 for a bad file and 2 for bad usage. */
+#include <errno.h>
 #include <math.h>
+#include <omp.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,7 +13,12 @@
 #include "bbc/common.h"
 #include "bbc/grid.h"
 #include "bbc/image.h"
+#include "bbc/precompute.h"
+#include "bbc/scene.h"
+#include "bbc/solver.h"
+#include "bbc/specular_path.h"
 #include "bbc/tuple.h"
+#include "bbc/validate.h"
 #include "cli.h"
 
 static const char usage[] =
@@ -18,6 +26,10 @@ static const char usage[] =
     "       bbc-inspect validate CACHE.bbc\n"
     "       bbc-inspect dump CACHE.bbc --cell X,Y [--receiver R]\n"
     "       bbc-inspect heatmap CACHE.bbc -o OUT.exr [--receiver R] [--log10]\n"
+    "       bbc-inspect check-bounds SCENE.gltf CACHE.bbc [--samples N] [--json FILE]\n"
+    "                   [--threads N] [--progress|--no-progress]\n"
+    "       bbc-inspect solutions SCENE.gltf CACHE.bbc [--samples N] [--threads N]\n"
+    "       bbc-inspect diff A.bbc B.bbc\n"
     "       bbc-inspect -h|--help | --version\n";
 
 static const char help[] =
@@ -43,12 +55,39 @@ static const char help[] =
     "                       OUT.<R>.exr for each receiver R\n"
     "      --receiver R       only receiver R, written to OUT.exr\n"
     "      --log10            log10 of the sum (empty cells -inf, unbounded cells +inf)\n"
+    "  check-bounds SCENE.gltf CACHE.bbc\n"
+    "                       checks the cache against true paths (the paper's Fig. 17/18):\n"
+    "                       for every candidate one-bounce tuple of the scene (stored or\n"
+    "                       not), traces N sampled paths and checks that each admissible\n"
+    "                       one is listed in its cell with a bound at least its irradiance;\n"
+    "                       prints per chain type (R, T) a summary and a histogram of\n"
+    "                       log10(stored bound / true irradiance); exits 1 if any path\n"
+    "                       breaks a bound (the first one is printed), else 0. The cache\n"
+    "                       must have been computed for SCENE (else exit 1)\n"
+    "      --samples N        paths per tuple (default 100)\n"
+    "      --json FILE        also writes {\"R\": {...}, \"T\": {...}} to FILE\n"
+    "      --threads N        threads (default: all cores); the output does not depend on it\n"
+    "      --progress, --no-progress  force the progress bar on stderr on or off (default:\n"
+    "                       on when stderr is a terminal)\n"
+    "  solutions SCENE.gltf CACHE.bbc\n"
+    "                       counts the solutions per tuple (the paper's Fig. 8): N sampled\n"
+    "                       shading points per receiver triangle, each solved with every\n"
+    "                       one-bounce tuple of its cell that ends on that triangle; prints\n"
+    "                       the histogram of solutions per (point, tuple) (0, 1, 2, 3, 4+)\n"
+    "                       and the share with more than the cache's m\n"
+    "      --samples N        shading points per receiver triangle (default 256)\n"
+    "      --threads N        threads (default: all cores); the output does not depend on it\n"
+    "  diff A.bbc B.bbc     what differs between two caches: parameters, fingerprints,\n"
+    "                       tuples (count, first difference), receivers and grids, and cell\n"
+    "                       lists (count of differing cells, the first with both lists);\n"
+    "                       prints nothing and exits 0 when they agree, 1 when they differ\n"
     "\n"
     "Options:\n"
     "  -h, --help           this text\n"
     "  --version            the versions of bbc-inspect, libbbc and the .bbc format\n"
     "\n"
-    "Exit status: 0 success, 1 a file could not be read or is invalid, 2 bad usage.\n";
+    "Exit status: 0 success, 1 a file could not be read or is invalid (check-bounds: a\n"
+    "bound is broken; diff: the caches differ), 2 bad usage.\n";
 
 static bbc_cache *open_cache(const char *path) {
   bbc_cache_options o = {cli_print_message, NULL};
@@ -283,6 +322,466 @@ static int cmd_heatmap(cli_args *a, const char *path) {
   return 0;
 }
 
+/* ------------------------------------------------------------------ check-bounds */
+
+static bbc_scene *load_scene(const char *path) {
+  bbc_scene_options o = {cli_print_message, cli_print_warning, NULL};
+  bbc_scene *s = NULL;
+  if (bbc_scene_load(&s, path, &o) != BBC_OK) exit(1); /* the callback printed the line */
+  return s;
+}
+
+/* Opens the cache and refuses one of another scene (one line from the callback). */
+static bbc_cache *open_cache_for(const char *path, const bbc_scene *scene) {
+  bbc_cache *c = open_cache(path);
+  if (bbc_cache_check_scene(c, scene) != BBC_OK) exit(1);
+  return c;
+}
+
+static void set_threads(const cli_args *a, const char *text) {
+  if (text) omp_set_num_threads((int)cli_parse_int(a, "--threads", text, 1, 4096));
+}
+
+/* Tuples per block of check-bounds. Each block has its own accumulators, merged in block
+ * order: the blocks do not depend on the thread count, so neither do the sums of
+ * floating-point ratios (per-thread accumulators would make them depend on it). */
+#define CHECK_BLOCK 16
+
+static void print_failure(const char *label, const bbc_validation_failure *f, FILE *out) {
+  static const char *const kinds[] = {"position", "upper", "lower", "discarded", "uncovered"};
+  fprintf(out,
+          "%s: first failure: tuple (light %u, T1 %u, receiver %u), sample %u, u1 (%.9g, %.9g), "
+          "uk (%.9g, %.9g), irradiance %.9g, kinds",
+          label, f->tuple.light, f->tuple.specular[0], f->tuple.receiver, f->sample, f->u1[0],
+          f->u1[1], f->uk[0], f->uk[1], f->irradiance);
+  int n = 0;
+  for (int k = 0; k < 5; k++)
+    if (f->kinds & (1u << k)) fprintf(out, "%s%s", n++ ? "," : " ", kinds[k]);
+  fprintf(out, "\n");
+}
+
+static void write_validation_json(const char *path, const bbc_validation *acc) {
+  char tmp[4096];
+  snprintf(tmp, sizeof tmp, "%s.tmp", path);
+  FILE *f = fopen(tmp, "w");
+  if (!f) cli_fail("%s: cannot write: %s", path, strerror(errno));
+  int bad = fputs("{\"R\": ", f) < 0;
+  bad |= bbc_validation_write_json(&acc[0], f) != BBC_OK;
+  bad |= fputs(", \"T\": ", f) < 0;
+  bad |= bbc_validation_write_json(&acc[1], f) != BBC_OK;
+  bad |= fputs("}\n", f) < 0;
+  bad |= ferror(f) != 0;
+  bad |= fclose(f) != 0;
+  if (bad || rename(tmp, path) != 0) {
+    int e = errno;
+    remove(tmp);
+    cli_fail("%s: cannot write: %s", path, strerror(e));
+  }
+}
+
+static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cache_path) {
+  const char *samples_text = NULL, *json = NULL, *threads_text = NULL;
+  int progress = -1;
+  while (a->i < a->argc) {
+    const char *v;
+    if (cli_option(a, "--samples", &v))
+      samples_text = v;
+    else if (cli_option(a, "--json", &v))
+      json = v;
+    else if (cli_option(a, "--threads", &v))
+      threads_text = v;
+    else if (cli_flag(a, "--progress"))
+      progress = 1;
+    else if (cli_flag(a, "--no-progress"))
+      progress = 0;
+    else
+      cli_usage_error(usage, "unknown option '%s'", a->argv[a->i]);
+  }
+  uint32_t samples =
+      samples_text ? (uint32_t)cli_parse_int(a, "--samples", samples_text, 1, UINT32_MAX) : 100;
+  set_threads(a, threads_text);
+
+  bbc_scene *scene = load_scene(scene_path);
+  bbc_cache *c = open_cache_for(cache_path, scene);
+  bbc_cache_info in;
+  bbc_cache_get_info(c, &in);
+  bbc_tuple *cand = NULL;
+  size_t count = 0;
+  if (bbc_tuples_find(scene, in.params.chains, &cand, &count) != BBC_OK)
+    cli_fail("%s: cannot list the candidate tuples (out of memory)", scene_path);
+  /* Stored tuples keep the candidates' order, so one pass pairs them up. */
+  const bbc_tuple *stored = bbc_cache_tuples(c);
+  int64_t *ids = malloc((count ? count : 1) * sizeof *ids);
+  if (!ids) cli_fail("out of memory");
+  uint32_t next = 0;
+  for (size_t i = 0; i < count; i++) {
+    ids[i] = -1;
+    if (next < in.tuple_count && memcmp(&stored[next], &cand[i], sizeof *stored) == 0)
+      ids[i] = next++;
+  }
+  if (next != in.tuple_count)
+    cli_fail("%s: its tuples are not the candidates of %s (%u of %u matched)", cache_path,
+             scene_path, next, in.tuple_count);
+
+  size_t blocks = (count + CHECK_BLOCK - 1) / CHECK_BLOCK;
+  bbc_validation *acc = calloc(2 * (blocks ? blocks : 1), sizeof *acc);
+  if (!acc) cli_fail("out of memory");
+  cli_progress bar;
+  cli_progress_begin(&bar, "checking", progress);
+  size_t done = 0;
+  bbc_result error = BBC_OK;
+#pragma omp parallel
+  {
+    bbc_cache_cursor *cur = NULL;
+    bbc_result r = bbc_cache_cursor_create(&cur, c);
+#pragma omp for schedule(dynamic, 1)
+    for (size_t b = 0; b < blocks; b++) {
+      for (size_t i = b * CHECK_BLOCK; i < count && i < (b + 1) * CHECK_BLOCK && r == BBC_OK; i++) {
+        uint32_t chain = cand[i].chain;
+        if (chain != BBC_CHAIN_R && chain != BBC_CHAIN_T) continue;
+        r = bbc_validate_cached_tuple(c, cur, scene, &cand[i], ids[i], samples, 1,
+                                      &acc[2 * b + chain]);
+      }
+#pragma omp atomic
+      done++;
+      if (omp_get_thread_num() == 0) {
+        size_t d;
+#pragma omp atomic read
+        d = done;
+        char detail[64];
+        snprintf(detail, sizeof detail, "%zu/%zu tuples",
+                 d * CHECK_BLOCK < count ? d * CHECK_BLOCK : count, count);
+        cli_progress_update(&bar, (double)d / (double)blocks, detail);
+      }
+    }
+    if (r != BBC_OK) {
+#pragma omp critical
+      if (error == BBC_OK) error = r;
+    }
+    bbc_cache_cursor_free(cur);
+  }
+  cli_progress_end(&bar);
+  if (error != BBC_OK) cli_fail("%s: %s", cache_path, bbc_result_string(error));
+
+  bbc_validation total[2];
+  bbc_validation_reset(&total[0]);
+  bbc_validation_reset(&total[1]);
+  for (size_t b = 0; b < blocks; b++)
+    for (int k = 0; k < 2; k++) bbc_validation_merge(&total[k], &acc[2 * b + k]);
+  static const char *const labels[2] = {"R", "T"};
+  uint64_t failures = 0;
+  for (int k = 0; k < 2; k++) {
+    if (bbc_validation_print_summary(&total[k], labels[k], stdout) != BBC_OK ||
+        bbc_validation_print_histogram(&total[k], stdout) != BBC_OK)
+      cli_fail("cannot write to stdout");
+    failures += bbc_validation_failures(&total[k]);
+  }
+  for (int k = 0; k < 2; k++)
+    if (bbc_validation_failures(&total[k])) {
+      print_failure(labels[k], &total[k].first_failure, stdout);
+      break;
+    }
+  if (json) write_validation_json(json, total);
+  if (failures)
+    fprintf(stderr, "bbc-inspect: %s: %llu sampled paths break the bounds\n", cache_path,
+            (unsigned long long)failures);
+  free(acc);
+  free(ids);
+  free(cand);
+  bbc_cache_close(c);
+  bbc_scene_free(scene);
+  return failures ? 1 : 0;
+}
+
+/* ------------------------------------------------------------------ solutions */
+
+static uint64_t mix64(uint64_t z) {
+  z += 0x9E3779B97F4A7C15ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+/* Sample i of triangle t: barycentrics uniform in the triangle, a pure function of (t, i). */
+static void sample_point(uint32_t t, uint32_t i, double b[2]) {
+  uint64_t h = mix64(((uint64_t)t << 32) | i);
+  double r1 = (double)(h >> 11) * 0x1p-53;
+  double r2 = (double)(mix64(h) >> 11) * 0x1p-53;
+  if (r1 + r2 > 1) r1 = 1 - r1, r2 = 1 - r2;
+  b[0] = r1, b[1] = r2;
+}
+
+#define SOLUTION_BINS 5 /* 0, 1, 2, 3, 4+ */
+
+static int cmd_solutions(cli_args *a, const char *scene_path, const char *cache_path) {
+  const char *samples_text = NULL, *threads_text = NULL;
+  while (a->i < a->argc) {
+    const char *v;
+    if (cli_option(a, "--samples", &v))
+      samples_text = v;
+    else if (cli_option(a, "--threads", &v))
+      threads_text = v;
+    else
+      cli_usage_error(usage, "unknown option '%s'", a->argv[a->i]);
+  }
+  uint32_t samples =
+      samples_text ? (uint32_t)cli_parse_int(a, "--samples", samples_text, 1, UINT32_MAX) : 256;
+  set_threads(a, threads_text);
+
+  bbc_scene *scene = load_scene(scene_path);
+  bbc_cache *c = open_cache_for(cache_path, scene);
+  bbc_cache_info in;
+  bbc_cache_get_info(c, &in);
+  const bbc_grid *g = bbc_cache_grid(c);
+  const bbc_tuple *tuples = bbc_cache_tuples(c);
+  /* Receiver triangles in grid order; each is one unit of work. */
+  uint64_t triangles = g->uv_triangle_count;
+  uint32_t *tri = malloc((triangles ? triangles : 1) * sizeof *tri);
+  if (!tri) cli_fail("out of memory");
+  uint64_t n_tri = 0;
+  for (uint32_t r = 0; r < g->receiver_count; r++)
+    for (uint32_t k = 0; k < g->receivers[r].triangle_count; k++)
+      tri[n_tri++] = g->receivers[r].first_triangle + k;
+
+  uint64_t hist[SOLUTION_BINS] = {0}, above_m = 0, points = 0, solutions = 0;
+  uint64_t h0 = 0, h1 = 0, h2 = 0, h3 = 0, h4 = 0;
+  bbc_result error = BBC_OK;
+#pragma omp parallel reduction(+ : h0, h1, h2, h3, h4, above_m, points, solutions)
+  {
+    bbc_cache_cursor *cur = NULL;
+    bbc_result r = bbc_cache_cursor_create(&cur, c);
+    bbc_solution sol[BBC_SOLVER_MAX_SOLUTIONS];
+#pragma omp for schedule(dynamic, 4)
+    for (uint64_t j = 0; j < n_tri; j++) {
+      uint32_t t = tri[j];
+      for (uint32_t i = 0; i < samples && r == BBC_OK; i++) {
+        double b[2];
+        sample_point(t, i, b);
+        const bbc_cache_entry *e;
+        uint32_t n;
+        if ((r = bbc_cache_lookup(cur, t, b[0], b[1], &e, &n)) != BBC_OK) break;
+        points++;
+        for (uint32_t k = 0; k < n && r == BBC_OK; k++) {
+          const bbc_tuple *u = &tuples[e[k].tuple];
+          if (u->receiver != t || (u->chain != BBC_CHAIN_R && u->chain != BBC_CHAIN_T)) continue;
+          bbc_path_geometry pg;
+          if ((r = bbc_path_geometry_init(&pg, scene, u)) != BBC_OK) break;
+          const bbc_vec3 *p = pg.receiver;
+          double w0 = 1 - b[0] - b[1];
+          bbc_vec3 xk = {w0 * p[0].x + b[0] * p[1].x + b[1] * p[2].x,
+                         w0 * p[0].y + b[0] * p[1].y + b[1] * p[2].y,
+                         w0 * p[0].z + b[0] * p[1].z + b[1] * p[2].z};
+          size_t m = 0;
+          if ((r = bbc_solver_single(&pg, xk, NULL, sol, BBC_SOLVER_MAX_SOLUTIONS, &m)) != BBC_OK)
+            break;
+          solutions += m;
+          if (m == 0)
+            h0++;
+          else if (m == 1)
+            h1++;
+          else if (m == 2)
+            h2++;
+          else if (m == 3)
+            h3++;
+          else
+            h4++;
+          if ((double)m > in.params.m) above_m++;
+        }
+      }
+    }
+    if (r != BBC_OK) {
+#pragma omp critical
+      if (error == BBC_OK) error = r;
+    }
+    bbc_cache_cursor_free(cur);
+  }
+  if (error != BBC_OK) cli_fail("%s: %s", cache_path, bbc_result_string(error));
+  hist[0] = h0, hist[1] = h1, hist[2] = h2, hist[3] = h3, hist[4] = h4;
+  uint64_t pairs = h0 + h1 + h2 + h3 + h4;
+  printf(
+      "# %llu shading points on %llu receiver triangles (%u per triangle), %llu (point, "
+      "tuple) pairs, %llu solutions\n",
+      (unsigned long long)points, (unsigned long long)n_tri, samples, (unsigned long long)pairs,
+      (unsigned long long)solutions);
+  printf("# solutions  pairs  share\n");
+  static const char *const names[SOLUTION_BINS] = {"0", "1", "2", "3", "4+"};
+  for (int k = 0; k < SOLUTION_BINS; k++)
+    printf("%-3s %12llu  %8.4f%%\n", names[k], (unsigned long long)hist[k],
+           pairs ? 100.0 * (double)hist[k] / (double)pairs : 0.0);
+  printf("more than m = %g: %llu of %llu pairs (%.4f%%)\n", in.params.m,
+         (unsigned long long)above_m, (unsigned long long)pairs,
+         pairs ? 100.0 * (double)above_m / (double)pairs : 0.0);
+  free(tri);
+  bbc_cache_close(c);
+  bbc_scene_free(scene);
+  return 0;
+}
+
+/* ------------------------------------------------------------------ diff */
+
+static int differences;
+static const char *diff_paths[2];
+
+static void differ(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+static void differ(const char *fmt, ...) {
+  if (differences == 0) printf("--- %s\n+++ %s\n", diff_paths[0], diff_paths[1]);
+  va_list ap;
+  va_start(ap, fmt);
+  vprintf(fmt, ap);
+  va_end(ap);
+  putchar('\n');
+  differences++;
+}
+
+#define DIFF_U(name, a, b) \
+  if ((a) != (b)) differ("%s: %llu | %llu", name, (unsigned long long)(a), (unsigned long long)(b))
+#define DIFF_D(name, a, b) \
+  if (memcmp(&(a), &(b), sizeof(double)) != 0) differ("%s: %.17g | %.17g", name, (a), (b))
+#define DIFF_H(name, a, b) \
+  if ((a) != (b))          \
+  differ("%s: %016llx | %016llx", name, (unsigned long long)(a), (unsigned long long)(b))
+
+static void print_tuple(char *buf, size_t size, const bbc_tuple *u) {
+  char t2[16];
+  if (u->specular[1] == BBC_NO_TRIANGLE)
+    snprintf(t2, sizeof t2, "-");
+  else
+    snprintf(t2, sizeof t2, "%u", u->specular[1]);
+  snprintf(buf, size, "%s light %u T1 %u T2 %s receiver %u",
+           u->chain < BBC_CHAIN_COUNT ? bbc_chain_name((bbc_chain)u->chain) : "?", u->light,
+           u->specular[0], t2, u->receiver);
+}
+
+static void print_list(const char *label, const bbc_cache_entry *e, uint32_t n) {
+  printf("  %s: %u entries:", label, n);
+  for (uint32_t i = 0; i < n; i++) printf(" %u:%.9g", e[i].tuple, (double)e[i].bound);
+  putchar('\n');
+}
+
+static int cmd_diff(const char *path_a, const char *path_b) {
+  bbc_cache *ca = open_cache(path_a), *cb = open_cache(path_b);
+  bbc_cache_info a, b;
+  bbc_cache_get_info(ca, &a);
+  bbc_cache_get_info(cb, &b);
+  diff_paths[0] = path_a, diff_paths[1] = path_b; /* the header of the first difference */
+  DIFF_U("format version major", a.version_major, b.version_major);
+  DIFF_U("format version minor", a.version_minor, b.version_minor);
+  char ta[64], tb[64];
+  if (a.params.chains != b.params.chains)
+    differ("params.chains: %s | %s", chains_text(a.params.chains, ta, sizeof ta),
+           chains_text(b.params.chains, tb, sizeof tb));
+  DIFF_U("params.max_level", a.params.max_level, b.params.max_level);
+  DIFF_D("params.sigma", a.params.sigma, b.params.sigma);
+  DIFF_D("params.alpha_single", a.params.alpha_single, b.params.alpha_single);
+  DIFF_D("params.alpha_double", a.params.alpha_double, b.params.alpha_double);
+  DIFF_D("params.m", a.params.m, b.params.m);
+  DIFF_U("params.grid_resolution", a.params.grid_resolution, b.params.grid_resolution);
+  DIFF_U("params.remainder", a.params.remainder, b.params.remainder);
+  DIFF_H("fingerprint.total", a.fingerprint.total, b.fingerprint.total);
+  DIFF_H("fingerprint.geometry", a.fingerprint.geometry, b.fingerprint.geometry);
+  DIFF_H("fingerprint.materials", a.fingerprint.materials, b.fingerprint.materials);
+  DIFF_H("fingerprint.meshes", a.fingerprint.meshes, b.fingerprint.meshes);
+  DIFF_H("fingerprint.lights", a.fingerprint.lights, b.fingerprint.lights);
+  DIFF_H("fingerprint.params", a.fingerprint.params, b.fingerprint.params);
+  DIFF_U("scene vertices", a.scene_vertex_count, b.scene_vertex_count);
+  DIFF_U("scene triangles", a.scene_triangle_count, b.scene_triangle_count);
+  DIFF_U("scene meshes", a.scene_mesh_count, b.scene_mesh_count);
+  DIFF_U("scene materials", a.scene_material_count, b.scene_material_count);
+  DIFF_U("scene point lights", a.scene_light_count, b.scene_light_count);
+
+  /* Tuples: the count and the first tuple that differs. */
+  DIFF_U("tuples", a.tuple_count, b.tuple_count);
+  const bbc_tuple *tua = bbc_cache_tuples(ca), *tub = bbc_cache_tuples(cb);
+  uint32_t common = a.tuple_count < b.tuple_count ? a.tuple_count : b.tuple_count;
+  for (uint32_t i = 0; i < common; i++)
+    if (memcmp(&tua[i], &tub[i], sizeof *tua) != 0) {
+      char sa[128], sb[128];
+      print_tuple(sa, sizeof sa, &tua[i]);
+      print_tuple(sb, sizeof sb, &tub[i]);
+      differ("first differing tuple %u: %s | %s", i, sa, sb);
+      break;
+    }
+
+  /* Receivers and their grids. */
+  const bbc_grid *ga = bbc_cache_grid(ca), *gb = bbc_cache_grid(cb);
+  DIFF_U("receivers", ga->receiver_count, gb->receiver_count);
+  int grids_equal = ga->receiver_count == gb->receiver_count && ga->cell_count == gb->cell_count &&
+                    ga->uv_triangle_count == gb->uv_triangle_count;
+  uint32_t rc = ga->receiver_count < gb->receiver_count ? ga->receiver_count : gb->receiver_count;
+  for (uint32_t r = 0; r < rc; r++) {
+    const bbc_receiver *x = &ga->receivers[r], *y = &gb->receivers[r];
+    char name[64];
+    int before = differences;
+#define RFIELD(f)                                    \
+  snprintf(name, sizeof name, "receiver %u " #f, r); \
+  DIFF_U(name, x->f, y->f)
+    RFIELD(mesh);
+    RFIELD(parameterisation);
+    RFIELD(first_triangle);
+    RFIELD(triangle_count);
+    RFIELD(width);
+    RFIELD(height);
+    RFIELD(first_cell);
+#undef RFIELD
+    for (int k = 0; k < 4; k++) {
+      snprintf(name, sizeof name, "receiver %u domain[%d]", r, k);
+      DIFF_D(name, x->domain[k], y->domain[k]);
+    }
+    for (int k = 0; k < 3; k++) {
+      snprintf(name, sizeof name, "receiver %u axis_u[%d]", r, k);
+      DIFF_D(name, x->axis_u[k], y->axis_u[k]);
+      snprintf(name, sizeof name, "receiver %u axis_v[%d]", r, k);
+      DIFF_D(name, x->axis_v[k], y->axis_v[k]);
+    }
+    if (differences == before && x->first_uv == y->first_uv &&
+        memcmp(&ga->triangle_uv[6 * x->first_uv], &gb->triangle_uv[6 * y->first_uv],
+               6 * sizeof(float) * x->triangle_count) != 0)
+      differ("receiver %u: the grid coordinates of its triangles differ", r);
+    if (differences != before) grids_equal = 0;
+  }
+
+  /* Cell lists, compared cell by cell when the grids agree. */
+  if (!grids_equal) {
+    differ("cells: %llu | %llu; the grids differ, so the cell lists are not compared",
+           (unsigned long long)ga->cell_count, (unsigned long long)gb->cell_count);
+  } else {
+    bbc_cache_cursor *ka = NULL, *kb = NULL;
+    if (bbc_cache_cursor_create(&ka, ca) != BBC_OK || bbc_cache_cursor_create(&kb, cb) != BBC_OK)
+      cli_fail("out of memory");
+    uint64_t differing = 0, first = 0;
+    for (uint64_t cell = 0; cell < ga->cell_count; cell++) {
+      const bbc_cache_entry *ea, *eb;
+      uint32_t na, nb;
+      if (bbc_cache_cell(ka, cell, &ea, &na) != BBC_OK) exit(1); /* the callback printed it */
+      if (bbc_cache_cell(kb, cell, &eb, &nb) != BBC_OK) exit(1);
+      int same = na == nb;
+      for (uint32_t i = 0; same && i < na; i++)
+        same = ea[i].tuple == eb[i].tuple && memcmp(&ea[i].bound, &eb[i].bound, sizeof(float)) == 0;
+      if (!same && differing++ == 0) first = cell;
+    }
+    if (differing) {
+      uint32_t r = 0;
+      while (r + 1 < ga->receiver_count && ga->receivers[r + 1].first_cell <= first) r++;
+      const bbc_receiver *rv = &ga->receivers[r];
+      uint64_t local = first - rv->first_cell;
+      differ("cell lists: %llu of %llu cells differ; first: receiver %u, cell %llu,%llu",
+             (unsigned long long)differing, (unsigned long long)ga->cell_count, r,
+             (unsigned long long)(local % rv->width), (unsigned long long)(local / rv->width));
+      const bbc_cache_entry *ea, *eb;
+      uint32_t na, nb;
+      bbc_cache_cell(ka, first, &ea, &na);
+      print_list("A", ea, na);
+      bbc_cache_cell(kb, first, &eb, &nb);
+      print_list("B", eb, nb);
+    }
+    bbc_cache_cursor_free(ka);
+    bbc_cache_cursor_free(kb);
+  }
+  bbc_cache_close(ca);
+  bbc_cache_close(cb);
+  return differences ? 1 : 0;
+}
+
 int main(int argc, char **argv) {
   cli_tool = "bbc-inspect";
   if (argc < 2) cli_usage_error(usage, "missing command");
@@ -300,7 +799,9 @@ int main(int argc, char **argv) {
     return 0;
   }
   int known = strcmp(cmd, "info") == 0 || strcmp(cmd, "validate") == 0 ||
-              strcmp(cmd, "dump") == 0 || strcmp(cmd, "heatmap") == 0;
+              strcmp(cmd, "dump") == 0 || strcmp(cmd, "heatmap") == 0 ||
+              strcmp(cmd, "check-bounds") == 0 || strcmp(cmd, "solutions") == 0 ||
+              strcmp(cmd, "diff") == 0;
   if (!known) cli_usage_error(usage, "unknown command '%s'", cmd);
   cli_args a = {argc, argv, 2, usage};
   /* Help after a command is still help. */
@@ -309,6 +810,20 @@ int main(int argc, char **argv) {
       fputs(help, stdout);
       return 0;
     }
+  /* Commands of two files: SCENE CACHE or A B. */
+  if (strcmp(cmd, "check-bounds") == 0 || strcmp(cmd, "solutions") == 0 ||
+      strcmp(cmd, "diff") == 0) {
+    int is_diff = strcmp(cmd, "diff") == 0;
+    if (a.i + 1 >= argc || argv[a.i][0] == '-' || argv[a.i + 1][0] == '-')
+      cli_usage_error(usage, "%s needs %s", cmd, is_diff ? "A.bbc B.bbc" : "SCENE.gltf CACHE.bbc");
+    const char *first = argv[a.i++], *second = argv[a.i++];
+    if (is_diff) {
+      if (a.i < argc) cli_usage_error(usage, "unexpected argument '%s'", argv[a.i]);
+      return cmd_diff(first, second);
+    }
+    return strcmp(cmd, "solutions") == 0 ? cmd_solutions(&a, first, second)
+                                         : cmd_check_bounds(&a, first, second);
+  }
   if (a.i >= argc || argv[a.i][0] == '-') cli_usage_error(usage, "%s needs a CACHE.bbc", cmd);
   const char *path = argv[a.i++];
   if (strcmp(cmd, "info") == 0 || strcmp(cmd, "validate") == 0) {

@@ -152,4 +152,115 @@ test_heatmap_writes_exr() {
   return 0
 }
 
+# precompute SCENE OUT [OPTIONS...]: a small cache of a test scene by bbc-precompute.
+precompute() {
+  scene=$1; out=$2; shift 2
+  "$BBC_BIN/bbc-precompute/bbc-precompute" "$BBC_TEST_SCENES/$scene" -o "$out" --max-level 4 \
+    "$@" >/dev/null 2>"$TMP/precompute.err" || { cat "$TMP/precompute.err" >&2; fail "cannot precompute $scene"; }
+}
+
+test_check_bounds_flat_mirror_has_no_violations() {
+  precompute flat-mirror.gltf "$TMP/fm.bbc"
+  expect_status 0 "$INSPECT" check-bounds "$BBC_TEST_SCENES/flat-mirror.gltf" "$TMP/fm.bbc" \
+    --samples 50 --json "$TMP/fm.json"
+  grep -q "^R: .*(0 failing paths)" "$TMP/out" || fail "no clean R summary: $(cat "$TMP/out")"
+  grep -q "^R: .* [1-9][0-9]* admissible paths" "$TMP/out" || fail "no admissible R path"
+  grep -q "^T: " "$TMP/out" || fail "no T summary"
+  grep -q "log10(E_hi / E)" "$TMP/out" || fail "no histogram"
+  grep -q "first failure" "$TMP/out" && fail "a failure was printed"
+  python3 - "$TMP/fm.json" <<'PY' || fail "bad JSON: $(cat "$TMP/fm.json")"
+import json, sys
+d = json.load(open(sys.argv[1]))
+assert set(d) == {"R", "T"}, d.keys()
+assert d["R"]["admissible"] > 0 and d["R"]["failing"] == 0, d["R"]
+PY
+  ls "$TMP" | grep -q "\.tmp" && fail "a temporary file was left behind"
+  return 0
+}
+
+test_check_bounds_pool_has_no_violations_and_ignores_threads() {
+  precompute pool.glb "$TMP/pool.bbc"
+  expect_status 0 "$INSPECT" check-bounds "$BBC_TEST_SCENES/pool.glb" "$TMP/pool.bbc" \
+    --samples 60 --threads 1
+  cp "$TMP/out" "$TMP/one.txt"
+  grep -q "^T: .* [1-9][0-9]* admissible paths.*(0 failing paths)" "$TMP/out" \
+    || fail "no clean T summary: $(cat "$TMP/out")"
+  expect_status 0 "$INSPECT" check-bounds "$BBC_TEST_SCENES/pool.glb" "$TMP/pool.bbc" \
+    --samples=60 --threads=3
+  cmp -s "$TMP/one.txt" "$TMP/out" || fail "the output depends on the thread count"
+  # Without remainder variables the bounds may break; the check runs either way.
+  precompute pool.glb "$TMP/nr.bbc" --no-remainder
+  "$INSPECT" check-bounds "$BBC_TEST_SCENES/pool.glb" "$TMP/nr.bbc" --samples 20 \
+    >"$TMP/out" 2>"$TMP/err"
+  got=$?
+  [ "$got" -eq 0 ] || [ "$got" -eq 1 ] || fail "--no-remainder cache: exit $got"
+  grep -q "^T: " "$TMP/out" || fail "--no-remainder cache: no T summary"
+  return 0
+}
+
+test_check_bounds_refuses_another_scene() {
+  precompute flat-mirror.gltf "$TMP/fm.bbc"
+  expect_status 1 "$INSPECT" check-bounds "$BBC_TEST_SCENES/pool.glb" "$TMP/fm.bbc"
+  [ "$(wc -l < "$TMP/err")" -eq 1 ] || fail "not one line: $(cat "$TMP/err")"
+  grep -q "fm.bbc" "$TMP/err" || fail "message does not name the cache"
+  [ -s "$TMP/out" ] && fail "wrote to stdout"
+  return 0
+}
+
+test_solutions_prints_a_histogram() {
+  precompute pool.glb "$TMP/pool.bbc"
+  expect_status 0 "$INSPECT" solutions "$BBC_TEST_SCENES/pool.glb" "$TMP/pool.bbc" --samples 32
+  for row in 0 1 2 3 4+; do
+    grep -q "^$row  *[0-9][0-9]*  *[0-9.]*%" "$TMP/out" || fail "no row $row: $(cat "$TMP/out")"
+  done
+  grep -q "^more than m = 1: [0-9]* of [1-9][0-9]* pairs" "$TMP/out" || fail "no share above m"
+  cp "$TMP/out" "$TMP/one.txt"
+  expect_status 0 "$INSPECT" solutions "$BBC_TEST_SCENES/pool.glb" "$TMP/pool.bbc" --samples 32 \
+    --threads 2
+  cmp -s "$TMP/one.txt" "$TMP/out" || fail "the output depends on the thread count"
+  return 0
+}
+
+test_diff_of_caches() {
+  precompute flat-mirror.gltf "$TMP/a.bbc"
+  precompute flat-mirror.gltf "$TMP/b.bbc"
+  expect_status 0 "$INSPECT" diff "$TMP/a.bbc" "$TMP/b.bbc"
+  [ -s "$TMP/out" ] && fail "identical caches: output $(cat "$TMP/out")"
+  "$BBC_BIN/bbc-precompute/bbc-precompute" "$BBC_TEST_SCENES/flat-mirror.gltf" -o "$TMP/c.bbc" \
+    --max-level 3 >/dev/null 2>&1 || fail "cannot precompute"
+  expect_status 1 "$INSPECT" diff "$TMP/a.bbc" "$TMP/c.bbc"
+  grep -q "max_level: 4 | 3" "$TMP/out" || fail "max_level not named: $(cat "$TMP/out")"
+  grep -q "fingerprint.params" "$TMP/out" || fail "fingerprint not named"
+  precompute pool.glb "$TMP/p.bbc"
+  expect_status 1 "$INSPECT" diff "$TMP/a.bbc" "$TMP/p.bbc"
+  grep -q "^tuples: " "$TMP/out" || fail "tuple counts not compared: $(cat "$TMP/out")"
+  expect_status 1 "$INSPECT" diff "$TMP/a.bbc" "$TMP/none.bbc"
+  grep -q "none.bbc" "$TMP/err" || fail "message does not name the file"
+  return 0
+}
+
+test_new_commands_bad_usage_exits_2() {
+  precompute flat-mirror.gltf "$TMP/a.bbc"
+  S="$BBC_TEST_SCENES/flat-mirror.gltf"
+  expect_status 2 "$INSPECT" check-bounds "$S"
+  grep -q "^bbc-inspect: check-bounds needs SCENE.gltf CACHE.bbc" "$TMP/err" || fail "$(cat "$TMP/err")"
+  expect_status 2 "$INSPECT" check-bounds "$S" "$TMP/a.bbc" --samples 0
+  expect_status 2 "$INSPECT" check-bounds "$S" "$TMP/a.bbc" --samples 10x
+  expect_status 2 "$INSPECT" check-bounds "$S" "$TMP/a.bbc" --threads 0
+  expect_status 2 "$INSPECT" check-bounds "$S" "$TMP/a.bbc" --json
+  expect_status 2 "$INSPECT" check-bounds "$S" "$TMP/a.bbc" --bogus
+  grep -q "^bbc-inspect: unknown option '--bogus'" "$TMP/err" || fail "$(cat "$TMP/err")"
+  expect_status 2 "$INSPECT" solutions "$S"
+  expect_status 2 "$INSPECT" solutions "$S" "$TMP/a.bbc" --samples -1
+  expect_status 2 "$INSPECT" diff "$TMP/a.bbc"
+  expect_status 2 "$INSPECT" diff "$TMP/a.bbc" "$TMP/a.bbc" extra
+  grep -q "usage:" "$TMP/err" || fail "no usage"
+  expect_status 0 "$INSPECT" --help
+  for word in check-bounds solutions diff --samples --json --threads; do
+    grep -q -- "$word" "$TMP/out" || fail "--help does not mention $word"
+  done
+  expect_status 0 "$INSPECT" diff --help
+  return 0
+}
+
 "test_$1"
