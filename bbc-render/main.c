@@ -1,4 +1,6 @@
 /* bbc-render: renders a glTF scene to OpenEXR. */
+#define _POSIX_C_SOURCE 200809L
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -17,6 +19,9 @@ static const char help[] =
     "Output:\n"
     "  -o, --output FILE     the EXR image to write (required)\n"
     "  --png FILE            also write an 8-bit sRGB PNG preview (tone mapped)\n"
+    "  --write-partial       when interrupted (SIGINT, SIGTERM), write the EXR (and the\n"
+    "                        PNG) of the passes completed so far instead of nothing;\n"
+    "                        nothing is written if no pass completed\n"
     "  --exposure EV         scale the PNG preview by 2^EV before tone mapping (default 0)\n"
     "  --width N             image width in pixels (default: the camera's\n"
     "                        extras.bbc.width; with only one of width/height given,\n"
@@ -70,7 +75,17 @@ static const char help[] =
     "Units: point lights give KHR_lights_punctual intensity x color as radiant intensity\n"
     "(W/sr); emissive triangles give emissiveFactor x emissive_strength as radiance. The\n"
     "EXR holds the mean radiance per pixel (box filter).\n"
-    "Exit status: 0 on success, 1 on a runtime failure (bad file, I/O), 2 on bad usage.\n";
+    "Interrupting (SIGINT, SIGTERM) stops after the current pass.\n"
+    "Exit status: 0 on success, 1 on a runtime failure (bad file, I/O), 2 on bad usage,\n"
+    "130 when interrupted (nothing is written, or with --write-partial the partial image).\n";
+
+/* Set by SIGINT and SIGTERM; the progress callback then cancels the render after the
+ * current pass, as in bbc-precompute. */
+static volatile sig_atomic_t interrupted = 0;
+static void on_signal(int sig) {
+  (void)sig;
+  interrupted = 1;
+}
 
 typedef struct progress_state {
   cli_progress bar;
@@ -90,7 +105,31 @@ static int on_progress(void *user, uint64_t done, uint64_t total) {
     snprintf(detail, sizeof detail, "%llu spp", (unsigned long long)done);
   }
   cli_progress_update(&state->bar, fraction, detail);
-  return 0;
+  return interrupted;
+}
+
+static void print_stats(const bbc_render_stats *s, const bbc_render_options *options,
+                        long long width, long long height) {
+  double rays_per_s = s->seconds > 0 ? s->rays / s->seconds : 0;
+  fprintf(stderr,
+          "time         %.3f s\n"
+          "image        %lldx%lld, %u spp, %llu samples\n"
+          "rays         %llu (%.3g Mrays/s, %.3g Mrays/s per thread, %d threads)\n",
+          s->seconds, width, height, s->spp, (unsigned long long)s->samples,
+          (unsigned long long)s->rays, rays_per_s * 1e-6,
+          s->threads ? rays_per_s * 1e-6 / s->threads : 0.0, s->threads);
+  if (options->method != BBC_METHOD_PT) {
+    double lookups = s->lookups ? (double)s->lookups : 1;
+    double busy = s->thread_seconds > 0 ? s->thread_seconds : 1;
+    fprintf(stderr,
+            "caustics     %llu lookups; mean |U| %.2f, |B| %.2f, |S| %.2f; %.3f solutions "
+            "per solved tuple\n"
+            "time shares  sampling %.1f%%, decoding %.1f%%, solving %.1f%%\n",
+            (unsigned long long)s->lookups, s->candidates / lookups, s->bins / lookups,
+            s->sampled / lookups, s->sampled ? (double)s->solutions / s->sampled : 0.0,
+            100 * s->sampling_seconds / busy, 100 * s->decoding_seconds / busy,
+            100 * s->solving_seconds / busy);
+  }
 }
 
 int main(int argc, char **argv) {
@@ -104,7 +143,7 @@ int main(int argc, char **argv) {
   memset(&options, 0, sizeof options);
   double exposure = 0;
   long long width = 0, height = 0;
-  int progress = -1, stats = 0;
+  int progress = -1, stats = 0, write_partial = 0;
 
   while (a.i < argc) {
     const char *arg = argv[a.i];
@@ -193,6 +232,8 @@ int main(int argc, char **argv) {
       progress = 0;
     } else if (cli_flag(&a, "--stats")) {
       stats = 1;
+    } else if (cli_flag(&a, "--write-partial")) {
+      write_partial = 1;
     } else if (arg[0] == '-' && arg[1] != '\0') {
       cli_usage_error(usage, "unknown option '%s'", arg);
     } else if (!scene_path) {
@@ -210,6 +251,12 @@ int main(int argc, char **argv) {
                     options.method == BBC_METHOD_BBC ? "bbc"
                     : options.method == BBC_METHOD_ENUMERATE ? "enumerate"
                     : options.method == BBC_METHOD_UNIFORM ? "uniform" : "one-sample");
+
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, NULL);
+  sigaction(SIGTERM, &sa, NULL);
 
   bbc_scene_options scene_options = {cli_print_message, cli_print_warning, NULL};
   bbc_scene *scene = NULL;
@@ -232,12 +279,8 @@ int main(int argc, char **argv) {
     memset(&cache_options, 0, sizeof cache_options);
     cache_options.error_fn = cli_print_message;
     if (bbc_cache_open(&cache, cache_path, &cache_options) != BBC_OK) goto done;
-    bbc_result check = bbc_cache_check_scene(cache, scene);
-    if (check != BBC_OK) {
-      fprintf(stderr, "bbc-render: %s: computed for another scene than %s (%s)\n", cache_path,
-              scene_path, bbc_result_string(check));
-      goto done;
-    }
+    /* The cache reports what differs through its error callback, in one line. */
+    if (bbc_cache_check_scene(cache, scene) != BBC_OK) goto done;
     options.cache = cache;
   }
   if (reference_path) {
@@ -264,8 +307,28 @@ int main(int argc, char **argv) {
   options.progress = on_progress;
   options.progress_user = &state;
   bbc_render_stats render_stats;
-  bbc_result r = bbc_render(scene, accel, &options, image, &render_stats);
+  memset(&render_stats, 0, sizeof render_stats);
+  /* A signal during loading cancels before the first pass (0 spp). */
+  bbc_result r = interrupted ? BBC_ERR_CANCELLED
+                             : bbc_render(scene, accel, &options, image, &render_stats);
   cli_progress_end(&state.bar);
+  if (r == BBC_ERR_CANCELLED || interrupted) {
+    /* Only the passes completed before the signal are in the image; write them only
+     * when asked, and never an image of no pass at all. */
+    if (!write_partial || render_stats.spp == 0) {
+      fprintf(stderr, "bbc-render: interrupted; %s was not written\n", output);
+      status = 130;
+      goto done;
+    }
+    if (bbc_image_write_exr(image, output, cli_print_message, NULL) != BBC_OK) goto done;
+    if (png && bbc_image_write_png(image, png, exposure, 1, cli_print_message, NULL) != BBC_OK)
+      goto done;
+    if (stats) print_stats(&render_stats, &options, width, height);
+    fprintf(stderr, "bbc-render: interrupted after %u spp; wrote partial image %s\n",
+            render_stats.spp, output);
+    status = 130;
+    goto done;
+  }
   if (r != BBC_OK) {
     fprintf(stderr, "bbc-render: rendering failed: %s\n", bbc_result_string(r));
     goto done;
@@ -278,31 +341,7 @@ int main(int argc, char **argv) {
     if (bbc_image_relmse(image, reference, relmse_eps, reject, &relmse) != BBC_OK) goto done;
     printf("relMSE %.6g\n", relmse);
   }
-  if (stats) {
-    double rays_per_s = render_stats.seconds > 0 ? render_stats.rays / render_stats.seconds : 0;
-    fprintf(stderr,
-            "time         %.3f s\n"
-            "image        %lldx%lld, %u spp, %llu samples\n"
-            "rays         %llu (%.3g Mrays/s, %.3g Mrays/s per thread, %d threads)\n",
-            render_stats.seconds, width, height, render_stats.spp,
-            (unsigned long long)render_stats.samples, (unsigned long long)render_stats.rays,
-            rays_per_s * 1e-6, rays_per_s * 1e-6 / render_stats.threads,
-            render_stats.threads);
-    if (options.method != BBC_METHOD_PT) {
-      double lookups = render_stats.lookups ? (double)render_stats.lookups : 1;
-      double busy = render_stats.thread_seconds > 0 ? render_stats.thread_seconds : 1;
-      fprintf(stderr,
-              "caustics     %llu lookups; mean |U| %.2f, |B| %.2f, |S| %.2f; %.3f solutions "
-              "per solved tuple\n"
-              "time shares  sampling %.1f%%, decoding %.1f%%, solving %.1f%%\n",
-              (unsigned long long)render_stats.lookups, render_stats.candidates / lookups,
-              render_stats.bins / lookups, render_stats.sampled / lookups,
-              render_stats.sampled ? (double)render_stats.solutions / render_stats.sampled : 0.0,
-              100 * render_stats.sampling_seconds / busy,
-              100 * render_stats.decoding_seconds / busy,
-              100 * render_stats.solving_seconds / busy);
-    }
-  }
+  if (stats) print_stats(&render_stats, &options, width, height);
   status = 0;
 done:
   bbc_image_free(image);

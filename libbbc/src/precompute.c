@@ -12,7 +12,7 @@
 
 #include "report_internal.h"
 
-#define BATCH_TUPLES 2048
+#define BATCH_TUPLES 256
 
 typedef struct piece_list {
   bbc_piece *items;
