@@ -85,9 +85,12 @@ static void json_string(FILE *f, const char *s) {
   fputc('"', f);
   for (; *s; s++) {
     unsigned char c = (unsigned char)*s;
-    if (c == '"' || c == '\\') fprintf(f, "\\%c", c);
-    else if (c < 0x20) fprintf(f, "\\u%04x", c);
-    else fputc(c, f);
+    if (c == '"' || c == '\\')
+      fprintf(f, "\\%c", c);
+    else if (c < 0x20)
+      fprintf(f, "\\u%04x", c);
+    else
+      fputc(c, f);
   }
   fputc('"', f);
 }
@@ -100,8 +103,7 @@ static uint32_t parse_chains(const cli_args *a, const char *text) {
        name = strtok_r(NULL, ",", &save)) {
     bbc_chain chain;
     if (!bbc_chain_parse(name, &chain))
-      cli_usage_error(a->usage, "--chains: unknown chain type '%s' (R, T, RR, RT, TR, TT)",
-                      name);
+      cli_usage_error(a->usage, "--chains: unknown chain type '%s' (R, T, RR, RT, TR, TT)", name);
     mask |= BBC_CHAIN_BIT(chain);
   }
   if (!mask) cli_usage_error(a->usage, "--chains: no chain type given");
@@ -148,9 +150,12 @@ int main(int argc, char **argv) {
     } else if (cli_flag(&a, "--no-remainder")) {
       options.params.remainder = 0;
     } else if (cli_option(&a, "--jacobian", &value)) {
-      if (strcmp(value, "determinant") == 0) options.jacobian = BBC_JACOBIAN_DETERMINANT;
-      else if (strcmp(value, "quotient") == 0) options.jacobian = BBC_JACOBIAN_QUOTIENT;
-      else cli_usage_error(usage, "--jacobian: '%s' is neither determinant nor quotient", value);
+      if (strcmp(value, "determinant") == 0)
+        options.jacobian = BBC_JACOBIAN_DETERMINANT;
+      else if (strcmp(value, "quotient") == 0)
+        options.jacobian = BBC_JACOBIAN_QUOTIENT;
+      else
+        cli_usage_error(usage, "--jacobian: '%s' is neither determinant nor quotient", value);
     } else if (cli_option(&a, "--threads", &value)) {
       options.threads = (int)cli_parse_int(&a, "--threads", value, 1, 1024);
     } else if (cli_flag(&a, "--progress")) {
@@ -250,8 +255,8 @@ int main(int argc, char **argv) {
             (unsigned long long)st.candidate_tuples,
             (unsigned long long)st.tuples_per_chain[BBC_CHAIN_R],
             (unsigned long long)st.tuples_per_chain[BBC_CHAIN_T], st.position_pieces / tuples,
-            st.irradiance_pieces / tuples, st.kept_pieces / tuples,
-            (unsigned long long)st.entries, file_size, file_size / 1e6, peak_mb);
+            st.irradiance_pieces / tuples, st.kept_pieces / tuples, (unsigned long long)st.entries,
+            file_size, file_size / 1e6, peak_mb);
   }
   if (json) {
     FILE *f = fopen(json, "w");
@@ -266,10 +271,9 @@ int main(int argc, char **argv) {
             "  \"tuples\": %llu,\n  \"tuples_R\": %llu,\n  \"tuples_T\": %llu,\n"
             "  \"position_pieces_per_tuple\": %.4f,\n  \"irradiance_pieces_per_tuple\": %.4f,\n"
             "  \"entries\": %llu,\n  \"file_bytes\": %lld,\n  \"peak_memory_mb\": %.1f\n}\n",
-            total, st.construction_seconds, st.bounding_seconds,
-            st.position_cpu_seconds, st.irradiance_cpu_seconds, st.recording_seconds,
-            write_seconds, st.threads, (unsigned long long)st.candidate_tuples,
-            (unsigned long long)st.tuples,
+            total, st.construction_seconds, st.bounding_seconds, st.position_cpu_seconds,
+            st.irradiance_cpu_seconds, st.recording_seconds, write_seconds, st.threads,
+            (unsigned long long)st.candidate_tuples, (unsigned long long)st.tuples,
             (unsigned long long)st.tuples_per_chain[BBC_CHAIN_R],
             (unsigned long long)st.tuples_per_chain[BBC_CHAIN_T], st.position_pieces / tuples,
             st.irradiance_pieces / tuples, (unsigned long long)st.entries, file_size, peak_mb);

@@ -203,10 +203,14 @@ int main(int argc, char **argv) {
       snprintf(buffer, sizeof buffer, "%s", value);
       for (char *save = NULL, *name = strtok_r(buffer, ",", &save); name;
            name = strtok_r(NULL, ",", &save)) {
-        if (strcmp(name, "caustics") == 0) options.components |= BBC_COMPONENT_CAUSTICS;
-        else if (strcmp(name, "direct") == 0) options.components |= BBC_COMPONENT_DIRECT;
-        else if (strcmp(name, "indirect") == 0) options.components |= BBC_COMPONENT_INDIRECT;
-        else cli_usage_error(usage, "--only: unknown part '%s' (caustics, direct, indirect)", name);
+        if (strcmp(name, "caustics") == 0)
+          options.components |= BBC_COMPONENT_CAUSTICS;
+        else if (strcmp(name, "direct") == 0)
+          options.components |= BBC_COMPONENT_DIRECT;
+        else if (strcmp(name, "indirect") == 0)
+          options.components |= BBC_COMPONENT_INDIRECT;
+        else
+          cli_usage_error(usage, "--only: unknown part '%s' (caustics, direct, indirect)", name);
       }
     } else if (cli_option(&a, "--reference", &value)) {
       reference_path = value;
@@ -248,9 +252,10 @@ int main(int argc, char **argv) {
   if (!method_given) options.method = cache_path ? BBC_METHOD_BBC : BBC_METHOD_PT;
   if (options.method != BBC_METHOD_PT && !cache_path)
     cli_usage_error(usage, "--method %s needs a cache (--cache FILE.bbc from bbc-precompute)",
-                    options.method == BBC_METHOD_BBC ? "bbc"
+                    options.method == BBC_METHOD_BBC         ? "bbc"
                     : options.method == BBC_METHOD_ENUMERATE ? "enumerate"
-                    : options.method == BBC_METHOD_UNIFORM ? "uniform" : "one-sample");
+                    : options.method == BBC_METHOD_UNIFORM   ? "uniform"
+                                                             : "one-sample");
 
   struct sigaction sa;
   memset(&sa, 0, sizeof sa);
@@ -309,8 +314,8 @@ int main(int argc, char **argv) {
   bbc_render_stats render_stats;
   memset(&render_stats, 0, sizeof render_stats);
   /* A signal during loading cancels before the first pass (0 spp). */
-  bbc_result r = interrupted ? BBC_ERR_CANCELLED
-                             : bbc_render(scene, accel, &options, image, &render_stats);
+  bbc_result r =
+      interrupted ? BBC_ERR_CANCELLED : bbc_render(scene, accel, &options, image, &render_stats);
   cli_progress_end(&state.bar);
   if (r == BBC_ERR_CANCELLED || interrupted) {
     /* Only the passes completed before the signal are in the image; write them only

@@ -55,8 +55,8 @@ static void run(const char *dir, const char *file, bbc_chain chain, int flat, lo
   printf("| %-11s | %s | %-6s | %7llu | %6.1f | %6.1f | %7.3f | %9.0f | %9.0f |\n", file,
          bbc_chain_name(chain), flat ? "flat" : "interp", (unsigned long long)stats.tuples,
          (double)stats.position_pieces / stats.tuples,
-         (double)stats.irradiance_pieces / stats.tuples, seconds,
-         stats.position_pieces / seconds, stats.tuples / seconds);
+         (double)stats.irradiance_pieces / stats.tuples, seconds, stats.position_pieces / seconds,
+         stats.tuples / seconds);
   bbc_bounder_free(b);
   bbc_scene_free(scene);
 }
@@ -65,12 +65,15 @@ int main(int argc, char **argv) {
   const char *dir = "../shared/scenes";
   long stride = 1;
   for (int i = 1; i < argc; i++) {
-    if (strcmp(argv[i], "--stride") == 0 && i + 1 < argc) stride = atol(argv[++i]);
-    else dir = argv[i];
+    if (strcmp(argv[i], "--stride") == 0 && i + 1 < argc)
+      stride = atol(argv[++i]);
+    else
+      dir = argv[i];
   }
   if (stride < 1) stride = 1;
-  printf("| scene       | chain | normals | tuples | pos. pieces/tuple | irr. pieces/tuple | "
-         "seconds | pieces/s | tuples/s |\n|---|---|---|---|---|---|---|---|---|\n");
+  printf(
+      "| scene       | chain | normals | tuples | pos. pieces/tuple | irr. pieces/tuple | "
+      "seconds | pieces/s | tuples/s |\n|---|---|---|---|---|---|---|---|---|\n");
   run(dir, "plane1k.gltf", BBC_CHAIN_R, 0, stride);
   run(dir, "plane1k.gltf", BBC_CHAIN_R, 1, stride);
   run(dir, "pool4k.gltf", BBC_CHAIN_T, 0, stride);

@@ -65,12 +65,15 @@ int main(int argc, char **argv) {
   const char *dir = "../shared/scenes";
   long stride = 1;
   for (int i = 1; i < argc; i++) {
-    if (strcmp(argv[i], "--stride") == 0 && i + 1 < argc) stride = atol(argv[++i]);
-    else dir = argv[i];
+    if (strcmp(argv[i], "--stride") == 0 && i + 1 < argc)
+      stride = atol(argv[++i]);
+    else
+      dir = argv[i];
   }
   if (stride < 1) stride = 1;
-  printf("| scene | Jacobian | tuples | CPU s | irradiance pieces/s | mean log10(bound/true) | "
-         "median | p99 | unbounded paths | failures |\n|---|---|---|---|---|---|---|---|---|---|\n");
+  printf(
+      "| scene | Jacobian | tuples | CPU s | irradiance pieces/s | mean log10(bound/true) | "
+      "median | p99 | unbounded paths | failures |\n|---|---|---|---|---|---|---|---|---|---|\n");
   run(dir, "plane1k.gltf", stride);
   run(dir, "pool4k.gltf", stride);
   return 0;

@@ -102,8 +102,10 @@ static void format_duration(char *out, size_t size, double seconds) {
     return;
   }
   long s = (long)(seconds + 0.5);
-  if (s >= 3600) snprintf(out, size, "%ld:%02ld:%02ld", s / 3600, (s / 60) % 60, s % 60);
-  else snprintf(out, size, "%02ld:%02ld", s / 60, s % 60);
+  if (s >= 3600)
+    snprintf(out, size, "%ld:%02ld:%02ld", s / 3600, (s / 60) % 60, s % 60);
+  else
+    snprintf(out, size, "%02ld:%02ld", s / 60, s % 60);
 }
 
 void cli_progress_begin(cli_progress *p, const char *label, int enabled) {

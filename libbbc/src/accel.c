@@ -23,8 +23,9 @@ typedef struct device_errors {
 
 static void embree_error(void *data, enum RTCError code, const char *message) {
   device_errors *errors = data;
-  if (errors && errors->fn) bbc__report(errors->fn, errors->user, BBC_ERR_EMBREE,
-                                        "Embree error %d: %s", (int)code, message ? message : "");
+  if (errors && errors->fn)
+    bbc__report(errors->fn, errors->user, BBC_ERR_EMBREE, "Embree error %d: %s", (int)code,
+                message ? message : "");
 }
 
 bbc_result bbc_accel_create(bbc_accel **out, const bbc_scene *scene, bbc_message_fn error_fn,
@@ -47,12 +48,10 @@ bbc_result bbc_accel_create(bbc_accel **out, const bbc_scene *scene, bbc_message
   RTCGeometry geometry = rtcNewGeometry(accel->device, RTC_GEOMETRY_TYPE_TRIANGLE);
   /* Buffers allocated by Embree carry the padding it needs for 16-byte loads of the
    * last vertex, which the scene's arrays do not. */
-  float *vertices = rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0,
-                                            RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                            scene->vertex_count);
-  unsigned *indices = rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0,
-                                              RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
-                                              scene->triangle_count);
+  float *vertices = rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                            3 * sizeof(float), scene->vertex_count);
+  unsigned *indices = rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                              3 * sizeof(unsigned), scene->triangle_count);
   bbc_result result = BBC_OK;
   if (!vertices || !indices) {
     result = BBC_ERR_EMBREE;

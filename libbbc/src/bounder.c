@@ -54,8 +54,7 @@ void bbc_bounder_free(bbc_bounder *b) {
 
 bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene,
                                    const bbc_tuple *tuple) {
-  if (tuple->chain != BBC_CHAIN_R && tuple->chain != BBC_CHAIN_T)
-    return BBC_ERR_INVALID_ARGUMENT;
+  if (tuple->chain != BBC_CHAIN_R && tuple->chain != BBC_CHAIN_T) return BBC_ERR_INVALID_ARGUMENT;
   if (tuple->light >= scene->point_light_count || tuple->specular[0] >= scene->triangle_count ||
       tuple->receiver >= scene->triangle_count)
     return BBC_ERR_INVALID_ARGUMENT;
@@ -194,8 +193,7 @@ static void magnitude(const bbc_range *r, double *lo, double *hi) {
  * q^3 / (|d0|^2 D_st) (or q^4 / (|d0|^2 N) in the quotient-rule form). */
 static bbc_result irradiance_bound(bbc_arena *arena, const bbc_tuple_geometry *g,
                                    const chain_forms *f, const double box[4], int s_axis,
-                                   int t_axis, bbc_jacobian_form form, double *e_lo,
-                                   double *e_hi) {
+                                   int t_axis, bbc_jacobian_form form, double *e_lo, double *e_hi) {
   *e_lo = 0;
   *e_hi = INFINITY;
   if (!f->slope_enclosed) return BBC_OK;
@@ -270,16 +268,16 @@ static bbc_result irradiance_bound(bbc_arena *arena, const bbc_tuple_geometry *g
                                  bbc_ivec3_sub(bbc_ivec3_point(g->r[2]), r0));
   bbc_interval a1 = bbc_interval_sqrt(bbc_ivec3_dot(c1, c1));
   bbc_interval ak = bbc_interval_sqrt(bbc_ivec3_dot(ck, ck));
-  bbc_interval h = bbc_interval_div(
-      bbc_ivec3_dot(c1, bbc_ivec3_sub(p0, bbc_ivec3_point(g->light))), a1);
+  bbc_interval h =
+      bbc_interval_div(bbc_ivec3_dot(c1, bbc_ivec3_sub(p0, bbc_ivec3_point(g->light))), a1);
   h = bbc_interval_make(fabs(h.lo), fabs(h.hi));
   if (h.lo > h.hi) h = bbc_interval_make(h.hi, h.lo);
   bbc_interval dist2 = bbc_poly_bound(&f->dist2);
   if (dist2.lo < 0) dist2.lo = 0;
   bbc_interval cos0 = bbc_interval_div(h, bbc_interval_sqrt(dist2));
   if (cos0.hi > 1) cos0.hi = 1;
-  bbc_interval k = bbc_interval_div(bbc_interval_scale(a1, (box[1] - box[0]) * (box[3] - box[2])),
-                                    ak);
+  bbc_interval k =
+      bbc_interval_div(bbc_interval_scale(a1, (box[1] - box[0]) * (box[3] - box[2])), ak);
   bbc_interval scale = bbc_interval_mul(k, cos0);
   if (!(scale.lo >= 0)) scale.lo = 0;
   /* Rounded products of positive numbers, pushed a few ulps outward. */
@@ -318,8 +316,8 @@ static bbc_result examine_position(bbc_bounder *b, const bbc_tuple_geometry *g,
   memset(&pf->space, 0, sizeof pf->space);
   bbc_space_add_axis(&pf->space, BBC_AXIS_GEOMETRIC, &pf->s_axis);
   bbc_space_add_axis(&pf->space, BBC_AXIS_GEOMETRIC, &pf->t_axis);
-  bbc_result r = bbc__chain_forms(&b->arena, &pf->space, g, pf->box, pf->s_axis, pf->t_axis,
-                                  mode, &pf->forms);
+  bbc_result r =
+      bbc__chain_forms(&b->arena, &pf->space, g, pf->box, pf->s_axis, pf->t_axis, mode, &pf->forms);
   if (r == BBC_OK) r = position_check(&b->arena, &pf->forms, pf->box, piece, v, contained);
   return r;
 }
@@ -386,8 +384,7 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
   root->u_lo = lo_u, root->u_hi = hi_u, root->v_lo = lo_v, root->v_hi = hi_v;
   /* Levels count halvings of T1's unit box: the box's longer side is 2^-level. */
   double span = fmax(hi_u - lo_u, hi_v - lo_v);
-  while (root->level < DOMAIN_INIT_LEVELS && span <= ldexp(1.0, -(root->level + 1)))
-    root->level++;
+  while (root->level < DOMAIN_INIT_LEVELS && span <= ldexp(1.0, -(root->level + 1))) root->level++;
   return BBC_OK;
 }
 
@@ -454,8 +451,8 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
         irr = &irr_forms;
       }
       if (result == BBC_OK)
-        result = irradiance_bound(&b->arena, g, irr, box, s_axis, t_axis, prm.jacobian,
-                                  &piece.e_lo, &piece.e_hi);
+        result = irradiance_bound(&b->arena, g, irr, box, s_axis, t_axis, prm.jacobian, &piece.e_lo,
+                                  &piece.e_hi);
       local.irradiance_pieces++;
       local.irradiance_seconds += cpu_seconds() - t1;
       if (result != BBC_OK) break;

@@ -5,8 +5,8 @@
 
 #include "vec_internal.h"
 
-void bbc_camera_ray(const bbc_camera *camera, uint32_t width, uint32_t height, double px,
-                    double py, bbc_vec3 *origin, bbc_vec3 *dir) {
+void bbc_camera_ray(const bbc_camera *camera, uint32_t width, uint32_t height, double px, double py,
+                    bbc_vec3 *origin, bbc_vec3 *dir) {
   double tan_half = tan(0.5 * camera->yfov);
   double aspect = (double)width / height;
   double sx = (2.0 * px / width - 1.0) * tan_half * aspect;

@@ -66,8 +66,8 @@ static bbc_vec3 tuple_contribution(const bbc__caustics *c, bbc__caustics_thread 
   const uint32_t *idx = scene->indices + 3 * (size_t)t1;
   bbc_vec3 nsum = v3(0, 0, 0);
   for (int j = 0; j < 3; j++) nsum = v3_add(nsum, v3_load(scene->normals + 3 * (size_t)idx[j]));
-  int light_in_front = (v3_dot(n1g, light->position) - v3_dot(n1g, p0)) *
-                           (v3_dot(n1g, nsum) >= 0 ? 1 : -1) > 0;
+  int light_in_front =
+      (v3_dot(n1g, light->position) - v3_dot(n1g, p0)) * (v3_dot(n1g, nsum) >= 0 ? 1 : -1) > 0;
   for (size_t i = 0; i < count; i++) {
     const bbc_solution *s = &solutions[i];
     if (!(s->irradiance > 0) || !isfinite(s->irradiance)) continue;
@@ -87,8 +87,8 @@ static bbc_vec3 tuple_contribution(const bbc__caustics *c, bbc__caustics_thread 
     }
     /* Visibility of both segments. */
     bbc_vec3 x1_light_side = v3_offset_origin(s->x1, n1g, v3_neg(d0));
-    if (bbc_accel_occluded(c->accel, light->position, v3_sub(x1_light_side, light->position),
-                           0.0, 1.0 - 1e-6))
+    if (bbc_accel_occluded(c->accel, light->position, v3_sub(x1_light_side, light->position), 0.0,
+                           1.0 - 1e-6))
       continue;
     bbc_vec3 origin = v3_offset_origin(s->x1, n1g, d1);
     bbc_vec3 target = v3_offset_origin(p, ng, v3_neg(d1));

@@ -14,7 +14,7 @@ typedef struct bbc__caustics {
   const bbc_cache *cache;
   const bbc_tuple *tuples;
   bbc__sampling sampling;
-  uint32_t chains;  /* BBC_CHAIN_BIT mask */
+  uint32_t chains; /* BBC_CHAIN_BIT mask */
   int no_fresnel;
 } bbc__caustics;
 
@@ -37,7 +37,6 @@ void bbc__caustics_thread_free(bbc__caustics_thread *t);
  * ng points to, through the cached chains. Unbiased: the expectation over rng is the
  * sum over every admissible path of its irradiance times visibility and Fresnel. */
 bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t, bbc_vec3 p,
-                                bbc_vec3 ng, uint32_t triangle, double b1, double b2,
-                                bbc_rng *rng);
+                                bbc_vec3 ng, uint32_t triangle, double b1, double b2, bbc_rng *rng);
 
 #endif

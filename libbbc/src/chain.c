@@ -10,17 +10,16 @@
 
 #include "vec_internal.h"
 
-#define TRY(expr)                          \
-  do {                                     \
-    bbc_result r_ = (expr);                \
-    if (r_ != BBC_OK) return r_;           \
+#define TRY(expr)                \
+  do {                           \
+    bbc_result r_ = (expr);      \
+    if (r_ != BBC_OK) return r_; \
   } while (0)
 
 /* c + gs s + gt t per coordinate, widened by the rounding of c and the gradients, which
  * the caller computed in double from the exact float inputs. */
-static bbc_result affine3(bbc_arena *arena, bbc_poly3 *out, bbc_vec3 base, bbc_vec3 du,
-                          bbc_vec3 dv, double u_lo, double v_lo, double su, double sv,
-                          int s_axis, int t_axis) {
+static bbc_result affine3(bbc_arena *arena, bbc_poly3 *out, bbc_vec3 base, bbc_vec3 du, bbc_vec3 dv,
+                          double u_lo, double v_lo, double su, double sv, int s_axis, int t_axis) {
   bbc_vec3 c = v3_add(base, v3_add(v3_scale(du, u_lo), v3_scale(dv, v_lo)));
   bbc_vec3 grad[BBC_POLY_MAX_AXES] = {{0, 0, 0}};
   grad[s_axis] = v3_scale(du, su);
@@ -29,13 +28,12 @@ static bbc_result affine3(bbc_arena *arena, bbc_poly3 *out, bbc_vec3 base, bbc_v
   /* Each coordinate of c is a sum of three rounded terms; 4 ulps of the magnitudes
    * cover it, and of the gradients (products by powers of two are exact, by other
    * scales one rounding). */
-  double radius[3] = {
-      4 * DBL_EPSILON * (fabs(base.x) + fabs(du.x * u_lo) + fabs(dv.x * v_lo)) +
-          2 * DBL_EPSILON * (fabs(grad[s_axis].x) + fabs(grad[t_axis].x)),
-      4 * DBL_EPSILON * (fabs(base.y) + fabs(du.y * u_lo) + fabs(dv.y * v_lo)) +
-          2 * DBL_EPSILON * (fabs(grad[s_axis].y) + fabs(grad[t_axis].y)),
-      4 * DBL_EPSILON * (fabs(base.z) + fabs(du.z * u_lo) + fabs(dv.z * v_lo)) +
-          2 * DBL_EPSILON * (fabs(grad[s_axis].z) + fabs(grad[t_axis].z))};
+  double radius[3] = {4 * DBL_EPSILON * (fabs(base.x) + fabs(du.x * u_lo) + fabs(dv.x * v_lo)) +
+                          2 * DBL_EPSILON * (fabs(grad[s_axis].x) + fabs(grad[t_axis].x)),
+                      4 * DBL_EPSILON * (fabs(base.y) + fabs(du.y * u_lo) + fabs(dv.y * v_lo)) +
+                          2 * DBL_EPSILON * (fabs(grad[s_axis].y) + fabs(grad[t_axis].y)),
+                      4 * DBL_EPSILON * (fabs(base.z) + fabs(du.z * u_lo) + fabs(dv.z * v_lo)) +
+                          2 * DBL_EPSILON * (fabs(grad[s_axis].z) + fabs(grad[t_axis].z))};
   bbc_poly_widen(&out->x, radius[0]);
   bbc_poly_widen(&out->y, radius[1]);
   bbc_poly_widen(&out->z, radius[2]);
@@ -51,10 +49,10 @@ bbc_result bbc__chain_forms(bbc_arena *arena, bbc_space *space, const bbc_tuple_
   bbc_poly3 *x1 = &out->x1, *d1 = &out->d1;
   /* Edges are rounded differences of the exact vertices; affine3 widens by their
    * rounding too. */
-  TRY(affine3(arena, x1, g->p[0], v3_sub(g->p[1], g->p[0]), v3_sub(g->p[2], g->p[0]), u_lo,
-              v_lo, su, sv, s_axis, t_axis));
-  TRY(affine3(arena, &n1, g->n[0], v3_sub(g->n[1], g->n[0]), v3_sub(g->n[2], g->n[0]), u_lo,
-              v_lo, su, sv, s_axis, t_axis));
+  TRY(affine3(arena, x1, g->p[0], v3_sub(g->p[1], g->p[0]), v3_sub(g->p[2], g->p[0]), u_lo, v_lo,
+              su, sv, s_axis, t_axis));
+  TRY(affine3(arena, &n1, g->n[0], v3_sub(g->n[1], g->n[0]), v3_sub(g->n[2], g->n[0]), u_lo, v_lo,
+              su, sv, s_axis, t_axis));
   bbc_poly3 light;
   TRY(bbc_poly3_constant(arena, &light, g->light));
   TRY(bbc_poly3_sub(arena, &d0, x1, &light));
@@ -124,7 +122,8 @@ bbc_result bbc__chain_forms(bbc_arena *arena, bbc_space *space, const bbc_tuple_
   TRY(bbc_poly3_constant(arena, &re1, v3_sub(g->r[1], g->r[0])));
   TRY(bbc_poly3_constant(arena, &re2, v3_sub(g->r[2], g->r[0])));
   bbc_poly *edge_coords[6] = {&re1.x, &re1.y, &re1.z, &re2.x, &re2.y, &re2.z};
-  for (int i = 0; i < 6; i++) bbc_poly_widen(edge_coords[i], DBL_EPSILON * fabs(edge_coords[i]->coef[0]));
+  for (int i = 0; i < 6; i++)
+    bbc_poly_widen(edge_coords[i], DBL_EPSILON * fabs(edge_coords[i]->coef[0]));
   TRY(bbc_poly3_sub(arena, &w, x1, &rp0));
   TRY(bbc_poly3_cross(arena, &pvec, d1, &re2));
   TRY(bbc_poly3_dot(arena, &out->kappa, &pvec, &re1));

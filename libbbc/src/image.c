@@ -14,8 +14,7 @@
 
 bbc_result bbc_image_create(bbc_image **out, uint32_t width, uint32_t height) {
   *out = NULL;
-  if (width == 0 || height == 0 || width > 65536 || height > 65536)
-    return BBC_ERR_INVALID_ARGUMENT;
+  if (width == 0 || height == 0 || width > 65536 || height > 65536) return BBC_ERR_INVALID_ARGUMENT;
   bbc_image *image = calloc(1, sizeof *image);
   float *rgb = calloc((size_t)width * height * 3, sizeof *rgb);
   if (!image || !rgb) {
@@ -128,8 +127,8 @@ static bbc_result exr_write_to(void *ctx, const char *tmp_path) {
   return result;
 }
 
-bbc_result bbc_image_write_exr(const bbc_image *image, const char *path,
-                               bbc_message_fn error_fn, void *user) {
+bbc_result bbc_image_write_exr(const bbc_image *image, const char *path, bbc_message_fn error_fn,
+                               void *user) {
   if (!image || !path) return BBC_ERR_INVALID_ARGUMENT;
   exr_errors errors = {error_fn, user, path, ""};
   exr_write_job job = {image, &errors};
@@ -162,8 +161,7 @@ bbc_result bbc_image_read_exr(bbc_image **out, const char *path, bbc_message_fn 
     goto done;
   }
   if (storage != EXR_STORAGE_SCANLINE) {
-    result = bbc__report(error_fn, user, BBC_ERR_EXR, "%s: only scanline EXR files are read",
-                         path);
+    result = bbc__report(error_fn, user, BBC_ERR_EXR, "%s: only scanline EXR files are read", path);
     goto done;
   }
   int found = 0;
@@ -201,8 +199,10 @@ bbc_result bbc_image_read_exr(bbc_image **out, const char *path, bbc_message_fn 
     for (int16_t c = 0; c < decoder.channel_count; c++) {
       exr_coding_channel_info_t *channel = &decoder.channels[c];
       const char *name = channel->channel_name;
-      int index = strcmp(name, "R") == 0 ? 0 : strcmp(name, "G") == 0 ? 1
-                                         : strcmp(name, "B") == 0 ? 2 : -1;
+      int index = strcmp(name, "R") == 0   ? 0
+                  : strcmp(name, "G") == 0 ? 1
+                  : strcmp(name, "B") == 0 ? 2
+                                           : -1;
       if (index < 0) {
         channel->decode_to_ptr = NULL; /* skipped */
         continue;
@@ -294,13 +294,13 @@ static bbc_result png_write_to(void *ctx, const char *tmp_path) {
   }
   bbc_result result = BBC_OK;
   if (compress2(packed, &packed_size, raw, (uLong)raw_size, 6) != Z_OK) {
-    result = bbc__report(job->error_fn, job->user, BBC_ERR_OUT_OF_MEMORY,
-                         "%s: compression failed", tmp_path);
+    result = bbc__report(job->error_fn, job->user, BBC_ERR_OUT_OF_MEMORY, "%s: compression failed",
+                         tmp_path);
   } else {
     FILE *f = fopen(tmp_path, "wb");
     if (!f) {
-      result = bbc__report(job->error_fn, job->user, BBC_ERR_IO, "%s: cannot create file",
-                           tmp_path);
+      result =
+          bbc__report(job->error_fn, job->user, BBC_ERR_IO, "%s: cannot create file", tmp_path);
     } else {
       static const uint8_t signature[8] = {137, 80, 78, 71, 13, 10, 26, 10};
       uint8_t ihdr[13];
@@ -314,12 +314,10 @@ static bbc_result png_write_to(void *ctx, const char *tmp_path) {
       static const uint8_t srgb_intent[1] = {0};
       int ok = fwrite(signature, 1, 8, f) == 8 && png_chunk(f, "IHDR", ihdr, 13) &&
                png_chunk(f, "sRGB", srgb_intent, 1) &&
-               png_chunk(f, "IDAT", packed, (uint32_t)packed_size) &&
-               png_chunk(f, "IEND", NULL, 0);
+               png_chunk(f, "IDAT", packed, (uint32_t)packed_size) && png_chunk(f, "IEND", NULL, 0);
       if (fclose(f) != 0) ok = 0;
       if (!ok)
-        result = bbc__report(job->error_fn, job->user, BBC_ERR_IO, "%s: write failed",
-                             tmp_path);
+        result = bbc__report(job->error_fn, job->user, BBC_ERR_IO, "%s: write failed", tmp_path);
     }
   }
   free(raw);

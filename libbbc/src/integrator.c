@@ -29,7 +29,7 @@ typedef struct render_ctx {
   const bbc_accel *accel;
   uint32_t max_depth;
   int no_fresnel;
-  uint32_t components;          /* BBC_COMPONENT_* to accumulate */
+  uint32_t components;           /* BBC_COMPONENT_* to accumulate */
   const bbc__caustics *caustics; /* NULL: plain path tracing */
 } render_ctx;
 
@@ -37,8 +37,8 @@ typedef struct render_ctx {
 typedef struct surface {
   bbc_vec3 p;
   double b1, b2; /* barycentrics of vertices 1 and 2 */
-  bbc_vec3 ng; /* unit geometric normal */
-  bbc_vec3 ns; /* unit shading normal (interpolated vertex normal) */
+  bbc_vec3 ng;   /* unit geometric normal */
+  bbc_vec3 ns;   /* unit shading normal (interpolated vertex normal) */
   uint32_t triangle;
   const bbc_material *material;
 } surface;
@@ -55,8 +55,7 @@ static surface surface_at(const bbc_scene *scene, const bbc_hit *hit) {
   surface s;
   s.p = v3_add(v3_add(v3_scale(p0, w), v3_scale(p1, hit->u)), v3_scale(p2, hit->v));
   s.ng = v3_normalize(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
-  s.ns = v3_normalize(v3_add(v3_add(v3_scale(n0, w), v3_scale(n1, hit->u)),
-                             v3_scale(n2, hit->v)));
+  s.ns = v3_normalize(v3_add(v3_add(v3_scale(n0, w), v3_scale(n1, hit->u)), v3_scale(n2, hit->v)));
   /* The vertex normals say which side is the front; the winding may disagree. */
   if (v3_dot(s.ng, s.ns) < 0) s.ng = v3_neg(s.ng);
   s.b1 = hit->u;
@@ -66,7 +65,9 @@ static surface surface_at(const bbc_scene *scene, const bbc_hit *hit) {
   return s;
 }
 
-static bbc_vec3 reflect(bbc_vec3 d, bbc_vec3 n) { return v3_madd(d, n, -2.0 * v3_dot(d, n)); }
+static bbc_vec3 reflect(bbc_vec3 d, bbc_vec3 n) {
+  return v3_madd(d, n, -2.0 * v3_dot(d, n));
+}
 
 /* Fresnel reflectance of a smooth dielectric boundary for unpolarised light, given the
  * cosines on both sides and eta = n_incident / n_transmitted. */
@@ -81,8 +82,10 @@ static uint32_t pick_emitter(const bbc_scene *scene, double u, double *probabili
   uint32_t lo = 0, hi = scene->emitter_count - 1;
   while (lo < hi) {
     uint32_t mid = (lo + hi) / 2;
-    if (scene->emitter_cdf[mid] > u) hi = mid;
-    else lo = mid + 1;
+    if (scene->emitter_cdf[mid] > u)
+      hi = mid;
+    else
+      lo = mid + 1;
   }
   *probability = scene->emitter_cdf[lo] - (lo ? scene->emitter_cdf[lo - 1] : 0.0);
   return lo;
@@ -118,8 +121,8 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
     if (bbc_accel_occluded(ctx->accel, origin, v3_sub(light->position, origin), 0.0, 1.0 - 1e-6))
       continue;
     double g = cos_s / dist2;
-    sum = v3_add(sum, v3(light->intensity[0] * g, light->intensity[1] * g,
-                         light->intensity[2] * g));
+    sum =
+        v3_add(sum, v3(light->intensity[0] * g, light->intensity[1] * g, light->intensity[2] * g));
   }
 
   if (scene->emitter_count > 0 && segments + 1 <= ctx->max_depth) {
@@ -153,19 +156,21 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
     }
   }
   vertex_light out;
-  out.direct = v3(sum.x * albedo[0] / BBC_PI, sum.y * albedo[1] / BBC_PI,
-                  sum.z * albedo[2] / BBC_PI);
+  out.direct =
+      v3(sum.x * albedo[0] / BBC_PI, sum.y * albedo[1] / BBC_PI, sum.z * albedo[2] / BBC_PI);
   out.caustic = v3(0, 0, 0);
   /* A single-scattering caustic path adds two segments to the point. */
   if (ctx->caustics && segments + 2 <= ctx->max_depth) {
-    bbc_vec3 e = bbc__caustics_estimate(ctx->caustics, ct, s->p, s->ng, s->triangle, s->b1,
-                                        s->b2, rng);
+    bbc_vec3 e =
+        bbc__caustics_estimate(ctx->caustics, ct, s->p, s->ng, s->triangle, s->b1, s->b2, rng);
     out.caustic = v3(e.x * albedo[0] / BBC_PI, e.y * albedo[1] / BBC_PI, e.z * albedo[2] / BBC_PI);
   }
   return out;
 }
 
-static bbc_vec3 v3_mul(bbc_vec3 a, bbc_vec3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
+static bbc_vec3 v3_mul(bbc_vec3 a, bbc_vec3 b) {
+  return v3(a.x * b.x, a.y * b.y, a.z * b.z);
+}
 
 /* The radiance arriving at the camera along one path started in direction dir. */
 static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_vec3 origin,
@@ -185,8 +190,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
     int front = v3_dot(dir, s.ng) < 0;
 
     if (count_emission && front && (ctx->components & lit_component)) {
-      radiance = v3_add(radiance, v3(throughput.x * m->emission[0],
-                                     throughput.y * m->emission[1],
+      radiance = v3_add(radiance, v3(throughput.x * m->emission[0], throughput.y * m->emission[1],
                                      throughput.z * m->emission[2]));
     }
 
@@ -208,8 +212,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       bbc_vec3 t, b;
       v3_basis(s.ns, &t, &b);
       double z = sqrt(fmax(0.0, 1.0 - r * r));
-      dir = v3_add(v3_add(v3_scale(t, r * cos(phi)), v3_scale(b, r * sin(phi))),
-                   v3_scale(s.ns, z));
+      dir = v3_add(v3_add(v3_scale(t, r * cos(phi)), v3_scale(b, r * sin(phi))), v3_scale(s.ns, z));
       if (v3_dot(dir, s.ng) <= 0) break; /* below the geometric surface */
       throughput = v3(throughput.x * m->base_color[0], throughput.y * m->base_color[1],
                       throughput.z * m->base_color[2]);
@@ -270,10 +273,13 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
   if (!scene || !accel || !image) return BBC_ERR_INVALID_ARGUMENT;
   if (opts.time_limit < 0 || !isfinite(opts.time_limit)) return BBC_ERR_INVALID_ARGUMENT;
   uint32_t planned = opts.spp ? opts.spp : (opts.time_limit > 0 ? UINT32_MAX : 16);
-  render_ctx ctx = {scene, accel, opts.max_depth ? opts.max_depth : 16, opts.no_fresnel,
-                    opts.components ? opts.components
-                                    : BBC_COMPONENT_CAUSTICS | BBC_COMPONENT_DIRECT |
-                                          BBC_COMPONENT_INDIRECT,
+  render_ctx ctx = {scene,
+                    accel,
+                    opts.max_depth ? opts.max_depth : 16,
+                    opts.no_fresnel,
+                    opts.components
+                        ? opts.components
+                        : BBC_COMPONENT_CAUSTICS | BBC_COMPONENT_DIRECT | BBC_COMPONENT_INDIRECT,
                     NULL};
   int threads = opts.threads > 0 ? opts.threads : omp_get_max_threads();
   const uint32_t width = image->width, height = image->height;

@@ -147,8 +147,8 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       bbc_tuple_geometry g;
       pieces[i].count = 0;
       if (bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) != BBC_OK ||
-          bbc_bound_tuple(bounders[id], &g, &bound, keep_piece, &pieces[i],
-                          &thread_stats[id]) != BBC_OK ||
+          bbc_bound_tuple(bounders[id], &g, &bound, keep_piece, &pieces[i], &thread_stats[id]) !=
+              BBC_OK ||
           pieces[i].failed)
         failed = 1;
     }
@@ -179,8 +179,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     }
     if (splat_failed && result == BBC_OK) result = BBC_ERR_OUT_OF_MEMORY;
     st.recording_seconds += omp_get_wtime() - b1;
-    if (options->progress &&
-        options->progress(options->progress_user, first + n, tuple_count)) {
+    if (options->progress && options->progress(options->progress_user, first + n, tuple_count)) {
       result = BBC_ERR_CANCELLED;
     }
   }

@@ -77,8 +77,10 @@ double bbc__sampler_gamma(const bbc_cache_entry *entries, uint32_t n, bbc__gamma
     double g = exp2(mid);
     int too_small = source == BBC__GAMMA_EXPECTED ? expected_count(entries, n, g) < value
                                                   : variance_bound(entries, n, g) > value;
-    if (too_small) lo = mid;
-    else hi = mid;
+    if (too_small)
+      lo = mid;
+    else
+      hi = mid;
   }
   return exp2(hi);
 }
@@ -166,8 +168,10 @@ uint32_t bbc__sampler_draw(const bbc__tuple_sampler *s, bbc_rng *rng,
       uint32_t lo = 0, hi = s->bins - 1;
       while (lo < hi) {
         uint32_t mid = (lo + hi) / 2;
-        if (s->prefix[mid] > u) hi = mid;
-        else lo = mid + 1;
+        if (s->prefix[mid] > u)
+          hi = mid;
+        else
+          lo = mid + 1;
       }
       if (s->p[lo] > 0) {
         emit(user, s->tuple[lo], s->p[lo]);
@@ -187,8 +191,10 @@ uint32_t bbc__sampler_draw(const bbc__tuple_sampler *s, bbc_rng *rng,
       uint32_t lo = start, hi = end - 1;
       while (lo < hi) {
         uint32_t mid = (lo + hi) / 2;
-        if (s->prefix[mid] > u) hi = mid;
-        else lo = mid + 1;
+        if (s->prefix[mid] > u)
+          hi = mid;
+        else
+          lo = mid + 1;
       }
       emit(user, s->tuple[lo], s->p[lo]);
       chosen++;

@@ -11,16 +11,16 @@
 #include "rng_internal.h"
 
 typedef enum bbc__sampling_method {
-  BBC__SAMPLE_BOUND,      /* P = min(gamma E~, 1) (Eq. 28) */
-  BBC__SAMPLE_ENUMERATE,  /* P = 1 for every tuple (position bound only) */
-  BBC__SAMPLE_UNIFORM,    /* the same expected count as BOUND, uniform P */
-  BBC__SAMPLE_ONE         /* one tuple, P proportional to E~ (Eq. 23) */
+  BBC__SAMPLE_BOUND,     /* P = min(gamma E~, 1) (Eq. 28) */
+  BBC__SAMPLE_ENUMERATE, /* P = 1 for every tuple (position bound only) */
+  BBC__SAMPLE_UNIFORM,   /* the same expected count as BOUND, uniform P */
+  BBC__SAMPLE_ONE        /* one tuple, P proportional to E~ (Eq. 23) */
 } bbc__sampling_method;
 
 typedef enum bbc__gamma_source {
-  BBC__GAMMA_FIXED,       /* gamma given */
-  BBC__GAMMA_EXPECTED,    /* gamma such that sum min(gamma E~, 1) = W */
-  BBC__GAMMA_VARIANCE     /* gamma such that sum E~^2 / min(gamma E~, 1) = V (Eq. 31) */
+  BBC__GAMMA_FIXED,    /* gamma given */
+  BBC__GAMMA_EXPECTED, /* gamma such that sum min(gamma E~, 1) = W */
+  BBC__GAMMA_VARIANCE  /* gamma such that sum E~^2 / min(gamma E~, 1) = V (Eq. 31) */
 } bbc__gamma_source;
 
 typedef struct bbc__sampling {
@@ -34,14 +34,14 @@ typedef struct bbc__sampling {
  * needed and are reused between cells. */
 typedef struct bbc__tuple_sampler {
   uint32_t n, bins, capacity;
-  uint32_t *tuple;    /* tuple ids, in bin order */
-  double *p;          /* their selection probabilities */
-  double *prefix;     /* running sum of p within the tuple's bin, inclusive */
-  uint32_t *bin_end;  /* bin b holds [bin_end[b-1], bin_end[b]) */
-  void *keys;         /* scratch for sorting */
+  uint32_t *tuple;   /* tuple ids, in bin order */
+  double *p;         /* their selection probabilities */
+  double *prefix;    /* running sum of p within the tuple's bin, inclusive */
+  uint32_t *bin_end; /* bin b holds [bin_end[b-1], bin_end[b]) */
+  void *keys;        /* scratch for sorting */
   double *scratch;
-  int one_sample;     /* ONE: draw a single tuple from the whole list */
-  double total;       /* ONE: sum of the weights */
+  int one_sample; /* ONE: draw a single tuple from the whole list */
+  double total;   /* ONE: sum of the weights */
 } bbc__tuple_sampler;
 
 void bbc__sampler_free(bbc__tuple_sampler *s);

@@ -164,7 +164,8 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
   }
   receivers = 0;
   for (uint32_t t = 0; t < scene->triangle_count; t++)
-    if (scene->meshes[scene->triangle_mesh[t]].role == BBC_ROLE_RECEIVER) tree.order[receivers++] = t;
+    if (scene->meshes[scene->triangle_mesh[t]].role == BBC_ROLE_RECEIVER)
+      tree.order[receivers++] = t;
   bvh_build(&tree, scene, 0, receivers);
   bbc_arena arena;
   bbc_arena_init(&arena, arena_memory, arena_bytes);
@@ -181,9 +182,12 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
       if (mesh->role != BBC_ROLE_CASTER) continue;
       const bbc_material *m = &scene->materials[mesh->material];
       bbc_chain chain;
-      if (m->type == BBC_MATERIAL_MIRROR) chain = BBC_CHAIN_R;
-      else if (m->type == BBC_MATERIAL_DIELECTRIC) chain = BBC_CHAIN_T;
-      else continue;
+      if (m->type == BBC_MATERIAL_MIRROR)
+        chain = BBC_CHAIN_R;
+      else if (m->type == BBC_MATERIAL_DIELECTRIC)
+        chain = BBC_CHAIN_T;
+      else
+        continue;
       if (!(chains & (1u << chain))) continue;
       /* The beam does not depend on the receiver: use any as a stand-in. */
       bbc_tuple tuple = {l, (uint32_t)chain, {t, BBC_NO_TRIANGLE}, tree.order[0]};

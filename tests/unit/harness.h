@@ -21,49 +21,46 @@ long harness_scale(long ci_count, long full_count);
 #define SHARED_SCENE(file) BBC_SHARED_DIR "/scenes/" file
 #define SOURCE_PATH(file) BBC_SOURCE_DIR "/" file
 
-#define TEST(name)                                                          \
-  static void test_##name(void);                                            \
-  __attribute__((constructor)) static void register_##name(void) {          \
-    harness_register(#name, test_##name);                                   \
-  }                                                                         \
+#define TEST(name)                                                 \
+  static void test_##name(void);                                   \
+  __attribute__((constructor)) static void register_##name(void) { \
+    harness_register(#name, test_##name);                          \
+  }                                                                \
   static void test_##name(void)
 
-#define CHECK(cond)                                                         \
-  do {                                                                      \
-    if (!(cond)) harness_fail(__FILE__, __LINE__, "CHECK(%s)", #cond);      \
+#define CHECK(cond)                                                    \
+  do {                                                                 \
+    if (!(cond)) harness_fail(__FILE__, __LINE__, "CHECK(%s)", #cond); \
   } while (0)
 
-#define CHECK_INT(a, b)                                                     \
-  do {                                                                      \
-    long long va_ = (long long)(a), vb_ = (long long)(b);                   \
-    if (va_ != vb_)                                                         \
-      harness_fail(__FILE__, __LINE__, "%s == %s: %lld != %lld", #a, #b,    \
-                   va_, vb_);                                               \
+#define CHECK_INT(a, b)                                                                           \
+  do {                                                                                            \
+    long long va_ = (long long)(a), vb_ = (long long)(b);                                         \
+    if (va_ != vb_) harness_fail(__FILE__, __LINE__, "%s == %s: %lld != %lld", #a, #b, va_, vb_); \
   } while (0)
 
-#define CHECK_NEAR(a, b, tol)                                               \
-  do {                                                                      \
-    double va_ = (double)(a), vb_ = (double)(b), vt_ = (double)(tol);       \
-    if (!(fabs(va_ - vb_) <= vt_))                                          \
-      harness_fail(__FILE__, __LINE__, "%s ~ %s: %.17g vs %.17g (tol %g)",  \
-                   #a, #b, va_, vb_, vt_);                                  \
+#define CHECK_NEAR(a, b, tol)                                                                      \
+  do {                                                                                             \
+    double va_ = (double)(a), vb_ = (double)(b), vt_ = (double)(tol);                              \
+    if (!(fabs(va_ - vb_) <= vt_))                                                                 \
+      harness_fail(__FILE__, __LINE__, "%s ~ %s: %.17g vs %.17g (tol %g)", #a, #b, va_, vb_, vt_); \
   } while (0)
 
-#define CHECK_STR_CONTAINS(s, sub)                                          \
-  do {                                                                      \
-    const char *vs_ = (s), *vsub_ = (sub);                                  \
-    if (!vs_ || !strstr(vs_, vsub_))                                        \
-      harness_fail(__FILE__, __LINE__, "\"%s\" does not contain \"%s\"",    \
-                   vs_ ? vs_ : "(null)", vsub_);                            \
+#define CHECK_STR_CONTAINS(s, sub)                                                             \
+  do {                                                                                         \
+    const char *vs_ = (s), *vsub_ = (sub);                                                     \
+    if (!vs_ || !strstr(vs_, vsub_))                                                           \
+      harness_fail(__FILE__, __LINE__, "\"%s\" does not contain \"%s\"", vs_ ? vs_ : "(null)", \
+                   vsub_);                                                                     \
   } while (0)
 
 /* Stops the current test early when a precondition for the rest fails. */
-#define REQUIRE(cond)                                                       \
-  do {                                                                      \
-    if (!(cond)) {                                                          \
-      harness_fail(__FILE__, __LINE__, "REQUIRE(%s)", #cond);               \
-      return;                                                               \
-    }                                                                       \
+#define REQUIRE(cond)                                         \
+  do {                                                        \
+    if (!(cond)) {                                            \
+      harness_fail(__FILE__, __LINE__, "REQUIRE(%s)", #cond); \
+      return;                                                 \
+    }                                                         \
   } while (0)
 
 #endif

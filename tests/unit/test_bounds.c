@@ -157,8 +157,8 @@ static void random_tuple(bbc_rng *rng, int refract, bbc_tuple_geometry *g) {
   }
   double tilt = 0.3 * bbc_rng_next(rng);
   for (int i = 0; i < 3; i++) g->n[i] = v3_normalize(v3_madd(ng, random_unit(rng), tilt));
-  g->light = v3(4 * (bbc_rng_next(rng) - 0.5), 1.5 + 3 * bbc_rng_next(rng),
-                4 * (bbc_rng_next(rng) - 0.5));
+  g->light =
+      v3(4 * (bbc_rng_next(rng) - 0.5), 1.5 + 3 * bbc_rng_next(rng), 4 * (bbc_rng_next(rng) - 0.5));
   g->refract = refract;
   g->eta = 1.0 / (1.2 + 0.6 * bbc_rng_next(rng));
   double y = refract ? -(0.5 + 2 * bbc_rng_next(rng)) : 1.0 + 2 * bbc_rng_next(rng);
@@ -208,8 +208,12 @@ static void random_tuples(int refract, bbc_jacobian_form form, const char *name)
   bbc_bounder_free(b);
 }
 
-TEST(random_reflection_tuples) { random_tuples(0, BBC_JACOBIAN_DETERMINANT, "random R"); }
-TEST(random_refraction_tuples) { random_tuples(1, BBC_JACOBIAN_DETERMINANT, "random T"); }
+TEST(random_reflection_tuples) {
+  random_tuples(0, BBC_JACOBIAN_DETERMINANT, "random R");
+}
+TEST(random_refraction_tuples) {
+  random_tuples(1, BBC_JACOBIAN_DETERMINANT, "random T");
+}
 TEST(random_reflection_tuples_quotient_form) {
   random_tuples(0, BBC_JACOBIAN_QUOTIENT, "random R (quotient form)");
 }

@@ -218,4 +218,6 @@ static void cache_covers_true_paths(const char *path, int max_level) {
 TEST(cache_covers_true_paths_reflection) {
   cache_covers_true_paths(TEST_SCENE("wavy-mirror.gltf"), 5);
 }
-TEST(cache_covers_true_paths_refraction) { cache_covers_true_paths(TEST_SCENE("pool.glb"), 3); }
+TEST(cache_covers_true_paths_refraction) {
+  cache_covers_true_paths(TEST_SCENE("pool.glb"), 3);
+}

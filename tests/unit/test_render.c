@@ -130,8 +130,8 @@ TEST(floor_point_light_analytic) {
         double got = image->rgb[3 * ((size_t)y * w + x) + c];
         double slack = 1e-4 * hi[c];
         if (!(got >= lo[c] - slack && got <= hi[c] + slack))
-          harness_fail(__FILE__, __LINE__, "pixel (%u,%u) channel %d: %.9g not in [%.9g, %.9g]",
-                       x, y, c, got, lo[c], hi[c]);
+          harness_fail(__FILE__, __LINE__, "pixel (%u,%u) channel %d: %.9g not in [%.9g, %.9g]", x,
+                       y, c, got, lo[c], hi[c]);
       }
     }
   }

@@ -7,10 +7,10 @@
 #include "sampler_internal.h"
 
 typedef struct draw_log {
-  long *count;      /* indexed by tuple id */
-  double estimate;  /* sum of E / P this draw */
+  long *count;     /* indexed by tuple id */
+  double estimate; /* sum of E / P this draw */
   const double *truth;
-  double *p_of;     /* probability reported per tuple id */
+  double *p_of; /* probability reported per tuple id */
 } draw_log;
 
 static void on_emit(void *user, uint32_t tuple, double p) {
@@ -79,10 +79,18 @@ static void check_method(bbc__sampling sampling, const char *name) {
     uint32_t id = e[i].tuple;
     double b = e[i].bound, p;
     switch (sampling.method) {
-      case BBC__SAMPLE_ENUMERATE: p = 1; break;
-      case BBC__SAMPLE_UNIFORM: p = fmin(w / N, 1.0); break;
-      case BBC__SAMPLE_ONE: p = isfinite(b) ? b / finite_total : 1; break;
-      default: p = fmin(gamma * b, 1.0); break;
+      case BBC__SAMPLE_ENUMERATE:
+        p = 1;
+        break;
+      case BBC__SAMPLE_UNIFORM:
+        p = fmin(w / N, 1.0);
+        break;
+      case BBC__SAMPLE_ONE:
+        p = isfinite(b) ? b / finite_total : 1;
+        break;
+      default:
+        p = fmin(gamma * b, 1.0);
+        break;
     }
     double f = (double)count[id] / draws;
     if (fabs(f - p) > 5 * sqrt(p * (1 - p) / draws) + 1e-12 ||
@@ -95,8 +103,8 @@ static void check_method(bbc__sampling sampling, const char *name) {
   CHECK_INT(bad, 0);
   double mean = sum / draws, var = sum_sq / draws - mean * mean;
   double se = sqrt(fmax(var, 0) / draws);
-  fprintf(stderr, "%s: estimate %.6f +- %.6f, exact %.6f, mean |S| over %u tuples\n", name,
-          mean, se, exact, N);
+  fprintf(stderr, "%s: estimate %.6f +- %.6f, exact %.6f, mean |S| over %u tuples\n", name, mean,
+          se, exact, N);
   CHECK(fabs(mean - exact) <= 5 * se + 1e-9 * exact);
   bbc__sampler_free(&s);
 }

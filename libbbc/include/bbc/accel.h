@@ -30,11 +30,11 @@ typedef struct bbc_hit {
 
 /* Closest hit along origin + t dir for t in (tmin, tmax); returns 1 and fills *hit, or
  * returns 0. dir need not be normalised (t is then in units of |dir|). */
-BBC_API int bbc_accel_intersect(const bbc_accel *accel, bbc_vec3 origin, bbc_vec3 dir,
-                                double tmin, double tmax, bbc_hit *hit);
+BBC_API int bbc_accel_intersect(const bbc_accel *accel, bbc_vec3 origin, bbc_vec3 dir, double tmin,
+                                double tmax, bbc_hit *hit);
 /* 1 if anything blocks the segment origin + t dir, t in (tmin, tmax). */
-BBC_API int bbc_accel_occluded(const bbc_accel *accel, bbc_vec3 origin, bbc_vec3 dir,
-                               double tmin, double tmax);
+BBC_API int bbc_accel_occluded(const bbc_accel *accel, bbc_vec3 origin, bbc_vec3 dir, double tmin,
+                               double tmax);
 
 #ifdef __cplusplus
 }

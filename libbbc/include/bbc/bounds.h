@@ -22,13 +22,13 @@ extern "C" {
  * n_incident / n_transmitted (1/ior entering the front side, ior leaving through the
  * back); it is unused for reflection. */
 typedef struct bbc_tuple_geometry {
-  bbc_vec3 light;  /* x0 */
-  int refract;     /* 0: reflection (R), 1: refraction (T) */
-  double eta;      /* eta' of Eq. 10-11 */
-  bbc_vec3 p[3];   /* T1's vertices p_{1,0..2} (Eq. 6) */
-  bbc_vec3 n[3];   /* T1's vertex normals n_{1,0..2}, oriented as described and
-                      interpolated unnormalised (Eq. 7) */
-  bbc_vec3 r[3];   /* Tk's vertices */
+  bbc_vec3 light; /* x0 */
+  int refract;    /* 0: reflection (R), 1: refraction (T) */
+  double eta;     /* eta' of Eq. 10-11 */
+  bbc_vec3 p[3];  /* T1's vertices p_{1,0..2} (Eq. 6) */
+  bbc_vec3 n[3];  /* T1's vertex normals n_{1,0..2}, oriented as described and
+                     interpolated unnormalised (Eq. 7) */
+  bbc_vec3 r[3];  /* Tk's vertices */
 } bbc_tuple_geometry;
 
 /* Fills g for a single-scattering tuple of the scene (chain R or T).
@@ -43,18 +43,18 @@ typedef enum bbc_jacobian_form {
 
 /* Parameters of the subdivision; a zero-initialised struct means the defaults. */
 typedef struct bbc_bound_params {
-  int max_level;        /* deepest subdivision level of the u1 box; 0 = 10 */
-  double sigma;         /* stop when the position bound's area is below this; 0 = 1e-4 */
-  double alpha;         /* stop when E_hi / E_lo is below this; 0 = 2 */
-  int no_remainder;     /* replace sqrt by its linearisation without remainder variables
-                           (NOT conservative: the paper's Fig. 18 ablation) */
+  int max_level;    /* deepest subdivision level of the u1 box; 0 = 10 */
+  double sigma;     /* stop when the position bound's area is below this; 0 = 1e-4 */
+  double alpha;     /* stop when E_hi / E_lo is below this; 0 = 2 */
+  int no_remainder; /* replace sqrt by its linearisation without remainder variables
+                       (NOT conservative: the paper's Fig. 18 ablation) */
   bbc_jacobian_form jacobian;
-  int positions_only;   /* skip irradiance bounds (E_hi = +inf, E_lo = 0) */
+  int positions_only; /* skip irradiance bounds (E_hi = +inf, E_lo = 0) */
 } bbc_bound_params;
 
 typedef enum bbc_piece_status {
-  BBC_PIECE_KEPT = 0,      /* may hold valid paths; its bounds are valid for all of them */
-  BBC_PIECE_DISCARDED = 1  /* proved to hold no valid path */
+  BBC_PIECE_KEPT = 0,     /* may hold valid paths; its bounds are valid for all of them */
+  BBC_PIECE_DISCARDED = 1 /* proved to hold no valid path */
 } bbc_piece_status;
 
 /* A leaf of the subdivision: the box [u_lo, u_hi] x [v_lo, v_hi] of T1's barycentrics

@@ -22,20 +22,20 @@ typedef enum bbc_result {
   BBC_OK = 0,
   BBC_ERR_INVALID_ARGUMENT = 1, /* a parameter is out of its documented range */
   BBC_ERR_OUT_OF_MEMORY = 2,
-  BBC_ERR_IO = 3,               /* a file could not be opened, read or written */
-  BBC_ERR_UNSUPPORTED = 4,      /* valid input using a feature bbc does not support */
-  BBC_ERR_EMBREE = 5,           /* Embree reported an error */
-  BBC_ERR_EXR = 6,              /* OpenEXR reported an error */
-  BBC_ERR_GLTF = 7,             /* the glTF file is malformed (syntax, references) */
-  BBC_ERR_CANCELLED = 8,        /* a progress callback asked to stop */
-  BBC_ERR_NOT_BBC = 9,          /* not a .bbc file at all (magic) */
+  BBC_ERR_IO = 3,                   /* a file could not be opened, read or written */
+  BBC_ERR_UNSUPPORTED = 4,          /* valid input using a feature bbc does not support */
+  BBC_ERR_EMBREE = 5,               /* Embree reported an error */
+  BBC_ERR_EXR = 6,                  /* OpenEXR reported an error */
+  BBC_ERR_GLTF = 7,                 /* the glTF file is malformed (syntax, references) */
+  BBC_ERR_CANCELLED = 8,            /* a progress callback asked to stop */
+  BBC_ERR_NOT_BBC = 9,              /* not a .bbc file at all (magic) */
   BBC_ERR_VERSION_UNSUPPORTED = 10, /* a .bbc file of a newer major version */
-  BBC_ERR_TRUNCATED = 11,       /* a .bbc file shorter than its structures say */
-  BBC_ERR_CORRUPT = 12,         /* a .bbc file whose structures are inconsistent */
-  BBC_ERR_CHECKSUM = 13,        /* a .bbc section whose checksum does not match */
-  BBC_ERR_SCENE_MISMATCH = 14,  /* a .bbc file computed for another scene/parameters */
-  BBC_ERR_SCENE = 15            /* a well-formed glTF whose content bbc cannot use
-                                   (no light, no camera, NaN positions, ...) */
+  BBC_ERR_TRUNCATED = 11,           /* a .bbc file shorter than its structures say */
+  BBC_ERR_CORRUPT = 12,             /* a .bbc file whose structures are inconsistent */
+  BBC_ERR_CHECKSUM = 13,            /* a .bbc section whose checksum does not match */
+  BBC_ERR_SCENE_MISMATCH = 14,      /* a .bbc file computed for another scene/parameters */
+  BBC_ERR_SCENE = 15                /* a well-formed glTF whose content bbc cannot use
+                                       (no light, no camera, NaN positions, ...) */
 } bbc_result;
 
 /* A static, never-NULL description of a result code. */

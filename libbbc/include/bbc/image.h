@@ -30,22 +30,21 @@ BBC_API bbc_result bbc_image_write_exr(const bbc_image *image, const char *path,
 
 /* Reads the R, G and B channels of a scanline or tiled EXR (any pixel type) into a new
  * image. A missing channel is an error (BBC_ERR_EXR). */
-BBC_API bbc_result bbc_image_read_exr(bbc_image **out, const char *path,
-                                      bbc_message_fn error_fn, void *user);
+BBC_API bbc_result bbc_image_read_exr(bbc_image **out, const char *path, bbc_message_fn error_fn,
+                                      void *user);
 
 /* Writes an 8-bit sRGB PNG preview: pixels are scaled by 2^exposure, tone mapped with
  * x/(1+x) when tonemap is non-zero (clamped otherwise) and encoded with the sRGB curve.
  * Written through a temporary file like the EXR. */
-BBC_API bbc_result bbc_image_write_png(const bbc_image *image, const char *path,
-                                       double exposure, int tonemap,
-                                       bbc_message_fn error_fn, void *user);
+BBC_API bbc_result bbc_image_write_png(const bbc_image *image, const char *path, double exposure,
+                                       int tonemap, bbc_message_fn error_fn, void *user);
 
 /* relMSE of image against reference: the mean over pixels of the mean over RGB of
  * (I - R)^2 / (R^2 + eps). With reject_fraction > 0 (e.g. 0.001) that fraction of the
  * largest per-pixel errors is left out, as in the papers. Sizes must match
  * (BBC_ERR_INVALID_ARGUMENT otherwise). */
-BBC_API bbc_result bbc_image_relmse(const bbc_image *image, const bbc_image *reference,
-                                    double eps, double reject_fraction, double *out);
+BBC_API bbc_result bbc_image_relmse(const bbc_image *image, const bbc_image *reference, double eps,
+                                    double reject_fraction, double *out);
 
 #ifdef __cplusplus
 }

@@ -17,26 +17,26 @@ extern "C" {
 /* A zero-initialised struct is not valid: start from bbc_precompute_params_default. */
 typedef struct bbc_precompute_options {
   bbc_precompute_params params;
-  int threads;                 /* 0 = every core; the result does not depend on it */
-  bbc_jacobian_form jacobian;  /* irradiance Jacobian form (default: determinant) */
-  bbc_progress_fn progress;    /* optional: tuples bounded / total; non-zero cancels */
+  int threads;                /* 0 = every core; the result does not depend on it */
+  bbc_jacobian_form jacobian; /* irradiance Jacobian form (default: determinant) */
+  bbc_progress_fn progress;   /* optional: tuples bounded / total; non-zero cancels */
   void *progress_user;
-  bbc_message_fn error_fn;     /* optional: details of a failure */
+  bbc_message_fn error_fn; /* optional: details of a failure */
   void *user;
 } bbc_precompute_options;
 
 /* The paper's Table 2 precompute columns and more. Times are wall-clock seconds of
  * the phases, the position/irradiance split taken from the threads' CPU time. */
 typedef struct bbc_precompute_stats {
-  uint64_t candidate_tuples;          /* tuples found by the beam bounds */
-  uint64_t tuples;                    /* tuples with at least one kept piece (stored) */
+  uint64_t candidate_tuples; /* tuples found by the beam bounds */
+  uint64_t tuples;           /* tuples with at least one kept piece (stored) */
   uint64_t tuples_per_chain[BBC_CHAIN_COUNT];
   uint64_t position_pieces, irradiance_pieces, kept_pieces;
-  uint64_t entries;                   /* (cell, tuple) entries in the grids */
-  double construction_seconds;        /* finding tuples */
-  double bounding_seconds;            /* bounding (position + irradiance) */
+  uint64_t entries;            /* (cell, tuple) entries in the grids */
+  double construction_seconds; /* finding tuples */
+  double bounding_seconds;     /* bounding (position + irradiance) */
   double position_cpu_seconds, irradiance_cpu_seconds;
-  double recording_seconds;           /* splatting into the grids */
+  double recording_seconds; /* splatting into the grids */
   int threads;
 } bbc_precompute_stats;
 

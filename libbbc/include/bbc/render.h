@@ -14,19 +14,19 @@ extern "C" {
 
 /* How light from point lights through specular chains (caustics) is found. */
 typedef enum bbc_method {
-  BBC_METHOD_PT = 0,         /* plain path tracing: point-light caustics are missed */
-  BBC_METHOD_BBC = 1,        /* tuples sampled with P = min(gamma E~, 1) (paper Sec. 5) */
-  BBC_METHOD_ENUMERATE = 2,  /* every tuple whose position bound covers the point */
-  BBC_METHOD_UNIFORM = 3,    /* the same expected number of tuples, uniform P */
-  BBC_METHOD_ONE_SAMPLE = 4  /* one tuple, P proportional to E~ (Eq. 23) */
+  BBC_METHOD_PT = 0,        /* plain path tracing: point-light caustics are missed */
+  BBC_METHOD_BBC = 1,       /* tuples sampled with P = min(gamma E~, 1) (paper Sec. 5) */
+  BBC_METHOD_ENUMERATE = 2, /* every tuple whose position bound covers the point */
+  BBC_METHOD_UNIFORM = 3,   /* the same expected number of tuples, uniform P */
+  BBC_METHOD_ONE_SAMPLE = 4 /* one tuple, P proportional to E~ (Eq. 23) */
 } bbc_method;
 
 /* How gamma of BBC_METHOD_BBC is chosen (Supp. 2.3); UNIFORM uses the expected count
  * the same choice gives. */
 typedef enum bbc_gamma_mode {
-  BBC_GAMMA_FIXED = 0,     /* gamma = gamma_value (default 100 when 0) */
-  BBC_GAMMA_EXPECTED = 1,  /* per cell, gamma such that E|S| = gamma_value (default 4) */
-  BBC_GAMMA_VARIANCE = 2   /* per cell, gamma such that the variance bound is gamma_value */
+  BBC_GAMMA_FIXED = 0,    /* gamma = gamma_value (default 100 when 0) */
+  BBC_GAMMA_EXPECTED = 1, /* per cell, gamma such that E|S| = gamma_value (default 4) */
+  BBC_GAMMA_VARIANCE = 2  /* per cell, gamma such that the variance bound is gamma_value */
 } bbc_gamma_mode;
 /* As in the paper (Supp. Table 1), gamma and the variance target are stated for a light
  * of unit intensity: with lights of intensity I (the brightest channel of the brightest
@@ -40,24 +40,24 @@ typedef enum bbc_gamma_mode {
 
 /* Options; a zero-initialised struct means the defaults given per field. */
 typedef struct bbc_render_options {
-  uint32_t spp;          /* samples per pixel; 0 = 16 unless time_limit is set */
-  double time_limit;     /* seconds of rendering; 0 = none. With both spp and
-                            time_limit, whichever is reached first stops. */
-  uint32_t max_depth;    /* maximum number of segments of a path from the camera
-                            to a light, the connection to the light included;
-                            0 = 16 */
-  int threads;           /* 0 = every core */
-  uint64_t seed;         /* the same seed gives the same image */
-  int no_fresnel;        /* dielectrics always transmit (reflect only on total
-                            internal reflection), the paper's assumption */
-  bbc_method method;     /* default BBC_METHOD_PT; the others need `cache` */
-  const bbc_cache *cache;    /* the precomputed bounds (checked against the scene by the
-                                caller with bbc_cache_check_scene) */
+  uint32_t spp;           /* samples per pixel; 0 = 16 unless time_limit is set */
+  double time_limit;      /* seconds of rendering; 0 = none. With both spp and
+                             time_limit, whichever is reached first stops. */
+  uint32_t max_depth;     /* maximum number of segments of a path from the camera
+                             to a light, the connection to the light included;
+                             0 = 16 */
+  int threads;            /* 0 = every core */
+  uint64_t seed;          /* the same seed gives the same image */
+  int no_fresnel;         /* dielectrics always transmit (reflect only on total
+                             internal reflection), the paper's assumption */
+  bbc_method method;      /* default BBC_METHOD_PT; the others need `cache` */
+  const bbc_cache *cache; /* the precomputed bounds (checked against the scene by the
+                             caller with bbc_cache_check_scene) */
   bbc_gamma_mode gamma_mode;
   double gamma_value;
-  uint32_t components;   /* BBC_COMPONENT_* mask; 0 = all */
-  uint32_t chains;       /* BBC_CHAIN_BIT mask of chain types the caustic estimator
-                            uses; 0 = all in the cache */
+  uint32_t components;      /* BBC_COMPONENT_* mask; 0 = all */
+  uint32_t chains;          /* BBC_CHAIN_BIT mask of chain types the caustic estimator
+                               uses; 0 = all in the cache */
   bbc_progress_fn progress; /* optional; called between passes on the calling thread
                                with samples per pixel done / planned (planned is 0
                                under a pure time limit) */
@@ -65,21 +65,21 @@ typedef struct bbc_render_options {
 } bbc_render_options;
 
 typedef struct bbc_render_stats {
-  double seconds;       /* wall time of rendering */
-  uint32_t spp;         /* samples per pixel completed */
-  uint64_t samples;     /* camera samples traced */
-  uint64_t rays;        /* closest-hit plus occlusion rays */
-  int threads;          /* threads used */
+  double seconds;   /* wall time of rendering */
+  uint32_t spp;     /* samples per pixel completed */
+  uint64_t samples; /* camera samples traced */
+  uint64_t rays;    /* closest-hit plus occlusion rays */
+  int threads;      /* threads used */
   /* The caustic estimator (the paper's Table 2 render columns). */
-  uint64_t lookups;         /* shading points that looked up a cell */
-  uint64_t candidates;      /* sum of |U| (tuples of the cell on the point's triangle) */
-  uint64_t bins;            /* sum of |B| */
-  uint64_t sampled;         /* sum of |S| */
-  uint64_t solutions;       /* admissible paths found in sampled tuples */
-  double sampling_seconds;  /* thread time preparing and drawing (sum over threads) */
-  double decoding_seconds;  /* thread time decoding cells */
-  double solving_seconds;   /* thread time in the solver and the path's visibility */
-  double thread_seconds;    /* thread time rendering, for the shares above */
+  uint64_t lookups;        /* shading points that looked up a cell */
+  uint64_t candidates;     /* sum of |U| (tuples of the cell on the point's triangle) */
+  uint64_t bins;           /* sum of |B| */
+  uint64_t sampled;        /* sum of |S| */
+  uint64_t solutions;      /* admissible paths found in sampled tuples */
+  double sampling_seconds; /* thread time preparing and drawing (sum over threads) */
+  double decoding_seconds; /* thread time decoding cells */
+  double solving_seconds;  /* thread time in the solver and the path's visibility */
+  double thread_seconds;   /* thread time rendering, for the shares above */
 } bbc_render_stats;
 
 /* Renders the scene's camera into image (whose size sets the resolution and the
@@ -95,8 +95,8 @@ BBC_API bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
 /* The primary ray through film position (px, py) in pixels of a width x height film
  * ((0,0) is the top-left corner). The film's aspect ratio is width / height and the
  * camera's yfov spans its height; dir is unit length. */
-BBC_API void bbc_camera_ray(const bbc_camera *camera, uint32_t width, uint32_t height,
-                            double px, double py, bbc_vec3 *origin, bbc_vec3 *dir);
+BBC_API void bbc_camera_ray(const bbc_camera *camera, uint32_t width, uint32_t height, double px,
+                            double py, bbc_vec3 *origin, bbc_vec3 *dir);
 
 #ifdef __cplusplus
 }

@@ -15,9 +15,9 @@ extern "C" {
 #endif
 
 typedef enum bbc_material_type {
-  BBC_MATERIAL_DIFFUSE = 0,    /* Lambertian, albedo = base_color */
-  BBC_MATERIAL_MIRROR = 1,     /* perfect conductor, reflectance = base_color */
-  BBC_MATERIAL_DIELECTRIC = 2  /* perfectly smooth glass/water with index ior */
+  BBC_MATERIAL_DIFFUSE = 0,   /* Lambertian, albedo = base_color */
+  BBC_MATERIAL_MIRROR = 1,    /* perfect conductor, reflectance = base_color */
+  BBC_MATERIAL_DIELECTRIC = 2 /* perfectly smooth glass/water with index ior */
 } bbc_material_type;
 
 typedef struct bbc_material {
@@ -30,11 +30,7 @@ typedef struct bbc_material {
 
 /* What a mesh does for caustics: casters are the specular surfaces light is bounced
  * through, receivers carry the caustic (and its cache grid), "none" is only traced. */
-typedef enum bbc_role {
-  BBC_ROLE_CASTER = 0,
-  BBC_ROLE_RECEIVER = 1,
-  BBC_ROLE_NONE = 2
-} bbc_role;
+typedef enum bbc_role { BBC_ROLE_CASTER = 0, BBC_ROLE_RECEIVER = 1, BBC_ROLE_NONE = 2 } bbc_role;
 
 /* One glTF primitive, flattened to world space. Its vertices are
  * [first_vertex, first_vertex + vertex_count) and its triangles
@@ -92,9 +88,9 @@ typedef struct bbc_scene {
   /* Emissive triangles (area lights), with the cumulative area-times-power
    * distribution used to sample them. */
   uint32_t emitter_count;
-  uint32_t *emitters;       /* triangle indices */
-  double *emitter_cdf;      /* emitter_count entries, last one 1 */
-  double emitter_power;     /* sum of area x mean radiance x pi */
+  uint32_t *emitters;   /* triangle indices */
+  double *emitter_cdf;  /* emitter_count entries, last one 1 */
+  double emitter_power; /* sum of area x mean radiance x pi */
 
   bbc_camera camera;
 } bbc_scene;
@@ -117,7 +113,7 @@ BBC_API void bbc_scene_free(bbc_scene *scene);
 
 /* The material of a triangle. */
 static inline const bbc_material *bbc_scene_triangle_material(const bbc_scene *scene,
-                                                               uint32_t triangle) {
+                                                              uint32_t triangle) {
   return &scene->materials[scene->meshes[scene->triangle_mesh[triangle]].material];
 }
 

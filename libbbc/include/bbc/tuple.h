@@ -25,14 +25,16 @@ typedef enum bbc_chain {
 #define BBC_NO_TRIANGLE UINT32_MAX
 
 typedef struct bbc_tuple {
-  uint32_t light;        /* index into scene->point_lights */
-  uint32_t chain;        /* a bbc_chain */
-  uint32_t specular[2];  /* T1 and T2 (BBC_NO_TRIANGLE for one bounce), scene triangles */
-  uint32_t receiver;     /* Tk, a scene triangle of a receiver mesh */
+  uint32_t light;       /* index into scene->point_lights */
+  uint32_t chain;       /* a bbc_chain */
+  uint32_t specular[2]; /* T1 and T2 (BBC_NO_TRIANGLE for one bounce), scene triangles */
+  uint32_t receiver;    /* Tk, a scene triangle of a receiver mesh */
 } bbc_tuple;
 
 /* Number of specular vertices of a chain type (1 or 2). */
-static inline int bbc_chain_length(bbc_chain chain) { return chain <= BBC_CHAIN_T ? 1 : 2; }
+static inline int bbc_chain_length(bbc_chain chain) {
+  return chain <= BBC_CHAIN_T ? 1 : 2;
+}
 /* 1 if the i-th specular vertex (0-based) of the chain refracts. */
 static inline int bbc_chain_refracts(bbc_chain chain, int i) {
   static const char *const codes[BBC_CHAIN_COUNT] = {"R", "T", "RR", "RT", "TR", "TT"};
