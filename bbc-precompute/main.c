@@ -1,6 +1,5 @@
 /* bbc-precompute: bounds the caustics of a glTF scene into a .bbc cache. */
 #define _POSIX_C_SOURCE 200809L
-#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -59,25 +58,19 @@ static const char help[] =
     "Exit status: 0 on success, 1 on a runtime failure (bad scene, I/O), 2 on bad usage,\n"
     "130 when interrupted (no output is left behind).\n";
 
-static volatile sig_atomic_t interrupted = 0;
-static void on_signal(int sig) {
-  (void)sig;
-  interrupted = 1;
-}
-
 static int on_progress(void *user, uint64_t done, uint64_t total) {
   char detail[64];
   snprintf(detail, sizeof detail, "%llu/%llu tuples", (unsigned long long)done,
            (unsigned long long)total);
   cli_progress_update(user, total ? (double)done / (double)total : 1.0, detail);
-  return interrupted;
+  return cli_interrupted;
 }
 
 static int on_write_progress(void *user, uint64_t done, uint64_t total) {
   (void)user;
   (void)done;
   (void)total;
-  return interrupted;
+  return cli_interrupted;
 }
 
 /* Writes s as a JSON string literal. */
@@ -93,21 +86,6 @@ static void json_string(FILE *f, const char *s) {
       fputc(c, f);
   }
   fputc('"', f);
-}
-
-static uint32_t parse_chains(const cli_args *a, const char *text) {
-  uint32_t mask = 0;
-  char buffer[256];
-  snprintf(buffer, sizeof buffer, "%s", text);
-  for (char *save = NULL, *name = strtok_r(buffer, ",", &save); name;
-       name = strtok_r(NULL, ",", &save)) {
-    bbc_chain chain;
-    if (!bbc_chain_parse(name, &chain))
-      cli_usage_error(a->usage, "--chains: unknown chain type '%s' (R, T, RR, RT, TR, TT)", name);
-    mask |= BBC_CHAIN_BIT(chain);
-  }
-  if (!mask) cli_usage_error(a->usage, "--chains: no chain type given");
-  return mask;
 }
 
 int main(int argc, char **argv) {
@@ -136,7 +114,7 @@ int main(int argc, char **argv) {
     } else if (cli_flag(&a, "--stats")) {
       stats = 1;
     } else if (cli_option(&a, "--chains", &value)) {
-      options.params.chains = parse_chains(&a, value);
+      options.params.chains = cli_parse_chains(&a, "--chains", value);
     } else if (cli_option(&a, "--max-level", &value)) {
       options.params.max_level = (uint32_t)cli_parse_int(&a, "--max-level", value, 0, 30);
     } else if (cli_option(&a, "--sigma", &value)) {
@@ -177,11 +155,7 @@ int main(int argc, char **argv) {
   if (options.params.chains & ~implemented)
     cli_usage_error(usage, "--chains: only R and T are implemented in this version");
 
-  struct sigaction sa;
-  memset(&sa, 0, sizeof sa);
-  sa.sa_handler = on_signal;
-  sigaction(SIGINT, &sa, NULL);
-  sigaction(SIGTERM, &sa, NULL);
+  cli_catch_interrupts();
 
   double start = cli_now();
   bbc_scene_options scene_options = {cli_print_message, cli_print_warning, NULL};
@@ -197,7 +171,7 @@ int main(int argc, char **argv) {
   bbc_precompute_stats st;
   bbc_result r = bbc_precompute(&builder, scene, &options, &st);
   cli_progress_end(&bar);
-  if (r == BBC_ERR_CANCELLED || interrupted) {
+  if (r == BBC_ERR_CANCELLED || cli_interrupted) {
     fprintf(stderr, "bbc-precompute: interrupted; %s was not written\n", output);
     bbc_cache_builder_free(builder);
     bbc_scene_free(scene);
@@ -220,7 +194,7 @@ int main(int argc, char **argv) {
   double write_seconds = cli_now() - w0;
   bbc_cache_builder_free(builder);
   bbc_scene_free(scene);
-  if (interrupted) {
+  if (cli_interrupted) {
     fprintf(stderr, "bbc-precompute: interrupted; %s was not written\n", output);
     return 130;
   }

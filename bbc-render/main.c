@@ -1,6 +1,5 @@
 /* bbc-render: renders a glTF scene to OpenEXR. */
 #define _POSIX_C_SOURCE 200809L
-#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -81,12 +80,6 @@ static const char help[] =
 
 /* Set by SIGINT and SIGTERM; the progress callback then cancels the render after the
  * current pass, as in bbc-precompute. */
-static volatile sig_atomic_t interrupted = 0;
-static void on_signal(int sig) {
-  (void)sig;
-  interrupted = 1;
-}
-
 typedef struct progress_state {
   cli_progress bar;
   double time_limit;
@@ -105,7 +98,7 @@ static int on_progress(void *user, uint64_t done, uint64_t total) {
     snprintf(detail, sizeof detail, "%llu spp", (unsigned long long)done);
   }
   cli_progress_update(&state->bar, fraction, detail);
-  return interrupted;
+  return cli_interrupted;
 }
 
 static void print_stats(const bbc_render_stats *s, const bbc_render_options *options,
@@ -187,16 +180,7 @@ int main(int argc, char **argv) {
       options.gamma_mode = BBC_GAMMA_VARIANCE;
       options.gamma_value = cli_parse_double(&a, "--variance", value, 1e-300, 1e300);
     } else if (cli_option(&a, "--chains", &value)) {
-      options.chains = 0;
-      char buffer[256];
-      snprintf(buffer, sizeof buffer, "%s", value);
-      for (char *save = NULL, *name = strtok_r(buffer, ",", &save); name;
-           name = strtok_r(NULL, ",", &save)) {
-        bbc_chain chain;
-        if (!bbc_chain_parse(name, &chain))
-          cli_usage_error(usage, "--chains: unknown chain type '%s' (R, T, RR, RT, TR, TT)", name);
-        options.chains |= BBC_CHAIN_BIT(chain);
-      }
+      options.chains = cli_parse_chains(&a, "--chains", value);
     } else if (cli_option(&a, "--only", &value)) {
       options.components = 0;
       char buffer[256];
@@ -257,11 +241,7 @@ int main(int argc, char **argv) {
                     : options.method == BBC_METHOD_UNIFORM   ? "uniform"
                                                              : "one-sample");
 
-  struct sigaction sa;
-  memset(&sa, 0, sizeof sa);
-  sa.sa_handler = on_signal;
-  sigaction(SIGINT, &sa, NULL);
-  sigaction(SIGTERM, &sa, NULL);
+  cli_catch_interrupts();
 
   bbc_scene_options scene_options = {cli_print_message, cli_print_warning, NULL};
   bbc_scene *scene = NULL;
@@ -314,10 +294,10 @@ int main(int argc, char **argv) {
   bbc_render_stats render_stats;
   memset(&render_stats, 0, sizeof render_stats);
   /* A signal during loading cancels before the first pass (0 spp). */
-  bbc_result r =
-      interrupted ? BBC_ERR_CANCELLED : bbc_render(scene, accel, &options, image, &render_stats);
+  bbc_result r = cli_interrupted ? BBC_ERR_CANCELLED
+                                 : bbc_render(scene, accel, &options, image, &render_stats);
   cli_progress_end(&state.bar);
-  if (r == BBC_ERR_CANCELLED || interrupted) {
+  if (r == BBC_ERR_CANCELLED || cli_interrupted) {
     /* Only the passes completed before the signal are in the image; write them only
      * when asked, and never an image of no pass at all. */
     if (!write_partial || render_stats.spp == 0) {

@@ -1,6 +1,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "cli.h"
 
+#include "bbc/tuple.h"
+
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
@@ -88,6 +90,37 @@ long long cli_parse_int(const cli_args *a, const char *name, const char *text, l
   if (v < lo || v > hi)
     cli_usage_error(a->usage, "%s: %s is out of range [%lld, %lld]", name, text, lo, hi);
   return v;
+}
+
+uint32_t cli_parse_chains(const cli_args *a, const char *name, const char *text) {
+  uint32_t mask = 0;
+  char buffer[256];
+  snprintf(buffer, sizeof buffer, "%s", text);
+  for (char *save = NULL, *chain_name = strtok_r(buffer, ",", &save); chain_name;
+       chain_name = strtok_r(NULL, ",", &save)) {
+    bbc_chain chain;
+    if (!bbc_chain_parse(chain_name, &chain))
+      cli_usage_error(a->usage, "%s: unknown chain type '%s' (R, T, RR, RT, TR, TT)", name,
+                      chain_name);
+    mask |= 1u << chain;
+  }
+  if (!mask) cli_usage_error(a->usage, "%s: no chain type given", name);
+  return mask;
+}
+
+volatile int cli_interrupted = 0;
+
+static void on_interrupt(int sig) {
+  (void)sig;
+  cli_interrupted = 1;
+}
+
+void cli_catch_interrupts(void) {
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_interrupt;
+  sigaction(SIGINT, &sa, NULL);
+  sigaction(SIGTERM, &sa, NULL);
 }
 
 double cli_now(void) {

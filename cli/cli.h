@@ -3,6 +3,7 @@
 #ifndef BBC_CLI_H
 #define BBC_CLI_H
 
+#include <signal.h>
 #include <stdint.h>
 
 #include "bbc/common.h"
@@ -41,6 +42,15 @@ double cli_parse_double(const cli_args *a, const char *name, const char *text, d
                         double hi);
 long long cli_parse_int(const cli_args *a, const char *name, const char *text, long long lo,
                         long long hi);
+
+/* A chain-type list such as "R,T" as a BBC_CHAIN_BIT mask; a usage error naming the
+ * option for an unknown type or an empty list. */
+uint32_t cli_parse_chains(const cli_args *a, const char *name, const char *text);
+
+/* Set once SIGINT or SIGTERM arrived, after cli_catch_interrupts. Long operations poll
+ * it (through their progress callbacks) and stop; the tool then exits with 130. */
+extern volatile int cli_interrupted;
+void cli_catch_interrupts(void);
 
 /* A progress bar on stderr: shown only when enabled, redrawn at most five times a
  * second, with percent, elapsed time and ETA. */
