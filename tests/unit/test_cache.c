@@ -466,7 +466,9 @@ TEST(round_trip_file_and_memory) {
   fx_record rec = {0};
   bbc_cache_builder *b = NULL;
   REQUIRE(fx_synthetic_builder(&b, scene, 64, 11, &rec) == BBC_OK);
-  const char *path = "/tmp/bbc-test-cache-roundtrip.bbc";
+  /* A name of this process's own: test suites may run side by side. */
+  char path[64];
+  snprintf(path, sizeof path, "/tmp/bbc-test-cache-roundtrip-%ld.bbc", (long)getpid());
   bbc_cache_write_options wo;
   memset(&wo, 0, sizeof wo);
   wo.chunk_bytes = 4096; /* many chunks, so the cursor's cache is exercised */
