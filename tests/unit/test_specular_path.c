@@ -7,57 +7,16 @@
 
 #include "bbc/scene.h"
 #include "bbc/specular_path.h"
+#define CHAIN_FIXTURES_SEED 0x9e3779b97f4a7c15ull
+#include "chain_fixtures.h"
 #include "harness.h"
 #include "vec_internal.h"
 
 /* ------------------------------------------------------------------------------------ */
 /* Helpers. */
 
-static uint64_t rng_state = 0x9e3779b97f4a7c15ull;
-static double rnd(void) {
-  /* splitmix64: deterministic, so failures reproduce. */
-  uint64_t z = (rng_state += 0x9e3779b97f4a7c15ull);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-  z ^= z >> 31;
-  return (double)(z >> 11) * (1.0 / 9007199254740992.0);
-}
-
-/* A uniform point of the unit triangle. */
-static void rnd_bary(double *u, double *v) {
-  double a = rnd(), b = rnd();
-  if (a + b > 1) a = 1 - a, b = 1 - b;
-  *u = a, *v = b;
-}
-
-static void set_tri(bbc_vec3 p[3], bbc_vec3 a, bbc_vec3 b, bbc_vec3 c) {
-  p[0] = a, p[1] = b, p[2] = c;
-}
-
-static void flat_specular(bbc_specular_triangle *t, bbc_vec3 a, bbc_vec3 b, bbc_vec3 c, bbc_vec3 n,
-                          int refract, double ior) {
-  set_tri(t->p, a, b, c);
-  t->n[0] = t->n[1] = t->n[2] = n;
-  t->refract = refract;
-  t->ior = ior;
-}
-
-/* The mirror image of x in the plane through p with unit normal n. */
-static bbc_vec3 mirror_point(bbc_vec3 x, bbc_vec3 p, bbc_vec3 n) {
-  return v3_sub(x, v3_scale(n, 2.0 * v3_dot(v3_sub(x, p), n)));
-}
-
 static double rel_err(double a, double b) {
   return fabs(a - b) / fmax(fabs(b), 1e-300);
-}
-
-/* The triangles of a scene whose mesh has the given role. */
-static uint32_t role_triangles(const bbc_scene *s, bbc_role role, uint32_t **out) {
-  uint32_t n = 0;
-  *out = malloc(sizeof(uint32_t) * (s->triangle_count ? s->triangle_count : 1));
-  for (uint32_t t = 0; t < s->triangle_count; t++)
-    if (s->meshes[s->triangle_mesh[t]].role == role) (*out)[n++] = t;
-  return n;
 }
 
 /* ------------------------------------------------------------------------------------ */
