@@ -30,6 +30,7 @@ static const char usage[] =
     "                   [--threads N] [--progress|--no-progress]\n"
     "       bbc-inspect solutions SCENE.gltf CACHE.bbc [--samples N] [--threads N]\n"
     "       bbc-inspect diff A.bbc B.bbc\n"
+    "       bbc-inspect merge OUT.bbc SHARD.bbc... [--threads N] [--progress|--no-progress]\n"
     "       bbc-inspect -h|--help | --version\n";
 
 static const char help[] =
@@ -81,13 +82,24 @@ static const char help[] =
     "                       tuples (count, first difference), receivers and grids, and cell\n"
     "                       lists (count of differing cells, the first with both lists);\n"
     "                       prints nothing and exits 0 when they agree, 1 when they differ\n"
+    "  merge OUT.bbc SHARD.bbc...\n"
+    "                       joins the shard caches of one sharded precompute\n"
+    "                       (bbc-precompute --shard I/N for I = 0..N-1, in any order) into\n"
+    "                       OUT.bbc, byte-identical to the cache of the same precompute\n"
+    "                       without --shard. Refuses, with one line and exit 1, a cache\n"
+    "                       that is not a shard, shards of other scenes, parameters or\n"
+    "                       splits, a shard given twice and a missing shard. OUT.bbc is\n"
+    "                       written to a temporary file and renamed: never half-written\n"
+    "      --threads N        threads (default: all cores); the output does not depend on it\n"
+    "      --progress, --no-progress  force the progress bar on stderr on or off\n"
     "\n"
     "Options:\n"
     "  -h, --help           this text\n"
     "  --version            the versions of bbc-inspect, libbbc and the .bbc format\n"
     "\n"
     "Exit status: 0 success, 1 a file could not be read or is invalid (check-bounds: a\n"
-    "bound is broken; diff: the caches differ), 2 bad usage.\n";
+    "bound is broken; diff: the caches differ; merge: the shards do not merge), 2 bad\n"
+    "usage, 130 when merge is interrupted (OUT.bbc is then not written).\n";
 
 static bbc_cache *open_cache(const char *path) {
   bbc_cache_options o = {cli_print_message, NULL};
@@ -143,6 +155,13 @@ static int cmd_info(const char *path) {
   uint64_t per_chain[BBC_CHAIN_COUNT] = {0};
   const bbc_tuple *t = bbc_cache_tuples(c);
   for (uint32_t i = 0; i < in.tuple_count; i++) per_chain[t[i].chain]++;
+  bbc_cache_shard shard;
+  if (bbc_cache_get_shard(c, &shard))
+    printf(
+        "shard        %u/%u of a sharded precompute: %u of its %llu candidate tuples stored "
+        "(candidates hash %016llx); incomplete alone, merge all %u with bbc-inspect merge\n",
+        shard.index, shard.count, in.tuple_count, (unsigned long long)shard.candidate_count,
+        (unsigned long long)shard.candidates_hash, shard.count);
   printf("tuples       %u", in.tuple_count);
   int listed = 0;
   for (int k = 0; k < BBC_CHAIN_COUNT; k++)
@@ -190,9 +209,13 @@ static int cmd_validate(const char *path) {
   }
   bbc_cache_info in;
   bbc_cache_get_info(c, &in);
-  printf("%s: valid (format %u.%u, %u tuples, %u receivers, %u chunks, %llu entries)\n", path,
-         in.version_major, in.version_minor, in.tuple_count, in.receiver_count, in.chunk_count,
-         (unsigned long long)in.entry_count);
+  bbc_cache_shard shard;
+  char shard_text[64] = "";
+  if (bbc_cache_get_shard(c, &shard))
+    snprintf(shard_text, sizeof shard_text, "shard %u/%u, ", shard.index, shard.count);
+  printf("%s: valid (format %u.%u, %s%u tuples, %u receivers, %u chunks, %llu entries)\n", path,
+         in.version_major, in.version_minor, shard_text, in.tuple_count, in.receiver_count,
+         in.chunk_count, (unsigned long long)in.entry_count);
   bbc_cache_close(c);
   return 0;
 }
@@ -782,6 +805,82 @@ static int cmd_diff(const char *path_a, const char *path_b) {
   return differences ? 1 : 0;
 }
 
+/* ------------------------------------------------------------------ merge */
+
+static int on_merge_progress(void *user, uint64_t done, uint64_t total) {
+  cli_progress_update(user, total ? (double)done / (double)total : 1.0, "cells");
+  return cli_interrupted;
+}
+
+static int on_write_progress(void *user, uint64_t done, uint64_t total) {
+  (void)user;
+  (void)done;
+  (void)total;
+  return cli_interrupted;
+}
+
+static int cmd_merge(cli_args *a) {
+  const char *out = NULL, *threads_text = NULL;
+  const char **paths = calloc((size_t)a->argc, sizeof *paths);
+  if (!paths) cli_fail("out of memory");
+  size_t n = 0;
+  int progress = -1;
+  while (a->i < a->argc) {
+    const char *v, *arg = a->argv[a->i];
+    if (cli_option(a, "--threads", &v)) {
+      threads_text = v;
+    } else if (cli_flag(a, "--progress")) {
+      progress = 1;
+    } else if (cli_flag(a, "--no-progress")) {
+      progress = 0;
+    } else if (arg[0] == '-' && arg[1] != '\0') {
+      cli_usage_error(usage, "unknown option '%s'", arg);
+    } else {
+      if (!out)
+        out = arg;
+      else
+        paths[n++] = arg;
+      a->i++;
+    }
+  }
+  if (!out || n == 0) cli_usage_error(usage, "merge needs OUT.bbc and at least one SHARD.bbc");
+  for (size_t i = 0; i < n; i++)
+    if (strcmp(paths[i], out) == 0)
+      cli_usage_error(usage, "merge: the output %s is also given as a shard", out);
+  bbc_cache_merge_options options;
+  memset(&options, 0, sizeof options);
+  if (threads_text) options.threads = (int)cli_parse_int(a, "--threads", threads_text, 1, 4096);
+  cli_catch_interrupts();
+
+  bbc_cache **shards = calloc(n, sizeof *shards);
+  if (!shards) cli_fail("out of memory");
+  for (size_t i = 0; i < n; i++) shards[i] = open_cache(paths[i]); /* exits 1 on failure */
+  cli_progress bar;
+  cli_progress_begin(&bar, "merging", progress);
+  options.error_fn = cli_print_message;
+  options.progress_fn = on_merge_progress;
+  options.progress_user = &bar;
+  bbc_cache_builder *b = NULL;
+  bbc_result r = bbc_cache_merge(&b, (const bbc_cache *const *)shards, n, &options);
+  cli_progress_end(&bar);
+  for (size_t i = 0; i < n; i++) bbc_cache_close(shards[i]);
+  free(shards);
+  free(paths);
+  if (r == BBC_OK && !cli_interrupted) {
+    bbc_cache_write_options wo;
+    memset(&wo, 0, sizeof wo);
+    wo.error_fn = cli_print_message;
+    wo.progress_fn = on_write_progress;
+    r = bbc_cache_builder_write(b, out, &wo);
+  }
+  bbc_cache_builder_free(b);
+  if (r == BBC_ERR_CANCELLED || cli_interrupted) {
+    fprintf(stderr, "bbc-inspect: interrupted; %s was not written\n", out);
+    return 130;
+  }
+  return r == BBC_OK ? 0 : 1; /* the library printed the one line */
+}
+
 int main(int argc, char **argv) {
   cli_tool = "bbc-inspect";
   if (argc < 2) cli_usage_error(usage, "missing command");
@@ -791,17 +890,15 @@ int main(int argc, char **argv) {
     return 0;
   }
   if (strcmp(cmd, "--version") == 0) {
-    printf(
-        "bbc-inspect %s (libbbc %s); reads .bbc format %d.x (writes none; libbbc writes "
-        "%d.%d)\n",
-        bbc_version_string(), bbc_version_string(), BBC_FORMAT_VERSION_MAJOR,
-        BBC_FORMAT_VERSION_MAJOR, BBC_FORMAT_VERSION_MINOR);
+    printf("bbc-inspect %s (libbbc %s); reads .bbc format %d.x; merge writes %d.%d\n",
+           bbc_version_string(), bbc_version_string(), BBC_FORMAT_VERSION_MAJOR,
+           BBC_FORMAT_VERSION_MAJOR, BBC_FORMAT_VERSION_MINOR);
     return 0;
   }
   int known = strcmp(cmd, "info") == 0 || strcmp(cmd, "validate") == 0 ||
               strcmp(cmd, "dump") == 0 || strcmp(cmd, "heatmap") == 0 ||
               strcmp(cmd, "check-bounds") == 0 || strcmp(cmd, "solutions") == 0 ||
-              strcmp(cmd, "diff") == 0;
+              strcmp(cmd, "diff") == 0 || strcmp(cmd, "merge") == 0;
   if (!known) cli_usage_error(usage, "unknown command '%s'", cmd);
   cli_args a = {argc, argv, 2, usage};
   /* Help after a command is still help. */
@@ -810,6 +907,7 @@ int main(int argc, char **argv) {
       fputs(help, stdout);
       return 0;
     }
+  if (strcmp(cmd, "merge") == 0) return cmd_merge(&a);
   /* Commands of two files: SCENE CACHE or A B. */
   if (strcmp(cmd, "check-bounds") == 0 || strcmp(cmd, "solutions") == 0 ||
       strcmp(cmd, "diff") == 0) {

@@ -31,14 +31,15 @@ static const char help[] =
     "  --json FILE           write the statistics as JSON to FILE\n"
     "\n"
     "Bounds:\n"
-    "  --chains LIST         chain types, comma-separated: R (mirror casters), T\n"
-    "                        (dielectric casters); default R,T. RR, RT, TR and TT are\n"
-    "                        not implemented yet\n"
+    "  --chains LIST         chain types, comma-separated: R, T, RR, RT, TR, TT (R\n"
+    "                        reflects on a mirror, T refracts through a dielectric, in\n"
+    "                        the light's order); default: all six\n"
     "  --max-level N         deepest subdivision level of a tuple's domain (default 10)\n"
     "  --sigma S             stop subdividing when the position bound's area (receiver\n"
     "                        barycentric units) is below S (default 1e-4)\n"
     "  --alpha A             stop when the irradiance bound's upper/lower ratio is\n"
-    "                        below A (default 2)\n"
+    "                        below A (default 2), one specular vertex\n"
+    "  --alpha2 A            the same for two specular vertices (default 10)\n"
     "  --m M                 solutions assumed per tuple, Eq. 21 (default 1)\n"
     "  --resolution N        cells along the longer side of each receiver grid\n"
     "                        (default 512)\n"
@@ -50,6 +51,11 @@ static const char help[] =
     "Execution:\n"
     "  --threads N           worker threads (default: every core); the cache is\n"
     "                        byte-identical for any thread count\n"
+    "  --shard I/N           bound only the candidate tuples k with k % N == I\n"
+    "                        (0 <= I < N) and write a shard cache; the N shards, run\n"
+    "                        anywhere, merge with 'bbc-inspect merge OUT.bbc SHARD...'\n"
+    "                        into the cache this command writes without --shard, byte\n"
+    "                        for byte. bbc-render refuses a shard alone\n"
     "  --progress            show a progress bar (default: when stderr is a terminal)\n"
     "  --no-progress         never show one\n"
     "  --version             print versions and exit\n"
@@ -71,6 +77,30 @@ static int on_write_progress(void *user, uint64_t done, uint64_t total) {
   (void)done;
   (void)total;
   return cli_interrupted;
+}
+
+/* --shard I/N: two decimal integers, 0 <= I < N < 2^32; anything else is a usage error. */
+static void parse_shard(const char *text, uint32_t *index, uint32_t *count) {
+  unsigned long long v[2];
+  const char *p = text;
+  for (int k = 0; k < 2; k++) {
+    if (*p < '0' || *p > '9') cli_usage_error(usage, "--shard: '%s' is not I/N (e.g. 0/4)", text);
+    v[k] = 0;
+    while (*p >= '0' && *p <= '9') {
+      v[k] = v[k] * 10 + (unsigned)(*p++ - '0');
+      if (v[k] > UINT32_MAX) cli_usage_error(usage, "--shard: '%s': numbers too large", text);
+    }
+    if (*p != (k == 0 ? '/' : '\0'))
+      cli_usage_error(usage, "--shard: '%s' is not I/N (e.g. 0/4)", text);
+    p++;
+  }
+  if (v[1] == 0)
+    cli_usage_error(usage, "--shard: '%s': the shard count N must be at least 1", text);
+  if (v[0] >= v[1])
+    cli_usage_error(usage, "--shard: '%s': the shard index I must be below N (0..%llu)", text,
+                    v[1] - 1);
+  *index = (uint32_t)v[0];
+  *count = (uint32_t)v[1];
 }
 
 /* Writes s as a JSON string literal. */
@@ -95,7 +125,6 @@ int main(int argc, char **argv) {
   bbc_precompute_options options;
   memset(&options, 0, sizeof options);
   bbc_precompute_params_default(&options.params);
-  options.params.chains = BBC_CHAIN_BIT(BBC_CHAIN_R) | BBC_CHAIN_BIT(BBC_CHAIN_T);
   int progress = -1, stats = 0;
 
   while (a.i < argc) {
@@ -104,8 +133,10 @@ int main(int argc, char **argv) {
       fputs(help, stdout);
       return 0;
     } else if (cli_flag(&a, "--version")) {
-      printf("bbc-precompute %s (libbbc %s, writes .bbc format %d.%d)\n", bbc_version_string(),
-             bbc_version_string(), BBC_FORMAT_VERSION_MAJOR, BBC_FORMAT_VERSION_MINOR);
+      /* A shard cache has the SHRD section of minor version 1 (format-spec Sec. 5.10). */
+      printf("bbc-precompute %s (libbbc %s, writes .bbc format %d.%d, %d.1 with --shard)\n",
+             bbc_version_string(), bbc_version_string(), BBC_FORMAT_VERSION_MAJOR,
+             BBC_FORMAT_VERSION_MINOR, BBC_FORMAT_VERSION_MAJOR);
       return 0;
     } else if (cli_option(&a, "-o", &value) || cli_option(&a, "--output", &value)) {
       output = value;
@@ -121,6 +152,8 @@ int main(int argc, char **argv) {
       options.params.sigma = cli_parse_double(&a, "--sigma", value, 0, 1);
     } else if (cli_option(&a, "--alpha", &value)) {
       options.params.alpha_single = cli_parse_double(&a, "--alpha", value, 1, 1e30);
+    } else if (cli_option(&a, "--alpha2", &value)) {
+      options.params.alpha_double = cli_parse_double(&a, "--alpha2", value, 1, 1e30);
     } else if (cli_option(&a, "--m", &value)) {
       options.params.m = cli_parse_double(&a, "--m", value, 1e-6, 1e6);
     } else if (cli_option(&a, "--resolution", &value)) {
@@ -136,6 +169,8 @@ int main(int argc, char **argv) {
         cli_usage_error(usage, "--jacobian: '%s' is neither determinant nor quotient", value);
     } else if (cli_option(&a, "--threads", &value)) {
       options.threads = (int)cli_parse_int(&a, "--threads", value, 1, 1024);
+    } else if (cli_option(&a, "--shard", &value)) {
+      parse_shard(value, &options.shard_index, &options.shard_count);
     } else if (cli_flag(&a, "--progress")) {
       progress = 1;
     } else if (cli_flag(&a, "--no-progress")) {
@@ -151,9 +186,6 @@ int main(int argc, char **argv) {
   }
   if (!scene_path) cli_usage_error(usage, "no scene given");
   if (!output) cli_usage_error(usage, "no output given (-o OUT.bbc)");
-  const uint32_t implemented = BBC_CHAIN_BIT(BBC_CHAIN_R) | BBC_CHAIN_BIT(BBC_CHAIN_T);
-  if (options.params.chains & ~implemented)
-    cli_usage_error(usage, "--chains: only R and T are implemented in this version");
 
   cli_catch_interrupts();
 
@@ -210,13 +242,34 @@ int main(int argc, char **argv) {
   double pos_share = cpu > 0 ? st.position_cpu_seconds / cpu : 0;
   double bound_total = st.bounding_seconds + st.recording_seconds;
   double tuples = st.tuples ? (double)st.tuples : 1;
+  char shard_text[96] = "";
+  if (options.shard_count)
+    snprintf(shard_text, sizeof shard_text, "; shard %u/%u bounded %llu of the candidates",
+             options.shard_index, options.shard_count,
+             (unsigned long long)(st.candidate_tuples > options.shard_index
+                                      ? (st.candidate_tuples - options.shard_index - 1) /
+                                                options.shard_count +
+                                            1
+                                      : 0));
+  /* Stored tuples per chain type: "R 12, TT 40" and the JSON fields "tuples_R" etc. */
+  char per_chain[160] = "", json_chains[320] = "";
+  for (int c = 0; c < BBC_CHAIN_COUNT; c++) {
+    unsigned long long n = st.tuples_per_chain[c];
+    const char *name = bbc_chain_name((bbc_chain)c);
+    size_t used = strlen(json_chains);
+    snprintf(json_chains + used, sizeof json_chains - used, "  \"tuples_%s\": %llu,\n", name, n);
+    if (n == 0 && !(options.params.chains & BBC_CHAIN_BIT(c))) continue;
+    used = strlen(per_chain);
+    snprintf(per_chain + used, sizeof per_chain - used, "%s%s %llu", used ? ", " : "", name, n);
+  }
   if (stats) {
     fprintf(stderr,
             "time              %.3f s total: tuples %.3f s, bounding %.3f s (position %.0f%%, "
             "irradiance %.0f%%), recording %.3f s, writing %.3f s; %d threads\n"
             "share             position %.1f%%, irradiance %.1f%%, recording %.1f%% (of "
             "bounding + recording)\n"
-            "tuples            %llu stored of %llu candidates (R %llu, T %llu)\n"
+            "tuples            %llu stored of %llu candidates (%s)%s\n"
+            "second triangles  %.2f per first (two bounces, candidates)\n"
             "pieces per tuple  position %.2f, irradiance %.2f, kept %.2f\n"
             "grid entries      %llu\n"
             "file              %lld bytes (%.2f MB)\n"
@@ -226,9 +279,8 @@ int main(int argc, char **argv) {
             100 * pos_share * st.bounding_seconds / bound_total,
             100 * (1 - pos_share) * st.bounding_seconds / bound_total,
             100 * st.recording_seconds / bound_total, (unsigned long long)st.tuples,
-            (unsigned long long)st.candidate_tuples,
-            (unsigned long long)st.tuples_per_chain[BBC_CHAIN_R],
-            (unsigned long long)st.tuples_per_chain[BBC_CHAIN_T], st.position_pieces / tuples,
+            (unsigned long long)st.candidate_tuples, per_chain, shard_text, st.second_per_first,
+            st.position_pieces / tuples,
             st.irradiance_pieces / tuples, st.kept_pieces / tuples, (unsigned long long)st.entries,
             file_size, file_size / 1e6, peak_mb);
   }
@@ -242,14 +294,13 @@ int main(int argc, char **argv) {
             "  \"bounding_seconds\": %.6f,\n  \"position_cpu_seconds\": %.6f,\n"
             "  \"irradiance_cpu_seconds\": %.6f,\n  \"recording_seconds\": %.6f,\n"
             "  \"writing_seconds\": %.6f,\n  \"threads\": %d,\n  \"candidate_tuples\": %llu,\n"
-            "  \"tuples\": %llu,\n  \"tuples_R\": %llu,\n  \"tuples_T\": %llu,\n"
+            "  \"tuples\": %llu,\n%s  \"second_per_first\": %.4f,\n"
             "  \"position_pieces_per_tuple\": %.4f,\n  \"irradiance_pieces_per_tuple\": %.4f,\n"
             "  \"entries\": %llu,\n  \"file_bytes\": %lld,\n  \"peak_memory_mb\": %.1f\n}\n",
             total, st.construction_seconds, st.bounding_seconds, st.position_cpu_seconds,
             st.irradiance_cpu_seconds, st.recording_seconds, write_seconds, st.threads,
-            (unsigned long long)st.candidate_tuples, (unsigned long long)st.tuples,
-            (unsigned long long)st.tuples_per_chain[BBC_CHAIN_R],
-            (unsigned long long)st.tuples_per_chain[BBC_CHAIN_T], st.position_pieces / tuples,
+            (unsigned long long)st.candidate_tuples, (unsigned long long)st.tuples, json_chains,
+            st.second_per_first, st.position_pieces / tuples,
             st.irradiance_pieces / tuples, (unsigned long long)st.entries, file_size, peak_mb);
     if (fclose(f) != 0) cli_fail("%s: cannot write the statistics", json);
   }

@@ -29,7 +29,7 @@ static const char help[] =
     "\n"
     "Caustics (point lights through mirrors and glass, from a bbc-precompute cache):\n"
     "  --cache FILE          the .bbc cache of this scene; refused if it was computed\n"
-    "                        for another scene\n"
+    "                        for another scene or is a shard (bbc-precompute --shard)\n"
     "  --method NAME         bbc: sample tuples by their irradiance bounds (default with\n"
     "                        --cache); enumerate: every tuple covering the point (the\n"
     "                        deterministic reference); uniform: as many tuples on average\n"
@@ -41,7 +41,15 @@ static const char help[] =
     "                        expected\n"
     "  --variance V          instead, choose gamma per cell so that the variance bound\n"
     "                        of Eq. 25 is V\n"
-    "  --chains LIST         chain types used, comma-separated (R, T; default all)\n"
+    "  --chains LIST         chain types used, comma-separated (R, T, RR, RT, TR, TT;\n"
+    "                        default all)\n"
+    "  --solver NAME         how double-scattering tuples (RR, RT, TR, TT) are solved, by\n"
+    "                        Newton's method on the chain: newton-stoch (default): one\n"
+    "                        start drawn on T1, its solution weighted by the number of\n"
+    "                        further draws until one finds it again, an unbiased\n"
+    "                        reciprocal-probability estimate; newton-det: one start at\n"
+    "                        T1's centre, no variance but biased (misses solutions).\n"
+    "                        Single scattering always uses the specular polynomials.\n"
     "  --only PARTS          render only these parts, comma-separated: caustics (the\n"
     "                        caustic estimator), direct (light before any diffuse\n"
     "                        bounce), indirect (the rest)\n"
@@ -122,6 +130,20 @@ static void print_stats(const bbc_render_stats *s, const bbc_render_options *opt
             s->sampled / lookups, s->sampled ? (double)s->solutions / s->sampled : 0.0,
             100 * s->sampling_seconds / busy, 100 * s->decoding_seconds / busy,
             100 * s->solving_seconds / busy);
+    if (s->newton_solves) {
+      /* Double-scattering tuples: Newton's method on the chain (--solver). */
+      unsigned cap =
+          options->newton_max_trials ? options->newton_max_trials : BBC_NEWTON_MAX_TRIALS_DEFAULT;
+      double mean_k = s->newton_estimates ? (double)s->newton_trials / s->newton_estimates : 0.0;
+      fprintf(stderr,
+              "newton       %s: %llu solves, %llu converged (%.1f%%); %llu estimates, mean K "
+              "%.3f, %llu capped at K = %u\n",
+              options->solver == BBC_SOLVER_NEWTON_DET ? "newton-det" : "newton-stoch",
+              (unsigned long long)s->newton_solves, (unsigned long long)s->newton_converged,
+              100.0 * s->newton_converged / s->newton_solves,
+              (unsigned long long)s->newton_estimates, mean_k,
+              (unsigned long long)s->newton_cap_hits, cap);
+    }
   }
 }
 
@@ -181,6 +203,13 @@ int main(int argc, char **argv) {
       options.gamma_value = cli_parse_double(&a, "--variance", value, 1e-300, 1e300);
     } else if (cli_option(&a, "--chains", &value)) {
       options.chains = cli_parse_chains(&a, "--chains", value);
+    } else if (cli_option(&a, "--solver", &value)) {
+      if (strcmp(value, "newton-stoch") == 0)
+        options.solver = BBC_SOLVER_NEWTON_STOCH;
+      else if (strcmp(value, "newton-det") == 0)
+        options.solver = BBC_SOLVER_NEWTON_DET;
+      else
+        cli_usage_error(usage, "--solver: unknown solver '%s' (newton-stoch, newton-det)", value);
     } else if (cli_option(&a, "--only", &value)) {
       options.components = 0;
       char buffer[256];
@@ -266,6 +295,15 @@ int main(int argc, char **argv) {
     if (bbc_cache_open(&cache, cache_path, &cache_options) != BBC_OK) goto done;
     /* The cache reports what differs through its error callback, in one line. */
     if (bbc_cache_check_scene(cache, scene) != BBC_OK) goto done;
+    /* A shard holds only some of the tuples: its caustics would be missing the rest. */
+    bbc_cache_shard shard;
+    if (bbc_cache_get_shard(cache, &shard)) {
+      fprintf(stderr,
+              "bbc-render: %s: shard %u/%u of a sharded precompute holds only part of the "
+              "tuples; merge the %u shards first (bbc-inspect merge OUT.bbc SHARD.bbc...)\n",
+              cache_path, shard.index, shard.count, shard.count);
+      goto done;
+    }
     options.cache = cache;
   }
   if (reference_path) {

@@ -28,17 +28,17 @@ json() { sed -n "s/.*\"$1\": \([-0-9.e+]*\).*/\1/p" "$2"; }
   echo "# Precompute"
   echo
   machine
-  echo "Command: \`bbc-precompute SCENE -o OUT.bbc --json S.json\` (defaults: level 10,"
+  echo "Command: \`bbc-precompute SCENE -o OUT.bbc --json S.json --chains CHAIN\` (defaults: level 10,"
   echo "sigma 1e-4, alpha 2, 512x512 grids, remainder variables on), $(nproc) threads."
   echo
   echo "| scene | chain | tuples | pos. pieces/tuple | irr. pieces/tuple | time s | bounding s | recording s | peak MB | file MB | list compression |"
   echo "|---|---|---|---|---|---|---|---|---|---|---|"
   for s in plane1k plane7k plane28k pool4k pool20k; do
     [ -f "$scenes/$s.gltf" ] || continue
-    "$bin/bbc-precompute/bbc-precompute" "$scenes/$s.gltf" -o "$work/$s.bbc" --json "$work/$s.json" \
-      --no-progress
-    ratio=$("$bin/bbc-inspect/bbc-inspect" info "$work/$s.bbc" | sed -n 's/.*ratio[^0-9]*\([0-9.]*\).*/\1/p' | head -1)
     chain=R; case $s in pool*) chain=T ;; esac
+    "$bin/bbc-precompute/bbc-precompute" "$scenes/$s.gltf" -o "$work/$s.bbc" --json "$work/$s.json" \
+      --chains $chain --no-progress
+    ratio=$("$bin/bbc-inspect/bbc-inspect" info "$work/$s.bbc" | sed -n 's/.*ratio[^0-9]*\([0-9.]*\).*/\1/p' | head -1)
     printf '| %s | %s | %s | %.1f | %.1f | %.2f | %.2f | %.2f | %.0f | %.1f | %s |\n' "$s" "$chain" \
       "$(json tuples "$work/$s.json")" "$(json position_pieces_per_tuple "$work/$s.json")" \
       "$(json irradiance_pieces_per_tuple "$work/$s.json")" "$(json seconds "$work/$s.json")" \

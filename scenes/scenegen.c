@@ -318,6 +318,19 @@ static void wall_surface(const void *params, uint32_t i, uint32_t ni, uint32_t j
   *n = v3(1.0, -dx_dy, -dx_dz);
 }
 
+/* A flat rectangle origin + s du + t dv, s and t in [0,1], with a constant normal: the
+ * mirrors of the two-mirrors scene. */
+typedef struct rect_params {
+  vec3 origin, du, dv, normal;
+} rect_params;
+
+static void rect_surface(const void *params, uint32_t i, uint32_t ni, uint32_t j, uint32_t nj,
+                         vec3 *p, vec3 *n) {
+  const rect_params *q = params;
+  *p = v_add(q->origin, v_add(v_scale(q->du, (double)i / ni), v_scale(q->dv, (double)j / nj)));
+  *n = q->normal;
+}
+
 /* The top of the glass slab: y = 0.8 + a sin(2 pi f (x + 1)) sin(2 pi f (z + 1)) over
  * [-1,1]^2, facing up. The frequency makes the bumps vanish on the edges, so the flat
  * side walls close the box exactly. */
@@ -567,6 +580,7 @@ typedef enum kind {
   KIND_GLASS_SPHERE,
   KIND_GLASS_SLAB,
   KIND_POOL,
+  KIND_TWO_MIRRORS,
   KIND_COUNT
 } kind;
 
@@ -583,6 +597,7 @@ static const kind_info KINDS[KIND_COUNT] = {
     {"glass-sphere", 2000, "a glass ball (ior 1.5, radius 1) resting on the floor"},
     {"glass-slab", 2000, "a closed glass box (ior 1.5) with a wavy top"},
     {"pool", 2000, "a wavy water surface (ior 1.33) over a pool floor"},
+    {"two-mirrors", 8, "two flat mirror walls in a right-angled corner (double reflection)"},
 };
 
 typedef struct options {
@@ -691,6 +706,27 @@ static void build_scene(scene *s, const options *o) {
       /* The camera looks straight down through the water at the pool floor. */
       s->light = v3(0.5, 3, 1), s->intensity = 30;
       s->eye = v3(0, 6, 0), s->target = v3(0, -1.5, 0), s->up = v3(0, 0, -1);
+      break;
+    }
+    case KIND_TWO_MIRRORS: {
+      /* The analytic double-reflection test: mirror A in the plane x = 0 facing +x and
+       * mirror B in the plane z = 0 facing +z, each 2 wide and 1.5 high, meet in a right
+       * angle over the floor [0,4]^2. Light reflected by both (in either order) comes
+       * from the light's image through both planes, (-x, y, -z): a floor point p
+       * receives I cos/r^2 from it where the segment from the image to p crosses both
+       * mirrors (floor points near one wall and far from the other get none). Each
+       * mirror is an n x n grid (2 n^2 triangles, --size counts both); both
+       * are one mesh. The camera looks straight down at the floor. */
+      mesh *mirrors = scene_add_mesh(s, "mirrors", MAT_MIRROR, ROLE_CASTER);
+      uint32_t n = square_grid_side(size / 2 ? size / 2 : 1);
+      rect_params a = {v3(0, 0, 0), v3(0, 0, 2), v3(0, 1.5, 0), v3(1, 0, 0)};
+      rect_params b = {v3(0, 0, 0), v3(2, 0, 0), v3(0, 1.5, 0), v3(0, 0, 1)};
+      mesh_add_grid(mirrors, n, n, rect_surface, &a);
+      mesh_add_grid(mirrors, n, n, rect_surface, &b);
+      mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
+      add_plane(floor, 0, 4, 0, 4, 0, 1, 1);
+      s->light = v3(1.0, 1.0, 0.7), s->intensity = 10;
+      s->eye = v3(2, 7, 2), s->target = v3(2, 0, 2), s->up = v3(0, 0, -1);
       break;
     }
     default:

@@ -44,3 +44,5 @@ scene pool --size 800 -o "$out/pool.gltf"
 scene pool --size 200 --glb -o "$out/pool.glb"
 # The demo scene of the README, larger and at a presentable size.
 scene wavy-mirror --size 5000 --width 640 --height 480 -o "$out/demo.gltf"
+# Analytic double reflection: two flat mirrors in a corner, the light's double image.
+scene two-mirrors --size 8 -o "$out/two-mirrors.gltf"

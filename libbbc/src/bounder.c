@@ -16,8 +16,9 @@
 #include "vec_internal.h"
 
 /* Working memory per piece: the largest single-refraction irradiance forms need a few
- * MB; 64 MB leaves room for every intermediate without reuse. */
-#define BOUNDER_ARENA_BYTES ((size_t)64 << 20)
+ * MB, double refraction with interpolated normals tens of MB; 256 MB of address space
+ * leaves room for every intermediate without reuse (only what is touched is resident). */
+#define BOUNDER_ARENA_BYTES ((size_t)256 << 20)
 /* The supplement's U_TOL: a position bound reaching this far outside the receiver's
  * [0,1] range asks for subdivision. */
 #define POSITION_TOLERANCE 1.0
@@ -52,32 +53,53 @@ void bbc_bounder_free(bbc_bounder *b) {
   free(b);
 }
 
+/* Loads triangle t's vertices and normals and orients the normals toward the side of its
+ * plane that `from` lies on ("front" taken from the vertex normals). Returns whether that
+ * side is the front. */
+static int load_oriented(const bbc_scene *scene, uint32_t t, bbc_vec3 from, bbc_vec3 p[3],
+                         bbc_vec3 n[3]) {
+  const uint32_t *a = scene->indices + 3 * (size_t)t;
+  for (int i = 0; i < 3; i++) {
+    p[i] = v3_load(scene->positions + 3 * (size_t)a[i]);
+    n[i] = v3_load(scene->normals + 3 * (size_t)a[i]);
+  }
+  bbc_vec3 ng = v3_cross(v3_sub(p[1], p[0]), v3_sub(p[2], p[0]));
+  bbc_vec3 nsum = v3_add(n[0], v3_add(n[1], n[2]));
+  if (v3_dot(ng, nsum) < 0) ng = v3_neg(ng);
+  int front = v3_dot(ng, v3_sub(from, p[0])) > 0;
+  if (!front)
+    for (int i = 0; i < 3; i++) n[i] = v3_neg(n[i]);
+  return front;
+}
+
 bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene,
                                    const bbc_tuple *tuple) {
-  if (tuple->chain != BBC_CHAIN_R && tuple->chain != BBC_CHAIN_T) return BBC_ERR_INVALID_ARGUMENT;
+  if (tuple->chain >= BBC_CHAIN_COUNT) return BBC_ERR_INVALID_ARGUMENT;
+  const int length = bbc_chain_length((bbc_chain)tuple->chain);
   if (tuple->light >= scene->point_light_count || tuple->specular[0] >= scene->triangle_count ||
-      tuple->receiver >= scene->triangle_count)
+      tuple->receiver >= scene->triangle_count ||
+      (length == 2 && (tuple->specular[1] >= scene->triangle_count ||
+                       tuple->specular[1] == tuple->specular[0])))
     return BBC_ERR_INVALID_ARGUMENT;
   memset(g, 0, sizeof *g);
   g->light = scene->point_lights[tuple->light].position;
-  const uint32_t *a = scene->indices + 3 * (size_t)tuple->specular[0];
+  g->length = length;
   const uint32_t *b = scene->indices + 3 * (size_t)tuple->receiver;
-  for (int i = 0; i < 3; i++) {
-    g->p[i] = v3_load(scene->positions + 3 * (size_t)a[i]);
-    g->n[i] = v3_load(scene->normals + 3 * (size_t)a[i]);
-    g->r[i] = v3_load(scene->positions + 3 * (size_t)b[i]);
-  }
-  /* Which side of T1 the light is on, with "front" taken from the vertex normals. */
-  bbc_vec3 ng = v3_cross(v3_sub(g->p[1], g->p[0]), v3_sub(g->p[2], g->p[0]));
-  bbc_vec3 nsum = v3_add(g->n[0], v3_add(g->n[1], g->n[2]));
-  if (v3_dot(ng, nsum) < 0) ng = v3_neg(ng);
-  int front = v3_dot(ng, v3_sub(g->light, g->p[0])) > 0;
-  if (!front)
-    for (int i = 0; i < 3; i++) g->n[i] = v3_neg(g->n[i]);
-  g->refract = tuple->chain == BBC_CHAIN_T;
+  for (int i = 0; i < 3; i++) g->r[i] = v3_load(scene->positions + 3 * (size_t)b[i]);
+  int front = load_oriented(scene, tuple->specular[0], g->light, g->p, g->n);
+  g->refract = bbc_chain_refracts((bbc_chain)tuple->chain, 0);
   if (g->refract) {
     double ior = bbc_scene_triangle_material(scene, tuple->specular[0])->ior;
     g->eta = front ? 1.0 / ior : ior;
+  }
+  if (length == 2) {
+    bbc_vec3 centroid = v3_scale(v3_add(g->p[0], v3_add(g->p[1], g->p[2])), 1.0 / 3.0);
+    int front2 = load_oriented(scene, tuple->specular[1], centroid, g->p2, g->n2);
+    g->refract2 = bbc_chain_refracts((bbc_chain)tuple->chain, 1);
+    if (g->refract2) {
+      double ior = bbc_scene_triangle_material(scene, tuple->specular[1])->ior;
+      g->eta2 = front2 ? 1.0 / ior : ior;
+    }
   }
   return BBC_OK;
 }
@@ -118,11 +140,50 @@ static int clip_unit(const bbc_range *r, double *lo, double *hi, int *wide) {
 
 typedef enum verdict { VERDICT_DISCARD, VERDICT_PARTIAL, VERDICT_FULL } verdict;
 
-/* Position bound and sign conditions of a piece (Supp. Sec. 4.1 "positional check"). A
- * condition proved false everywhere discards the piece; one that may fail somewhere
- * makes it partial (subdivided while the level allows). */
-static bbc_result position_check(bbc_arena *arena, const chain_forms *f, const double box[4],
-                                 bbc_piece *piece, verdict *out, int *contained) {
+/* Where a ray lands on a triangle with u = up / kappa, v = vp / kappa, moving forward
+ * where tnum kappa > 0: sets *partial to -1 when no path of the piece can land inside
+ * (forward), to 1 when some may move backward; *wide when the bound reaches past the
+ * tolerance band.
+ * box (may be NULL) receives the (u, v) bound clipped to the triangle's range, and
+ * *inside (may be NULL) whether every path provably lands inside. */
+static bbc_result ray_lands(bbc_arena *arena, const bbc_poly *up, const bbc_poly *vp,
+                            const bbc_poly *kappa, const bbc_poly *tnum, double box[4],
+                            int *partial, int *wide, int *inside) {
+  bbc_poly forward, w;
+  bbc_result r = bbc_poly_mul(arena, &forward, tnum, kappa);
+  if (r != BBC_OK) return r;
+  bbc_interval fw = bbc_poly_bound(&forward);
+  if (fw.hi < 0) {
+    *partial = -1;
+    return BBC_OK;
+  }
+  if (fw.lo < 0) *partial = 1;
+  bbc_range ru, rv, rw;
+  if ((r = bbc_poly_add(arena, &w, up, vp)) != BBC_OK) return r;
+  if ((r = bbc_rational_bound(arena, up, kappa, &ru)) != BBC_OK) return r;
+  if ((r = bbc_rational_bound(arena, vp, kappa, &rv)) != BBC_OK) return r;
+  if ((r = bbc_rational_bound(arena, &w, kappa, &rw)) != BBC_OK) return r;
+  double b[4], w_lo, w_hi;
+  /* u + v <= 1 inside the triangle. */
+  if (!clip_unit(&ru, &b[0], &b[1], wide) || !clip_unit(&rv, &b[2], &b[3], wide) ||
+      !clip_unit(&rw, &w_lo, &w_hi, wide) || b[0] + b[2] > 1.0) {
+    *partial = -1;
+    return BBC_OK;
+  }
+  int in = ru.kind == BBC_RANGE_BOUNDED && rv.kind == BBC_RANGE_BOUNDED &&
+           rw.kind == BBC_RANGE_BOUNDED && ru.lo >= 0 && rv.lo >= 0 && rw.hi <= 1;
+  if (box) memcpy(box, b, sizeof b);
+  if (inside) *inside = in;
+  return BBC_OK;
+}
+
+/* The forms of a piece with its position bound and sign conditions (Supp. Sec. 4.1
+ * "positional check"). A condition proved false everywhere discards the piece; one that
+ * may fail somewhere makes it partial (subdivided while the level allows). The forms
+ * are built in two steps, so that a piece whose light misses T2 costs only the first. */
+static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
+                                 const double box[4], int s_axis, int t_axis, chain_sqrt_mode mode,
+                                 chain_forms *f, bbc_piece *piece, verdict *out, int *contained) {
   *out = VERDICT_DISCARD;
   if (contained) *contained = 0;
   /* The box must meet T1: u + v <= 1 somewhere. A box straddling T1's hypotenuse is
@@ -130,7 +191,9 @@ static bbc_result position_check(bbc_arena *arena, const chain_forms *f, const d
    * bounds simply cover the part outside T1 too, which only loosens them (the
    * supplement's pbad_u1 with its tolerance U_TOL = 1 never fires either). */
   if (box[0] + box[2] > 1.0) return BBC_OK;
-  int partial = 0;
+  bbc_result r = bbc__chain_forms_prefix(arena, space, g, box, s_axis, t_axis, mode, f);
+  if (r != BBC_OK) return r;
+  int partial = 0, wide = 0, inside = 0;
 
   bbc_interval facing = bbc_poly_bound(&f->facing);
   if (facing.hi < 0) return BBC_OK;
@@ -140,31 +203,33 @@ static bbc_result position_check(bbc_arena *arena, const chain_forms *f, const d
     if (beta.hi < 0) return BBC_OK;
     if (beta.lo < 0) partial = 1;
   }
-  /* The ray moves forward: t = tnum / kappa > 0, i.e. tnum kappa > 0. */
-  bbc_poly forward;
-  bbc_result r = bbc_poly_mul(arena, &forward, &f->tnum, &f->kappa);
-  if (r != BBC_OK) return r;
-  bbc_interval fw = bbc_poly_bound(&forward);
-  if (fw.hi < 0) return BBC_OK;
-  if (fw.lo < 0) partial = 1;
-
-  bbc_range ru, rv, rw;
-  bbc_poly w;
-  if ((r = bbc_poly_add(arena, &w, &f->up, &f->vp)) != BBC_OK) return r;
-  if ((r = bbc_rational_bound(arena, &f->up, &f->kappa, &ru)) != BBC_OK) return r;
-  if ((r = bbc_rational_bound(arena, &f->vp, &f->kappa, &rv)) != BBC_OK) return r;
-  if ((r = bbc_rational_bound(arena, &w, &f->kappa, &rw)) != BBC_OK) return r;
-  int wide = 0;
-  double w_lo, w_hi;
-  if (!clip_unit(&ru, &piece->uk_lo, &piece->uk_hi, &wide)) return BBC_OK;
-  if (!clip_unit(&rv, &piece->vk_lo, &piece->vk_hi, &wide)) return BBC_OK;
-  /* u_k + v_k <= 1 inside the receiver. */
-  if (!clip_unit(&rw, &w_lo, &w_hi, &wide)) return BBC_OK;
-  if (piece->uk_lo + piece->vk_lo > 1.0) return BBC_OK;
+  if (f->length == 2) {
+    /* The second vertex: ahead of x1 and inside T2, then (below) lit from the side its
+     * normals face and, for refraction, not totally reflected. */
+    if ((r = ray_lands(arena, &f->up2, &f->vp2, &f->kappa2, &f->tnum2, NULL, &partial, &wide,
+                       NULL)) != BBC_OK)
+      return r;
+    if (partial < 0) return BBC_OK;
+  }
+  if ((r = bbc__chain_forms_rest(arena, space, g, mode, f)) != BBC_OK) return r;
+  if (f->length == 2) {
+    bbc_interval facing2 = bbc_poly_bound(&f->facing2);
+    if (facing2.hi < 0) return BBC_OK;
+    if (facing2.lo < 0) partial = 1;
+    if (f->has_beta2) {
+      bbc_interval beta2 = bbc_poly_bound(&f->beta2);
+      if (beta2.hi < 0) return BBC_OK;
+      if (beta2.lo < 0) partial = 1;
+    }
+  }
+  double box_k[4];
+  if ((r = ray_lands(arena, &f->up, &f->vp, &f->kappa, &f->tnum, box_k, &partial, &wide,
+                     &inside)) != BBC_OK)
+    return r;
+  if (partial < 0) return BBC_OK;
+  piece->uk_lo = box_k[0], piece->uk_hi = box_k[1], piece->vk_lo = box_k[2], piece->vk_hi = box_k[3];
   /* Every path of the piece lands inside the receiver: nothing to trim off. */
-  if (contained)
-    *contained = ru.kind == BBC_RANGE_BOUNDED && rv.kind == BBC_RANGE_BOUNDED &&
-                 rw.kind == BBC_RANGE_BOUNDED && ru.lo >= 0 && rv.lo >= 0 && rw.hi <= 1;
+  if (contained) *contained = inside;
   *out = partial || wide ? VERDICT_PARTIAL : VERDICT_FULL;
   return BBC_OK;
 }
@@ -186,33 +251,145 @@ static void magnitude(const bbc_range *r, double *lo, double *hi) {
   }
 }
 
+/* Degree control (Sec. 6.1, DESIGN 3.4): the Jacobian determinant is cubic in the
+ * receiver forms, so for two bounces the forms and their derivatives are reduced to at
+ * most REDUCED_DEGREE first (bbc__flatten), keeping every axis of the determinant at or
+ * below 3 x 13 = 39 (the paper's limit is about 40). */
+#define REDUCED_DEGREE 13
+
+/* The constant factors of the irradiance bound, in outward-rounded interval arithmetic
+ * from the exact vertices: |e11 x e12| du dv / |ek1 x ek2| and cos(theta0) = h / |d0|,
+ * with h the distance from the light to T1's plane and |d0| bounded through d0 . d0. */
+static bbc_interval irradiance_scale(const bbc_tuple_geometry *g, const chain_forms *f,
+                                     const double box[4]) {
+  bbc_ivec3 p0 = bbc_ivec3_point(g->p[0]);
+  bbc_ivec3 c1 = bbc_ivec3_cross(bbc_ivec3_sub(bbc_ivec3_point(g->p[1]), p0),
+                                 bbc_ivec3_sub(bbc_ivec3_point(g->p[2]), p0));
+  bbc_ivec3 r0 = bbc_ivec3_point(g->r[0]);
+  bbc_ivec3 ck = bbc_ivec3_cross(bbc_ivec3_sub(bbc_ivec3_point(g->r[1]), r0),
+                                 bbc_ivec3_sub(bbc_ivec3_point(g->r[2]), r0));
+  bbc_interval a1 = bbc_interval_sqrt(bbc_ivec3_dot(c1, c1));
+  bbc_interval ak = bbc_interval_sqrt(bbc_ivec3_dot(ck, ck));
+  bbc_interval h =
+      bbc_interval_div(bbc_ivec3_dot(c1, bbc_ivec3_sub(p0, bbc_ivec3_point(g->light))), a1);
+  h = bbc_interval_make(fabs(h.lo), fabs(h.hi));
+  if (h.lo > h.hi) h = bbc_interval_make(h.hi, h.lo);
+  bbc_interval dist2 = bbc_poly_bound(&f->dist2);
+  if (dist2.lo < 0) dist2.lo = 0;
+  bbc_interval cos0 = bbc_interval_div(h, bbc_interval_sqrt(dist2));
+  if (cos0.hi > 1) cos0.hi = 1;
+  bbc_interval k =
+      bbc_interval_div(bbc_interval_scale(a1, (box[1] - box[0]) * (box[3] - box[2])), ak);
+  bbc_interval scale = bbc_interval_mul(k, cos0);
+  if (!(scale.lo >= 0)) scale.lo = 0;
+  return scale;
+}
+
+/* The irradiance bound by implicit differentiation of the last refraction (Eq. 17-19):
+ * |du1/duk| = du dv / (wa wb) |det_ab / det_st|, with the receiver's barycentrics free
+ * over the piece's position box (widths wa, wb), intersected over b = x and b = y (Sec.
+ * 4.4). [lo, hi] = [0, inf] when nothing is learnt. */
+static bbc_result implicit_bound(bbc_arena *arena, const bbc_space *space,
+                                 const bbc_tuple_geometry *g, const chain_forms *f,
+                                 const double uk_box[4], bbc_interval scale,
+                                 double *e_lo, double *e_hi) {
+  *e_lo = 0;
+  *e_hi = INFINITY;
+  const double wa = uk_box[1] - uk_box[0], wb = uk_box[3] - uk_box[2];
+  if (!(wa > 0) || !(wb > 0)) return BBC_OK;
+  static const bbc_vec3 bs[2] = {{1, 0, 0}, {0, 1, 0}};
+  double lo = 0, hi = INFINITY;
+  for (int i = 0; i < 2; i++) {
+    size_t mark = bbc_arena_mark(arena);
+    bbc_poly det_ab, det_st, den;
+    bbc_range ratio;
+    bbc_result r = bbc__chain_double_implicit(arena, space, g, f, uk_box, bs[i], &det_ab, &det_st);
+    if (r == BBC_OK) r = bbc_poly_mul(arena, &den, &f->dist2, &det_st);
+    if (r == BBC_OK) r = bbc_rational_bound(arena, &det_ab, &den, &ratio);
+    bbc_arena_reset(arena, mark);
+    if (r != BBC_OK) return r;
+    double l, h;
+    magnitude(&ratio, &l, &h);
+    lo = fmax(lo, l);
+    hi = fmin(hi, h);
+  }
+  bbc_interval k = bbc_interval_div(scale, bbc_interval_mul(bbc_interval_point(wa),
+                                                              bbc_interval_point(wb)));
+  if (!(k.lo >= 0)) k.lo = 0;
+  *e_lo = lo > 0 && isfinite(k.lo) ? lo * k.lo * (1 - 4 * DBL_EPSILON) : 0;
+  *e_hi = isfinite(hi) && isfinite(k.hi) ? hi * k.hi * (1 + 4 * DBL_EPSILON) : INFINITY;
+  return BBC_OK;
+}
+
+static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const chain_forms *f,
+                                 int s_axis, int t_axis, bbc_jacobian_form form,
+                                 bbc_interval scale, double *e_lo, double *e_hi);
+
 /* The irradiance bound of a piece per unit intensity (Eq. 14-16, Supp. 2.1):
  * E = cos(theta0) / |d0|^2 * |e11 x e12| * |du1/duk| / |ek1 x ek2|, with
  * |du1/duk| = |q|^3 / |D_uv| and D_uv = D_st / (du dv) (DESIGN 3.5). cos(theta0) = h/|d0|
  * is factored out and bounded by intervals (Supp. 2.1); the rest is the rational
- * q^3 / (|d0|^2 D_st) (or q^4 / (|d0|^2 N) in the quotient-rule form). */
-static bbc_result irradiance_bound(bbc_arena *arena, const bbc_tuple_geometry *g,
-                                   const chain_forms *f, const double box[4], int s_axis,
-                                   int t_axis, bbc_jacobian_form form, double *e_lo, double *e_hi) {
+ * q^3 / (|d0|^2 D_st) (or q^4 / (|d0|^2 N) in the quotient-rule form). The same holds
+ * for two bounces, with q, p, r the receiver forms after T2. */
+static bbc_result irradiance_bound(bbc_arena *arena, const bbc_space *space,
+                                   const bbc_tuple_geometry *g, const chain_forms *f,
+                                   const double box[4], const double uk_box[4], int s_axis,
+                                   int t_axis, bbc_jacobian_form form, double alpha, double *e_lo,
+                                   double *e_hi) {
   *e_lo = 0;
   *e_hi = INFINITY;
   if (!f->slope_enclosed) return BBC_OK;
+  bbc_interval scale = irradiance_scale(g, f, box);
+  bbc_result res;
+  if (f->length == 2 && g->refract2 && f->has_derivatives) {
+    /* Explicit, then where it is loose (near total internal reflection at T2, Fig. 7,
+     * where beta2 nears 0 and the slope of its sqrt is unbounded) intersected with the
+     * implicit bound. */
+    if (f->slope_enclosed2) {
+      if ((res = explicit_bound(arena, space, f, s_axis, t_axis, form, scale, e_lo, e_hi)) !=
+          BBC_OK)
+        return res;
+      if (*e_hi <= alpha * *e_lo) return BBC_OK;
+    }
+    double ilo, ihi;
+    if ((res = implicit_bound(arena, space, g, f, uk_box, scale, &ilo, &ihi)) != BBC_OK) return res;
+    *e_lo = fmax(*e_lo, ilo);
+    *e_hi = fmin(*e_hi, ihi);
+    return BBC_OK;
+  }
+  if (f->length == 2 && !f->slope_enclosed2) return BBC_OK;
+  return explicit_bound(arena, space, f, s_axis, t_axis, form, scale, e_lo, e_hi);
+}
+
+/* The explicit bound (Eq. 16): the rational part by Bernstein bounds, times scale. */
+static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const chain_forms *f,
+                                 int s_axis, int t_axis, bbc_jacobian_form form,
+                                 bbc_interval scale, double *e_lo, double *e_hi) {
   const bbc_poly *q = &f->kappa, *p = &f->up, *r = &f->vp;
-  bbc_poly qs, qt, ps, pt, rs, rt;
+  bbc_poly qs, qt, ps, pt, rs, rt, qq, pp, rr;
   bbc_result res;
 #define TRY(expr)                             \
   do {                                        \
     if ((res = (expr)) != BBC_OK) return res; \
   } while (0)
-  TRY(bbc_poly_derivative(arena, &qs, q, s_axis));
-  TRY(bbc_poly_derivative(arena, &qt, q, t_axis));
-  TRY(bbc_poly_derivative(arena, &ps, p, s_axis));
-  TRY(bbc_poly_derivative(arena, &pt, p, t_axis));
-  TRY(bbc_poly_derivative(arena, &rs, r, s_axis));
-  TRY(bbc_poly_derivative(arena, &rt, r, t_axis));
   bbc_poly num, den, jac, q2, a, b, c;
-  TRY(bbc_poly_mul(arena, &q2, q, q));
+  if (f->has_derivatives) {
+    /* Two bounces: the derivatives came along in forward mode (chain_double.c). */
+    const bbc_poly *in[9] = {q, p, r, &f->kappa_s, &f->kappa_t, &f->up_s, &f->up_t, &f->vp_s,
+                             &f->vp_t};
+    bbc_poly *flat[9] = {&qq, &pp, &rr, &qs, &qt, &ps, &pt, &rs, &rt};
+    for (int i = 0; i < 9; i++) TRY(bbc__flatten(arena, space, flat[i], in[i], REDUCED_DEGREE));
+    q = &qq, p = &pp, r = &rr;
+  } else {
+    TRY(bbc_poly_derivative(arena, &qs, q, s_axis));
+    TRY(bbc_poly_derivative(arena, &qt, q, t_axis));
+    TRY(bbc_poly_derivative(arena, &ps, p, s_axis));
+    TRY(bbc_poly_derivative(arena, &pt, p, t_axis));
+    TRY(bbc_poly_derivative(arena, &rs, r, s_axis));
+    TRY(bbc_poly_derivative(arena, &rt, r, t_axis));
+  }
   if (form == BBC_JACOBIAN_DETERMINANT) {
+    TRY(bbc_poly_mul(arena, &q2, q, q));
     /* D = q (p_s r_t - p_t r_s) - p (q_s r_t - q_t r_s) + r (q_s p_t - q_t p_s). */
     bbc_poly m1, m2, t1, t2, t3;
     TRY(bbc_poly_mul(arena, &m1, &ps, &rt));
@@ -231,6 +408,7 @@ static bbc_result irradiance_bound(bbc_arena *arena, const bbc_tuple_geometry *g
     TRY(bbc_poly_add(arena, &jac, &jac, &t3));
     TRY(bbc_poly_mul(arena, &num, &q2, q));
   } else {
+    TRY(bbc_poly_mul(arena, &q2, q, q));
     /* N = (p_s q - p q_s)(r_t q - r q_t) - (p_t q - p q_t)(r_s q - r q_s). */
     bbc_poly m1, m2, us, ut, vs, vt, x, y;
     TRY(bbc_poly_mul(arena, &m1, &ps, q));
@@ -253,38 +431,14 @@ static bbc_result irradiance_bound(bbc_arena *arena, const bbc_tuple_geometry *g
   TRY(bbc_poly_mul(arena, &den, &f->dist2, &jac));
   bbc_range ratio;
   TRY(bbc_rational_bound(arena, &num, &den, &ratio));
-#undef TRY
   double lo, hi;
   magnitude(&ratio, &lo, &hi);
-
-  /* Constant factors, in outward-rounded interval arithmetic from the exact vertices:
-   * |e11 x e12| du dv / |ek1 x ek2|, and cos(theta0) = h / |d0| with h the distance from
-   * the light to T1's plane and |d0| bounded through d0 . d0. */
-  bbc_ivec3 p0 = bbc_ivec3_point(g->p[0]);
-  bbc_ivec3 c1 = bbc_ivec3_cross(bbc_ivec3_sub(bbc_ivec3_point(g->p[1]), p0),
-                                 bbc_ivec3_sub(bbc_ivec3_point(g->p[2]), p0));
-  bbc_ivec3 r0 = bbc_ivec3_point(g->r[0]);
-  bbc_ivec3 ck = bbc_ivec3_cross(bbc_ivec3_sub(bbc_ivec3_point(g->r[1]), r0),
-                                 bbc_ivec3_sub(bbc_ivec3_point(g->r[2]), r0));
-  bbc_interval a1 = bbc_interval_sqrt(bbc_ivec3_dot(c1, c1));
-  bbc_interval ak = bbc_interval_sqrt(bbc_ivec3_dot(ck, ck));
-  bbc_interval h =
-      bbc_interval_div(bbc_ivec3_dot(c1, bbc_ivec3_sub(p0, bbc_ivec3_point(g->light))), a1);
-  h = bbc_interval_make(fabs(h.lo), fabs(h.hi));
-  if (h.lo > h.hi) h = bbc_interval_make(h.hi, h.lo);
-  bbc_interval dist2 = bbc_poly_bound(&f->dist2);
-  if (dist2.lo < 0) dist2.lo = 0;
-  bbc_interval cos0 = bbc_interval_div(h, bbc_interval_sqrt(dist2));
-  if (cos0.hi > 1) cos0.hi = 1;
-  bbc_interval k =
-      bbc_interval_div(bbc_interval_scale(a1, (box[1] - box[0]) * (box[3] - box[2])), ak);
-  bbc_interval scale = bbc_interval_mul(k, cos0);
-  if (!(scale.lo >= 0)) scale.lo = 0;
   /* Rounded products of positive numbers, pushed a few ulps outward. */
   *e_lo = lo > 0 && isfinite(scale.lo) ? lo * scale.lo * (1 - 4 * DBL_EPSILON) : 0;
   *e_hi = isfinite(hi) ? hi * scale.hi * (1 + 4 * DBL_EPSILON) : INFINITY;
   if (!(*e_hi >= 0)) *e_hi = INFINITY; /* NaN from an unbounded scale */
   return BBC_OK;
+#undef TRY
 }
 
 static bbc_result push(bbc_bounder *b, size_t *count, const bbc_piece *piece) {
@@ -316,10 +470,8 @@ static bbc_result examine_position(bbc_bounder *b, const bbc_tuple_geometry *g,
   memset(&pf->space, 0, sizeof pf->space);
   bbc_space_add_axis(&pf->space, BBC_AXIS_GEOMETRIC, &pf->s_axis);
   bbc_space_add_axis(&pf->space, BBC_AXIS_GEOMETRIC, &pf->t_axis);
-  bbc_result r =
-      bbc__chain_forms(&b->arena, &pf->space, g, pf->box, pf->s_axis, pf->t_axis, mode, &pf->forms);
-  if (r == BBC_OK) r = position_check(&b->arena, &pf->forms, pf->box, piece, v, contained);
-  return r;
+  return position_check(&b->arena, &pf->space, g, pf->box, pf->s_axis, pf->t_axis, mode,
+                        &pf->forms, piece, v, contained);
 }
 
 /* Domain initialisation (paper Sec. 6.1): a breadth-first pass of position checks alone,
@@ -396,7 +548,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
   if (params) prm = *params;
   const int max_level = prm.max_level > 0 ? prm.max_level : 10;
   const double sigma = prm.sigma > 0 ? prm.sigma : 1e-4;
-  const double alpha = prm.alpha > 0 ? prm.alpha : 2.0;
+  const double alpha = prm.alpha > 0 ? prm.alpha : g->length == 2 ? 10.0 : 2.0;
   const chain_sqrt_mode position_mode =
       prm.no_remainder ? CHAIN_SQRT_NO_REMAINDER : CHAIN_SQRT_PRIMAL;
   const chain_sqrt_mode irradiance_mode =
@@ -445,14 +597,15 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       /* Reflection has no remainder variables: its position forms serve as they are. */
       const chain_forms *irr = &forms;
       chain_forms irr_forms;
-      if (g->refract && irradiance_mode != position_mode) {
+      if ((g->refract || (g->length == 2 && g->refract2)) && irradiance_mode != position_mode) {
         result = bbc__chain_forms(&b->arena, &space, g, box, s_axis, t_axis, irradiance_mode,
                                   &irr_forms);
         irr = &irr_forms;
       }
+      const double uk_box[4] = {piece.uk_lo, piece.uk_hi, piece.vk_lo, piece.vk_hi};
       if (result == BBC_OK)
-        result = irradiance_bound(&b->arena, g, irr, box, s_axis, t_axis, prm.jacobian, &piece.e_lo,
-                                  &piece.e_hi);
+        result = irradiance_bound(&b->arena, &space, g, irr, box, uk_box, s_axis, t_axis,
+                                  prm.jacobian, alpha, &piece.e_lo, &piece.e_hi);
       local.irradiance_pieces++;
       local.irradiance_seconds += cpu_seconds() - t1;
       if (result != BBC_OK) break;

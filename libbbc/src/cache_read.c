@@ -21,13 +21,18 @@
 
 #include "bbc/cache.h"
 #include "cache_format_internal.h"
+#include "cache_shard_internal.h"
 #include "report_internal.h"
 
-/* Known sections, in the order 1.0 writers use. */
-enum { K_INFO, K_PARM, K_FPRT, K_RCVR, K_TRUV, K_TUPL, K_CIDX, K_CDAT, K_CHNK, K_COUNT };
-static const uint32_t known_types[K_COUNT] = {BBC__SEC_INFO, BBC__SEC_PARM, BBC__SEC_FPRT,
-                                              BBC__SEC_RCVR, BBC__SEC_TRUV, BBC__SEC_TUPL,
-                                              BBC__SEC_CIDX, BBC__SEC_CDAT, BBC__SEC_CHNK};
+/* Known sections, in the order writers use; INFO and SHRD are optional. */
+enum { K_INFO, K_PARM, K_FPRT, K_RCVR, K_TRUV, K_TUPL, K_CIDX, K_CDAT, K_CHNK, K_SHRD, K_COUNT };
+static const uint32_t known_types[K_COUNT] = {
+    BBC__SEC_INFO, BBC__SEC_PARM, BBC__SEC_FPRT, BBC__SEC_RCVR, BBC__SEC_TRUV,
+    BBC__SEC_TUPL, BBC__SEC_CIDX, BBC__SEC_CDAT, BBC__SEC_CHNK, BBC__SEC_SHRD};
+
+static int optional_section(int k) {
+  return k == K_INFO || k == K_SHRD;
+}
 
 struct bbc_cache {
   const uint8_t *base;
@@ -55,6 +60,8 @@ struct bbc_cache {
   uint64_t nonempty_cells, entry_count;
   atomic_uchar *chunk_verified; /* R-CHK-3: 1 once a chunk's checksum matched */
   char writer[128];
+  int is_shard; /* SHRD present and checked (R-SHR-*) */
+  bbc_cache_shard shard;
 };
 
 static const char *section_name(uint32_t type, char out[5]) {
@@ -203,7 +210,7 @@ static bbc_result check_header_and_directory(bbc_cache *c) {
                     "required section %s is unknown to this reader (R-DIR-5)", s->name);
       continue; /* R-DIR-5: an unknown optional section is skipped. */
     }
-    uint32_t want = k == K_INFO ? 0 : BBC__SECTION_REQUIRED;
+    uint32_t want = optional_section(k) ? 0 : BBC__SECTION_REQUIRED;
     if (s->flags != want)
       return fail(c, BBC_ERR_CORRUPT, "directory", at + 4, "section %s marked %s (R-DIR-4)",
                   s->name, want ? "optional" : "required");
@@ -212,15 +219,23 @@ static bbc_result check_header_and_directory(bbc_cache *c) {
     c->sec_offset[k] = s->offset;
   }
   for (int k = 0; k < K_COUNT; k++)
-    if (k != K_INFO && !c->sec[k]) {
+    if (!optional_section(k) && !c->sec[k]) {
       char name[5];
       return fail(c, BBC_ERR_CORRUPT, "directory", BBC__HEADER_SIZE,
                   "required section %s is missing (R-DIR-4)", section_name(known_types[k], name));
     }
 
   /* R-SEC-1: the fixed sizes and record multiples; exact counts come with the content. */
-  static const uint64_t record[K_COUNT] = {
-      1, 0, 0, BBC__RCVR_SIZE, BBC__TRUV_SIZE, BBC__TUPL_SIZE, BBC__CIDX_SIZE, 1, BBC__CHNK_SIZE};
+  static const uint64_t record[K_COUNT] = {1,
+                                           0,
+                                           0,
+                                           BBC__RCVR_SIZE,
+                                           BBC__TRUV_SIZE,
+                                           BBC__TUPL_SIZE,
+                                           BBC__CIDX_SIZE,
+                                           1,
+                                           BBC__CHNK_SIZE,
+                                           BBC__SHRD_ENTRY_SIZE};
   for (int k = 0; k < K_COUNT; k++) {
     if (!c->sec[k]) continue;
     char name[5];
@@ -229,7 +244,9 @@ static bbc_result check_header_and_directory(bbc_cache *c) {
     int bad = k == K_PARM   ? sz != BBC__PARM_SIZE
               : k == K_FPRT ? sz != BBC__FPRT_SIZE
               : k == K_INFO ? sz > BBC__MAX_INFO
-                            : sz % record[k] != 0;
+              : k == K_SHRD
+                  ? sz < BBC__SHRD_HEAD_SIZE || (sz - BBC__SHRD_HEAD_SIZE) % record[k] != 0
+                  : sz % record[k] != 0;
     if (bad)
       return fail(c, BBC_ERR_CORRUPT, name, c->sec_offset[k],
                   "section size %llu is not valid for %s (R-SEC-1)", (unsigned long long)sz, name);
@@ -421,6 +438,39 @@ static bbc_result check_tuples(bbc_cache *c) {
   return BBC_OK;
 }
 
+/* SHRD (Sec. 5.10): R-SHR-1..3. */
+static bbc_result check_shard(bbc_cache *c) {
+  const uint8_t *p = c->sec[K_SHRD];
+  uint64_t at = c->sec_offset[K_SHRD];
+  if (c->sec_size[K_SHRD] != BBC__SHRD_HEAD_SIZE + (uint64_t)BBC__SHRD_ENTRY_SIZE * c->tuple_count)
+    return fail(c, BBC_ERR_CORRUPT, "SHRD", at, "%llu bytes for %u tuples (R-SHR-1)",
+                (unsigned long long)c->sec_size[K_SHRD], c->tuple_count);
+  bbc_cache_shard *s = &c->shard;
+  s->index = bbc__ld32(p);
+  s->count = bbc__ld32(p + 4);
+  s->candidate_count = bbc__ld64(p + 8);
+  s->candidates_hash = bbc__ld64(p + 16);
+  if (!all_zero(p + 24, 8))
+    return fail(c, BBC_ERR_CORRUPT, "SHRD", at + 24, "reserved bytes not zero (R-FILE-2)");
+  if (s->count == 0 || s->index >= s->count || c->tuple_count > s->candidate_count)
+    return fail(c, BBC_ERR_CORRUPT, "SHRD", at,
+                "shard %u/%u with %u tuples of %llu candidates (R-SHR-2)", s->index, s->count,
+                c->tuple_count, (unsigned long long)s->candidate_count);
+  /* 64-byte aligned section: the u64 array at +32 is aligned. */
+  s->candidates = (const uint64_t *)(const void *)(p + BBC__SHRD_HEAD_SIZE);
+  for (uint32_t i = 0; i < c->tuple_count; i++) {
+    uint64_t k = s->candidates[i];
+    if (k >= s->candidate_count || k % s->count != s->index || (i > 0 && k <= s->candidates[i - 1]))
+      return fail(
+          c, BBC_ERR_CORRUPT, "SHRD", at + BBC__SHRD_HEAD_SIZE + (uint64_t)BBC__SHRD_ENTRY_SIZE * i,
+          "tuple %u: candidate %llu not increasing, not below %llu or not in shard "
+          "%u/%u (R-SHR-3)",
+          i, (unsigned long long)k, (unsigned long long)s->candidate_count, s->index, s->count);
+  }
+  c->is_shard = 1;
+  return BBC_OK;
+}
+
 static bbc_result check_chunks_and_cells(bbc_cache *c) {
   const uint8_t *p = c->sec[K_CHNK];
   uint64_t count = c->sec_size[K_CHNK] / BBC__CHNK_SIZE;
@@ -496,6 +546,7 @@ static bbc_result open_bytes(bbc_cache *c) {
   if (r == BBC_OK) r = check_params_and_fingerprint(c);
   if (r == BBC_OK) r = check_receivers(c);
   if (r == BBC_OK) r = check_tuples(c);
+  if (r == BBC_OK && c->sec[K_SHRD]) r = check_shard(c);
   if (r == BBC_OK) r = check_chunks_and_cells(c);
   if (r != BBC_OK) return r;
   c->chunk_verified = calloc(c->chunk_count ? c->chunk_count : 1, sizeof *c->chunk_verified);
@@ -639,6 +690,25 @@ const bbc_tuple *bbc_cache_tuples(const bbc_cache *c) {
 
 const bbc_grid *bbc_cache_grid(const bbc_cache *c) {
   return &c->grid;
+}
+
+int bbc_cache_get_shard(const bbc_cache *c, bbc_cache_shard *out) {
+  if (out) {
+    if (c && c->is_shard)
+      *out = c->shard;
+    else
+      memset(out, 0, sizeof *out);
+  }
+  return c && c->is_shard;
+}
+
+const char *bbc__cache_path(const bbc_cache *c) {
+  return c->path;
+}
+
+const uint8_t *bbc__cache_info_bytes(const bbc_cache *c, uint64_t *size) {
+  *size = c->sec[K_INFO] ? c->sec_size[K_INFO] : 0;
+  return c->sec[K_INFO];
 }
 
 /* ------------------------------------------------------------------ scene checks */

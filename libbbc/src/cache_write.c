@@ -13,6 +13,7 @@
 
 #include "bbc/cache.h"
 #include "cache_format_internal.h"
+#include "cache_shard_internal.h"
 #include "report_internal.h"
 
 _Static_assert(sizeof(bbc_tuple) == BBC__TUPL_SIZE, "bbc_tuple is the TUPL record");
@@ -281,7 +282,28 @@ struct bbc_cache_builder {
   uint32_t tuple_count, tuple_cap;
   cell_list *cells;
   pthread_mutex_t locks[BUILDER_LOCKS];
+  /* A shard cache (SHRD, spec Sec. 5.10) when shard_count > 0. */
+  uint32_t shard_index, shard_count;
+  uint64_t candidate_count, candidates_hash;
+  uint64_t *candidate; /* per tuple id: its candidate index, UINT64_MAX until given */
+  uint32_t candidate_cap;
+  /* INFO: "bbc <version>" unless info_set; then info_text, or none when it is NULL. */
+  int info_set;
+  char *info_text;
+  size_t info_size;
 };
+
+/* The cells and locks of a builder whose grid is set; frees the grid on failure. */
+static bbc_result builder_finish(bbc_cache_builder *b) {
+  b->cells = calloc(b->grid->cell_count ? b->grid->cell_count : 1, sizeof *b->cells);
+  if (!b->cells) {
+    bbc_grid_free(b->grid);
+    b->grid = NULL;
+    return BBC_ERR_OUT_OF_MEMORY;
+  }
+  for (int i = 0; i < BUILDER_LOCKS; i++) pthread_mutex_init(&b->locks[i], NULL);
+  return BBC_OK;
+}
 
 bbc_result bbc_cache_builder_create(bbc_cache_builder **out, const bbc_scene *scene,
                                     const bbc_precompute_params *params) {
@@ -307,13 +329,47 @@ bbc_result bbc_cache_builder_create(bbc_cache_builder **out, const bbc_scene *sc
   b->scene_counts[2] = scene->mesh_count;
   b->scene_counts[3] = scene->material_count;
   b->scene_counts[4] = scene->point_light_count;
-  b->cells = calloc(b->grid->cell_count, sizeof *b->cells);
-  if (!b->cells) {
-    bbc_grid_free(b->grid);
+  if (builder_finish(b) != BBC_OK) {
     free(b);
     return BBC_ERR_OUT_OF_MEMORY;
   }
-  for (int i = 0; i < BUILDER_LOCKS; i++) pthread_mutex_init(&b->locks[i], NULL);
+  *out = b;
+  return BBC_OK;
+}
+
+bbc_result bbc__cache_builder_from_cache(bbc_cache_builder **out, const bbc_cache *c) {
+  *out = NULL;
+  bbc_cache_info in;
+  bbc_cache_get_info(c, &in);
+  const bbc_grid *g = bbc_cache_grid(c);
+  bbc_cache_builder *b = calloc(1, sizeof *b);
+  bbc_grid *grid = calloc(1, sizeof *grid);
+  bbc_receiver *receivers = calloc(g->receiver_count ? g->receiver_count : 1, sizeof *receivers);
+  float *uv = malloc(sizeof(float) * 6 * (g->uv_triangle_count ? g->uv_triangle_count : 1));
+  if (!b || !grid || !receivers || !uv) {
+    free(b);
+    free(grid);
+    free(receivers);
+    free(uv);
+    return BBC_ERR_OUT_OF_MEMORY;
+  }
+  *grid = *g;
+  memcpy(receivers, g->receivers, sizeof *receivers * g->receiver_count);
+  memcpy(uv, g->triangle_uv, sizeof(float) * 6 * g->uv_triangle_count);
+  grid->receivers = receivers;
+  grid->triangle_uv = uv;
+  b->grid = grid;
+  b->params = in.params;
+  b->fingerprint = in.fingerprint;
+  b->scene_counts[0] = in.scene_vertex_count;
+  b->scene_counts[1] = in.scene_triangle_count;
+  b->scene_counts[2] = in.scene_mesh_count;
+  b->scene_counts[3] = in.scene_material_count;
+  b->scene_counts[4] = in.scene_light_count;
+  if (builder_finish(b) != BBC_OK) {
+    free(b);
+    return BBC_ERR_OUT_OF_MEMORY;
+  }
   *out = b;
   return BBC_OK;
 }
@@ -326,6 +382,8 @@ void bbc_cache_builder_free(bbc_cache_builder *b) {
   for (int i = 0; i < BUILDER_LOCKS; i++) pthread_mutex_destroy(&b->locks[i]);
   bbc_grid_free(b->grid);
   free(b->tuples);
+  free(b->candidate);
+  free(b->info_text);
   free(b);
 }
 
@@ -359,6 +417,77 @@ bbc_result bbc_cache_builder_add_tuple(bbc_cache_builder *b, const bbc_tuple *t,
   if (id) *id = b->tuple_count;
   b->tuple_count++;
   return BBC_OK;
+}
+
+/* ------------------------------------------------------------------ shards */
+
+uint64_t bbc__candidates_hash(const bbc_tuple *tuples, size_t count) {
+  /* bbc_tuple is the TUPL record byte for byte (static assertion above). */
+  return bbc__xxh64(tuples, sizeof *tuples * count);
+}
+
+bbc_result bbc__cache_builder_shard(bbc_cache_builder *b, uint32_t index, uint32_t count,
+                                    bbc_tuple *tuples, size_t *tuple_count, uint64_t **candidate) {
+  *candidate = NULL;
+  if (!b || count == 0 || index >= count || b->tuple_count != 0 || (!tuples && *tuple_count))
+    return BBC_ERR_INVALID_ARGUMENT;
+  size_t all = *tuple_count, kept = all > index ? (all - index - 1) / count + 1 : 0;
+  uint64_t *k = malloc(sizeof *k * (kept ? kept : 1));
+  if (!k) return BBC_ERR_OUT_OF_MEMORY;
+  b->shard_index = index;
+  b->shard_count = count;
+  b->candidate_count = all;
+  b->candidates_hash = bbc__candidates_hash(tuples, all);
+  /* Interleaved (k % count == index) rather than ranges: neighbouring candidates share
+   * a caster and cost alike, so every shard gets a similar mix of work. */
+  size_t n = 0;
+  for (size_t i = index; i < all; i += count) {
+    k[n] = i;
+    tuples[n++] = tuples[i];
+  }
+  *tuple_count = n;
+  *candidate = k;
+  return BBC_OK;
+}
+
+bbc_result bbc__cache_builder_set_candidate(bbc_cache_builder *b, uint32_t id, uint64_t candidate) {
+  if (!b || b->shard_count == 0 || id >= b->tuple_count) return BBC_ERR_INVALID_ARGUMENT;
+  if (id >= b->candidate_cap) {
+    uint32_t cap = b->tuple_cap > id ? b->tuple_cap : id + 1;
+    uint64_t *n = realloc(b->candidate, sizeof *n * (size_t)cap);
+    if (!n) return BBC_ERR_OUT_OF_MEMORY;
+    for (uint32_t i = b->candidate_cap; i < cap; i++) n[i] = UINT64_MAX;
+    b->candidate = n;
+    b->candidate_cap = cap;
+  }
+  b->candidate[id] = candidate;
+  return BBC_OK;
+}
+
+bbc_result bbc__cache_builder_set_info(bbc_cache_builder *b, const void *text, size_t size) {
+  if (!b || (text && size > BBC__MAX_INFO)) return BBC_ERR_INVALID_ARGUMENT;
+  char *copy = NULL;
+  if (text) {
+    copy = malloc(size ? size : 1);
+    if (!copy) return BBC_ERR_OUT_OF_MEMORY;
+    memcpy(copy, text, size);
+  }
+  free(b->info_text);
+  b->info_set = 1;
+  b->info_text = copy;
+  b->info_size = text ? size : 0;
+  return BBC_OK;
+}
+
+/* R-SHR-3 for the tuples of a shard builder: the SHRD section it would write is valid. */
+static int shard_candidates_valid(const bbc_cache_builder *b) {
+  for (uint32_t i = 0; i < b->tuple_count; i++) {
+    uint64_t k = i < b->candidate_cap ? b->candidate[i] : UINT64_MAX;
+    if (k >= b->candidate_count || k % b->shard_count != b->shard_index ||
+        (i > 0 && k <= b->candidate[i - 1]))
+      return 0;
+  }
+  return 1;
 }
 
 static int entry_cmp(const void *a, const void *b) {
@@ -471,6 +600,17 @@ bbc_result bbc_cache_builder_splat_cells(bbc_cache_builder *b, uint32_t tuple_id
   return BBC_OK;
 }
 
+bbc_result bbc__cache_builder_add_codes(bbc_cache_builder *b, uint64_t cell, const uint32_t *tuples,
+                                        const uint16_t *codes, uint32_t n) {
+  if (cell >= b->grid->cell_count) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_result r = BBC_OK;
+  for (uint32_t i = 0; i < n && r == BBC_OK; i++) {
+    if (tuples[i] >= b->tuple_count || codes[i] > BBC__CODE_INF) return BBC_ERR_INVALID_ARGUMENT;
+    r = cell_add(&b->cells[cell], tuples[i], codes[i]);
+  }
+  return r;
+}
+
 static void compact_all(bbc_cache_builder *b) {
   int64_t n = (int64_t)b->grid->cell_count;
 #pragma omp parallel for schedule(dynamic, 4096)
@@ -556,6 +696,7 @@ enum {
   SEC_CIDX,
   SEC_CDAT,
   SEC_CHNK,
+  SEC_SHRD, /* only in shard caches, last */
   SEC_COUNT
 };
 
@@ -662,6 +803,11 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   if (target < 1) target = 1;
   if (target > BBC__MAX_CHUNK_ENTRIES) target = BBC__MAX_CHUNK_ENTRIES;
 
+  if (b->shard_count && !shard_candidates_valid(b))
+    return bbc__report(o->error_fn, o->user, BBC_ERR_INVALID_ARGUMENT,
+                       "%s: shard %u/%u: tuple candidate indices missing or not increasing "
+                       "(R-SHR-3)",
+                       s->path, b->shard_index, b->shard_count);
   compact_all(b);
   chunking ch;
   bbc_result r = make_chunking(b, target, &ch);
@@ -677,17 +823,27 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   char info[64];
   snprintf(info, sizeof info, "bbc %s", writer);
 
+  const char *info_text = info;
+  size_t info_size = strlen(info);
+  if (b->info_set) {
+    info_text = b->info_text;
+    info_size = b->info_size;
+  }
+
   section sec[SEC_COUNT];
-  static const uint32_t types[SEC_COUNT] = {BBC__SEC_INFO, BBC__SEC_PARM, BBC__SEC_FPRT,
-                                            BBC__SEC_RCVR, BBC__SEC_TRUV, BBC__SEC_TUPL,
-                                            BBC__SEC_CIDX, BBC__SEC_CDAT, BBC__SEC_CHNK};
-  uint32_t first = o->omit_info ? 1 : 0, nsec = SEC_COUNT - first;
+  static const uint32_t types[SEC_COUNT] = {
+      BBC__SEC_INFO, BBC__SEC_PARM, BBC__SEC_FPRT, BBC__SEC_RCVR, BBC__SEC_TRUV,
+      BBC__SEC_TUPL, BBC__SEC_CIDX, BBC__SEC_CDAT, BBC__SEC_CHNK, BBC__SEC_SHRD};
+  /* The sections written are [first, last]: INFO is optional at the start, SHRD at the
+   * end; a complete cache is laid out exactly as by a 1.0 writer. */
+  uint32_t first = o->omit_info || !info_text ? 1 : 0;
+  uint32_t last = b->shard_count ? SEC_SHRD : SEC_CHNK, nsec = last + 1 - first;
   memset(sec, 0, sizeof sec);
   for (int i = 0; i < SEC_COUNT; i++) {
     sec[i].type = types[i];
-    sec[i].flags = i == SEC_INFO ? 0 : BBC__SECTION_REQUIRED;
+    sec[i].flags = i == SEC_INFO || i == SEC_SHRD ? 0 : BBC__SECTION_REQUIRED;
   }
-  sec[SEC_INFO].size = strlen(info);
+  sec[SEC_INFO].size = info_size;
   sec[SEC_PARM].size = BBC__PARM_SIZE;
   sec[SEC_FPRT].size = BBC__FPRT_SIZE;
   sec[SEC_RCVR].size = (uint64_t)BBC__RCVR_SIZE * g->receiver_count;
@@ -737,7 +893,7 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
     for (int k = 0; k < 3; k++) bbc__stf64(p + 96 + 8 * k, rc->axis_v[k]);
   }
 
-  if (!o->omit_info) r = write_section(s, &sec[SEC_INFO], info);
+  if (first == SEC_INFO) r = write_section(s, &sec[SEC_INFO], info_text);
   if (r == BBC_OK) r = write_section(s, &sec[SEC_PARM], parm);
   if (r == BBC_OK) r = write_section(s, &sec[SEC_FPRT], fprt);
   if (r == BBC_OK) r = write_section(s, &sec[SEC_RCVR], rcvr);
@@ -811,13 +967,30 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   }
   free(chnk);
   chunking_free(&ch);
+  if (r == BBC_OK && last == SEC_SHRD) {
+    /* SHRD (Sec. 5.10): which shard, the candidate list, each tuple's candidate. */
+    sec[SEC_SHRD].size = BBC__SHRD_HEAD_SIZE + (uint64_t)BBC__SHRD_ENTRY_SIZE * b->tuple_count;
+    sec[SEC_SHRD].offset =
+        bbc__align64(sec[SEC_CHNK].offset + sec[SEC_CHNK].size + BBC__MIN_PADDING);
+    uint8_t *shrd = calloc(1, (size_t)sec[SEC_SHRD].size);
+    if (!shrd)
+      return bbc__report(o->error_fn, o->user, BBC_ERR_OUT_OF_MEMORY, "%s: out of memory", s->path);
+    bbc__st32(shrd, b->shard_index);
+    bbc__st32(shrd + 4, b->shard_count);
+    bbc__st64(shrd + 8, b->candidate_count);
+    bbc__st64(shrd + 16, b->candidates_hash);
+    for (uint32_t i = 0; i < b->tuple_count; i++)
+      bbc__st64(shrd + BBC__SHRD_HEAD_SIZE + BBC__SHRD_ENTRY_SIZE * (size_t)i, b->candidate[i]);
+    r = write_section(s, &sec[SEC_SHRD], shrd);
+    free(shrd);
+  }
   if (r != BBC_OK) return r;
 
   /* Padding (R-LAY-2), then the directory and the header, which need every size and
    * checksum. */
-  uint64_t file_size = bbc__align64(sec[SEC_CHNK].offset + sec[SEC_CHNK].size + BBC__MIN_PADDING);
+  uint64_t file_size = bbc__align64(sec[last].offset + sec[last].size + BBC__MIN_PADDING);
   uint64_t prev_end = BBC__HEADER_SIZE + (uint64_t)BBC__DIR_ENTRY_SIZE * nsec;
-  for (uint32_t i = first; i < SEC_COUNT && r == BBC_OK; i++) {
+  for (uint32_t i = first; i <= last && r == BBC_OK; i++) {
     r = write_zeros(s, prev_end, sec[i].offset);
     prev_end = sec[i].offset + sec[i].size;
   }
@@ -825,7 +998,7 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
 
   uint8_t dir[BBC__DIR_ENTRY_SIZE * SEC_COUNT];
   memset(dir, 0, sizeof dir);
-  for (uint32_t i = first; i < SEC_COUNT; i++) {
+  for (uint32_t i = first; i <= last; i++) {
     uint8_t *e = dir + BBC__DIR_ENTRY_SIZE * (i - first);
     bbc__st32(e, sec[i].type);
     bbc__st32(e + 4, sec[i].flags);
@@ -837,7 +1010,7 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   memset(header, 0, sizeof header);
   memcpy(header, BBC__MAGIC, 8);
   bbc__st16(header + 8, BBC_FORMAT_VERSION_MAJOR);
-  bbc__st16(header + 10, BBC_FORMAT_VERSION_MINOR);
+  bbc__st16(header + 10, b->shard_count ? BBC__MINOR_SHARD : BBC__MINOR_COMPLETE);
   bbc__st32(header + 12, nsec);
   bbc__st64(header + 16, file_size);
   bbc__st32(header + 28, crc_of(crc32_z(0, NULL, 0), dir, BBC__DIR_ENTRY_SIZE * nsec));

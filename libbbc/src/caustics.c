@@ -1,6 +1,27 @@
-/* The caustic estimator: cell lookup, tuple sampling, the specular-polynomial solver
- * inside each sampled tuple, and each solution's visibility, Fresnel and irradiance
- * divided by the tuple's probability (Eq. 24). */
+/* The caustic estimator: cell lookup, tuple sampling, the solver inside each sampled
+ * tuple, and each solution's visibility, Fresnel and irradiance divided by the tuple's
+ * probability (Eq. 24).
+ *
+ * Single scattering (R, T) is solved by the specular polynomials, which return every
+ * solution. Double scattering (RR, RT, TR, TT) is solved by Newton's method on the chain
+ * (DESIGN 3.10), in one of two ways (bbc_solver_method):
+ *   - deterministic: one run from T1's centre; the value of the solution it reaches, if
+ *     any. No variance, but solutions the centre does not lead to are missed (bias).
+ *   - stochastic: one run from a start u1 drawn uniformly on T1. It reaches solution s
+ *     with some probability p_s (the share of T1 in s's basin of attraction, clamping
+ *     included). Its value is then multiplied by K, the number of further independent
+ *     uniform starts drawn until one reaches s again: K is geometric with mean 1 / p_s,
+ *     so E[value x K] = sum over s of p_s f(s) / p_s = sum over s of f(s), the sum over
+ *     every solution some start reaches (specular manifold sampling's reciprocal
+ *     probability estimate, Zeltner et al. 2020, Sec. 4.3). The expected cost is one
+ *     run plus, per solution, p_s x 1 / p_s = 1 run: bounded by the number of
+ *     solutions. K is capped (bbc_render_options.newton_max_trials); a capped estimate
+ *     is biased low and counted in the stats. A solution of value 0 (occluded, on the
+ *     wrong side) needs no K.
+ * Random starts come from a stream keyed by the path's (pixel, sample) key, the
+ * dimension the path had reached at this shading point and the tuple id: the image
+ * stays a pure function of the seed, whatever thread rendered what, and the variable
+ * number of draws of K does not shift the path's later random numbers. */
 #include "caustics_internal.h"
 
 #include <math.h>
@@ -9,7 +30,6 @@
 
 #include <omp.h>
 
-#include "bbc/solver.h"
 #include "vec_internal.h"
 
 bbc_result bbc__caustics_thread_init(bbc__caustics_thread *t, const bbc_cache *cache) {
@@ -35,7 +55,7 @@ static double fresnel(double cos_i, double eta) {
   return 0.5 * (rs * rs + rp * rp);
 }
 
-/* The unit geometric normal of a scene triangle. */
+/* The unit geometric normal of a scene triangle, and its vertex 0. */
 static bbc_vec3 geometric_normal(const bbc_scene *scene, uint32_t t, bbc_vec3 *p0) {
   const uint32_t *idx = scene->indices + 3 * (size_t)t;
   bbc_vec3 a = v3_load(scene->positions + 3 * (size_t)idx[0]);
@@ -45,57 +65,160 @@ static bbc_vec3 geometric_normal(const bbc_scene *scene, uint32_t t, bbc_vec3 *p
   return v3_normalize(v3_cross(v3_sub(b, a), v3_sub(c, a)));
 }
 
-/* The contribution of one sampled single-scattering tuple at p. */
-static bbc_vec3 tuple_contribution(const bbc__caustics *c, bbc__caustics_thread *t,
-                                   const bbc_tuple *tuple, bbc_vec3 p, bbc_vec3 ng) {
+/* 1 if point q lies in front of scene triangle t's geometric plane, the front being
+ * the side its vertex normals point to (the orientation the bounds use, bounds.h). */
+static int in_front_of(const bbc_scene *scene, uint32_t t, bbc_vec3 q) {
+  bbc_vec3 p0;
+  bbc_vec3 ng = geometric_normal(scene, t, &p0);
+  const uint32_t *idx = scene->indices + 3 * (size_t)t;
+  bbc_vec3 nsum = v3(0, 0, 0);
+  for (int j = 0; j < 3; j++) nsum = v3_add(nsum, v3_load(scene->normals + 3 * (size_t)idx[j]));
+  return (v3_dot(ng, q) - v3_dot(ng, p0)) * (v3_dot(ng, nsum) >= 0 ? 1 : -1) > 0;
+}
+
+/* 1 if the segment from a (on the surface with unit geometric normal na) to b (on the
+ * surface with normal nb) is unoccluded. Both ends are pushed off their surfaces toward
+ * the segment, as the path tracer's rays are. */
+static int segment_visible(const bbc__caustics *c, bbc_vec3 a, bbc_vec3 na, bbc_vec3 b,
+                           bbc_vec3 nb) {
+  bbc_vec3 d = v3_sub(b, a);
+  bbc_vec3 origin = v3_offset_origin(a, na, d);
+  bbc_vec3 target = v3_offset_origin(b, nb, v3_neg(d));
+  return !bbc_accel_occluded(c->accel, origin, v3_sub(target, origin), 0.0, 1.0 - 1e-6);
+}
+
+/* See bbc__caustics_solution_value; returns 0 for an inadmissible or invisible path
+ * (out is then zero), 1 otherwise. */
+static int solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
+                          const bbc_path_geometry *g, const bbc_solution *s, bbc_vec3 p,
+                          bbc_vec3 ng, bbc_vec3 *out) {
   const bbc_scene *scene = c->scene;
+  *out = v3(0, 0, 0);
+  if (!(s->irradiance > 0) || !isfinite(s->irradiance)) return 0;
+  const bbc_point_light *light = &scene->point_lights[tuple->light];
+  const int length = g->length;
+  /* The path's vertices: x[0] the light, x[1..length] the specular ones, then p. */
+  bbc_vec3 x[4] = {light->position, s->x1, s->x2, s->x2};
+  x[length + 1] = p;
+  /* The light must reach the receiver on the side being shaded. */
+  if (v3_dot(v3_sub(p, x[length]), ng) >= 0) return 0;
+  double factor[3] = {1, 1, 1};
+  bbc_vec3 ngeo[2];
+  for (int i = 0; i < length; i++) {
+    const uint32_t tri = tuple->specular[i];
+    const bbc_material *m = bbc_scene_triangle_material(scene, tri);
+    ngeo[i] = geometric_normal(scene, tri, NULL);
+    if (g->specular[i].refract) {
+      /* Side consistency: the bounds orient a refraction by the side of the triangle's
+       * geometric plane its light comes from (the light itself for T1, T1's centroid for
+       * T2; bounds.h, specular_path.h). A path whose shading normal says the ray arrives
+       * from the other side is outside the bounded set: skipped (a documented
+       * limitation, which only bites where shading and geometric normals disagree). */
+      bbc_vec3 source = light->position;
+      if (i == 1) {
+        const bbc_specular_triangle *t1 = &g->specular[0];
+        source = v3_scale(v3_add(t1->p[0], v3_add(t1->p[1], t1->p[2])), 1.0 / 3.0);
+      }
+      int source_in_front = in_front_of(scene, tri, source);
+      bbc_vec3 n = i == 0 ? s->path.n1 : s->path.n2;
+      double dn = v3_dot(v3_normalize(v3_sub(x[i + 1], x[i])), n);
+      if ((dn < 0) != source_in_front) return 0;
+      double eta = dn < 0 ? 1.0 / m->ior : m->ior;
+      double f = c->no_fresnel ? 0.0 : fresnel(fabs(dn), eta);
+      for (int k = 0; k < 3; k++) factor[k] *= 1.0 - f;
+    } else {
+      for (int k = 0; k < 3; k++) factor[k] *= m->base_color[k];
+    }
+  }
+  /* Visibility of every segment: light -> x1 (traced from the light, which needs no
+   * offset), x1 -> x2, x_last -> p. */
+  bbc_vec3 x1_light_side = v3_offset_origin(x[1], ngeo[0], v3_sub(x[0], x[1]));
+  if (bbc_accel_occluded(c->accel, x[0], v3_sub(x1_light_side, x[0]), 0.0, 1.0 - 1e-6)) return 0;
+  for (int i = 1; i <= length; i++) {
+    bbc_vec3 nb = i < length ? ngeo[i] : ng;
+    if (!segment_visible(c, x[i], ngeo[i - 1], x[i + 1], nb)) return 0;
+  }
+  for (int k = 0; k < 3; k++) factor[k] *= light->intensity[k] * s->irradiance;
+  *out = v3(factor[0], factor[1], factor[2]);
+  return 1;
+}
+
+bbc_vec3 bbc__caustics_solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
+                                      const bbc_path_geometry *g, const bbc_solution *s, bbc_vec3 p,
+                                      bbc_vec3 ng) {
+  bbc_vec3 v;
+  solution_value(c, tuple, g, s, p, ng, &v);
+  return v;
+}
+
+/* A start drawn uniformly on T1 (barycentrics, the unit triangle folded onto itself). */
+static void uniform_start(bbc_rng *rng, double u1[2]) {
+  double a = bbc_rng_next(rng), b = bbc_rng_next(rng);
+  if (a + b > 1) a = 1 - a, b = 1 - b;
+  u1[0] = a, u1[1] = b;
+}
+
+/* One Newton run from u1 on a double-scattering chain, counted. */
+static int newton_run(bbc__caustics_thread *t, const bbc_path_geometry *g, bbc_vec3 p,
+                      const double u1[2], bbc_solution *s) {
+  int found = 0;
+  t->newton_solves++;
+  if (bbc_solver_newton(g, p, u1, NULL, s, &found) != BBC_OK) found = 0;
+  if (found) t->newton_converged++;
+  return found;
+}
+
+/* The contribution of a double-scattering tuple (see the top of the file). */
+static bbc_vec3 double_contribution(const bbc__caustics *c, bbc__caustics_thread *t,
+                                    const bbc_tuple *tuple, const bbc_path_geometry *g, bbc_vec3 p,
+                                    bbc_vec3 ng, uint64_t key) {
+  bbc_vec3 value = v3(0, 0, 0);
+  bbc_solution s;
+  if (c->solver == BBC_SOLVER_NEWTON_DET) {
+    static const double centre[2] = {1.0 / 3.0, 1.0 / 3.0};
+    if (newton_run(t, g, p, centre, &s) && solution_value(c, tuple, g, &s, p, ng, &value))
+      t->solutions++;
+    return value;
+  }
+  bbc_rng rng = {key, 0};
+  double u1[2];
+  uniform_start(&rng, u1);
+  if (!newton_run(t, g, p, u1, &s) || !solution_value(c, tuple, g, &s, p, ng, &value)) return value;
+  t->solutions++;
+  if (value.x == 0 && value.y == 0 && value.z == 0) return value;
+  /* K: further starts until one reaches s again. */
+  const uint32_t cap = c->newton_max_trials ? c->newton_max_trials : BBC_NEWTON_MAX_TRIALS_DEFAULT;
+  uint32_t k = 0;
+  int again = 0;
+  while (!again && k < cap) {
+    k++;
+    bbc_solution trial;
+    uniform_start(&rng, u1);
+    again = newton_run(t, g, p, u1, &trial) &&
+            fabs(trial.u1[0] - s.u1[0]) <= BBC__NEWTON_SAME_SOLUTION &&
+            fabs(trial.u1[1] - s.u1[1]) <= BBC__NEWTON_SAME_SOLUTION;
+  }
+  t->newton_estimates++;
+  t->newton_trials += k;
+  if (!again) t->newton_cap_hits++;
+  return v3_scale(value, (double)k);
+}
+
+bbc_vec3 bbc__caustics_tuple(const bbc__caustics *c, bbc__caustics_thread *t,
+                             const bbc_tuple *tuple, bbc_vec3 p, bbc_vec3 ng, uint64_t key) {
   bbc_vec3 sum = v3(0, 0, 0);
   bbc_path_geometry g;
-  if (bbc_path_geometry_init(&g, scene, tuple) != BBC_OK || g.length != 1) return sum;
+  if (bbc_path_geometry_init(&g, c->scene, tuple) != BBC_OK) return sum;
+  if (g.length == 2) return double_contribution(c, t, tuple, &g, p, ng, key);
   bbc_solution solutions[BBC_SOLVER_MAX_SOLUTIONS];
   size_t count = 0;
   if (bbc_solver_single(&g, p, NULL, solutions, BBC_SOLVER_MAX_SOLUTIONS, &count) != BBC_OK)
     return sum;
-  const bbc_point_light *light = &scene->point_lights[tuple->light];
-  const uint32_t t1 = tuple->specular[0];
-  const bbc_material *m = bbc_scene_triangle_material(scene, t1);
-  bbc_vec3 p0;
-  bbc_vec3 n1g = geometric_normal(scene, t1, &p0);
-  /* The side of T1 the light is on, as the bounds define it (bounds.h): a refraction
-   * whose shading normal says otherwise is outside the bounded set of paths. */
-  const uint32_t *idx = scene->indices + 3 * (size_t)t1;
-  bbc_vec3 nsum = v3(0, 0, 0);
-  for (int j = 0; j < 3; j++) nsum = v3_add(nsum, v3_load(scene->normals + 3 * (size_t)idx[j]));
-  int light_in_front =
-      (v3_dot(n1g, light->position) - v3_dot(n1g, p0)) * (v3_dot(n1g, nsum) >= 0 ? 1 : -1) > 0;
   for (size_t i = 0; i < count; i++) {
-    const bbc_solution *s = &solutions[i];
-    if (!(s->irradiance > 0) || !isfinite(s->irradiance)) continue;
-    bbc_vec3 d0 = v3_sub(s->x1, light->position);
-    bbc_vec3 d1 = v3_sub(p, s->x1);
-    /* The light must reach the receiver on the side being shaded. */
-    if (v3_dot(d1, ng) >= 0) continue;
-    double factor[3] = {1, 1, 1};
-    if (tuple->chain == BBC_CHAIN_T) {
-      double dn = v3_dot(v3_normalize(d0), s->path.n1);
-      if ((dn < 0) != light_in_front) continue;
-      double eta = dn < 0 ? 1.0 / m->ior : m->ior;
-      double f = c->no_fresnel ? 0.0 : fresnel(fabs(dn), eta);
-      factor[0] = factor[1] = factor[2] = 1.0 - f;
-    } else {
-      for (int k = 0; k < 3; k++) factor[k] = m->base_color[k];
-    }
-    /* Visibility of both segments. */
-    bbc_vec3 x1_light_side = v3_offset_origin(s->x1, n1g, v3_neg(d0));
-    if (bbc_accel_occluded(c->accel, light->position, v3_sub(x1_light_side, light->position), 0.0,
-                           1.0 - 1e-6))
-      continue;
-    bbc_vec3 origin = v3_offset_origin(s->x1, n1g, d1);
-    bbc_vec3 target = v3_offset_origin(p, ng, v3_neg(d1));
-    if (bbc_accel_occluded(c->accel, origin, v3_sub(target, origin), 0.0, 1.0 - 1e-6)) continue;
+    bbc_vec3 v;
+    if (!solution_value(c, tuple, &g, &solutions[i], p, ng, &v)) continue;
     t->solutions++;
-    for (int k = 0; k < 3; k++) factor[k] *= light->intensity[k] * s->irradiance;
-    sum = v3_add(sum, v3(factor[0], factor[1], factor[2]));
+    sum = v3_add(sum, v);
   }
   return sum;
 }
@@ -104,6 +227,7 @@ typedef struct estimate_state {
   const bbc__caustics *c;
   bbc__caustics_thread *t;
   bbc_vec3 p, ng;
+  uint64_t key; /* this shading point's key for the tuples' random streams */
   bbc_vec3 sum;
   double solving_seconds;
 } estimate_state;
@@ -112,15 +236,17 @@ typedef struct estimate_state {
 static void on_chosen(void *user, uint32_t tuple, double p) {
   estimate_state *s = user;
   double t0 = omp_get_wtime();
-  bbc_vec3 e = tuple_contribution(s->c, s->t, &s->c->tuples[tuple], s->p, s->ng);
+  uint64_t key = bbc__mix64(s->key ^ bbc__mix64(tuple + 0xA0761D6478BD642Full));
+  bbc_vec3 e = bbc__caustics_tuple(s->c, s->t, &s->c->tuples[tuple], s->p, s->ng, key);
   s->sum = v3_add(s->sum, v3_scale(e, 1.0 / p));
   s->solving_seconds += omp_get_wtime() - t0;
 }
 
 bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t, bbc_vec3 p,
                                 bbc_vec3 ng, uint32_t triangle, double b1, double b2,
-                                bbc_rng *rng) {
+                                int max_vertices, bbc_rng *rng) {
   bbc_vec3 sum = v3(0, 0, 0);
+  if (max_vertices < 1) return sum;
   double t0 = omp_get_wtime();
   const bbc_cache_entry *entries = NULL;
   uint32_t n = 0;
@@ -131,7 +257,8 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
   double t1 = omp_get_wtime();
   t->decoding_seconds += t1 - t0;
   t->lookups++;
-  /* U: the cell's tuples that end on this very triangle (a cell may span several). */
+  /* U: the cell's tuples that end on this very triangle (a cell may span several), of
+   * the chain types asked for and short enough for the depth limit. */
   if (n > t->candidate_capacity) {
     uint32_t capacity = t->candidate_capacity ? t->candidate_capacity : 64;
     while (capacity < n) capacity *= 2;
@@ -143,12 +270,16 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
   uint32_t m = 0;
   for (uint32_t i = 0; i < n; i++) {
     const bbc_tuple *tuple = &c->tuples[entries[i].tuple];
-    if (tuple->receiver == triangle && (c->chains & (1u << tuple->chain)))
+    if (tuple->receiver == triangle && (c->chains & (1u << tuple->chain)) &&
+        bbc_chain_length((bbc_chain)tuple->chain) <= max_vertices)
       t->candidates[m++] = entries[i];
   }
   t->candidate_count += m;
+  /* The tuples' random streams hang off the path's key and the dimension reached here,
+   * which differs between the shading points of one path. */
+  uint64_t key = bbc__mix64(rng->key ^ bbc__mix64(rng->dimension + 0xE7037ED1A0B428DBull));
   /* Each chosen tuple is solved as it is drawn: no list, no limit on |S|. */
-  estimate_state state = {c, t, p, ng, v3(0, 0, 0), 0.0};
+  estimate_state state = {c, t, p, ng, key, v3(0, 0, 0), 0.0};
   uint32_t drawn = 0;
   if (m > 0 && bbc__sampler_prepare(&t->sampler, t->candidates, m, &c->sampling)) {
     t->bins += t->sampler.one_sample ? 1 : t->sampler.bins;

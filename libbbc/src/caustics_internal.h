@@ -5,8 +5,19 @@
 #define BBC_CAUSTICS_INTERNAL_H
 
 #include "bbc/render.h"
+#include "bbc/solver.h"
 #include "rng_internal.h"
 #include "sampler_internal.h"
+
+/* Two Newton results are the same solution when their u1 differ by at most this much
+ * (barycentric units, max norm; specular manifold sampling uses a world-space threshold
+ * of the same order). Newton stops where the data stop resolving the root, and near a
+ * fold of the caustic (where two solutions merge and the Jacobian is singular) the set
+ * of u1 whose paths pass within the verifier's angle tolerance of x_k is elongated:
+ * starts there converge to points a few 1e-6 apart, and a tighter threshold would count
+ * one solution as several (K, and the estimate, too large). Two genuinely distinct
+ * solutions this close lie at a fold, in a band of negligible width. */
+#define BBC__NEWTON_SAME_SOLUTION 1e-4
 
 typedef struct bbc__caustics {
   const bbc_scene *scene;
@@ -16,6 +27,8 @@ typedef struct bbc__caustics {
   bbc__sampling sampling;
   uint32_t chains; /* BBC_CHAIN_BIT mask */
   int no_fresnel;
+  bbc_solver_method solver;   /* double scattering: deterministic or stochastic Newton */
+  uint32_t newton_max_trials; /* cap on K (newton-stoch); 0 = BBC_NEWTON_MAX_TRIALS_DEFAULT */
 } bbc__caustics;
 
 /* Per-thread state: the cache cursor (it keeps decoded chunks), the sampler's arrays
@@ -26,6 +39,9 @@ typedef struct bbc__caustics_thread {
   bbc_cache_entry *candidates;
   uint32_t candidate_capacity;
   uint64_t lookups, candidate_count, bins, sampled, solutions;
+  /* Newton on double-scattering tuples: runs, runs ending on an admissible path,
+   * reciprocal-probability estimates, the sum of their K and those stopped at the cap. */
+  uint64_t newton_solves, newton_converged, newton_estimates, newton_trials, newton_cap_hits;
   double sampling_seconds, decoding_seconds, solving_seconds;
 } bbc__caustics_thread;
 
@@ -34,9 +50,33 @@ void bbc__caustics_thread_free(bbc__caustics_thread *t);
 
 /* The irradiance (RGB, W/m^2) arriving at point p of receiver triangle `triangle` (with
  * barycentrics b1, b2 of its vertices 1 and 2) from the side the unit geometric normal
- * ng points to, through the cached chains. Unbiased: the expectation over rng is the
- * sum over every admissible path of its irradiance times visibility and Fresnel. */
+ * ng points to, through the cached chains of at most max_vertices specular vertices
+ * (so the path stays within the render's depth limit). Unbiased with newton-stoch (up
+ * to the cap on K): the expectation over rng is the sum over every admissible path of
+ * its irradiance times visibility and Fresnel (for double scattering, every path
+ * Newton reaches from some start on T1). rng is only read (its key and dimension seed
+ * the tuples' own streams) and advanced by the tuple sampler. */
 bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t, bbc_vec3 p,
-                                bbc_vec3 ng, uint32_t triangle, double b1, double b2, bbc_rng *rng);
+                                bbc_vec3 ng, uint32_t triangle, double b1, double b2,
+                                int max_vertices, bbc_rng *rng);
+
+/* The contribution of one tuple at p, before division by its selection probability:
+ * every solution's value for single scattering (specular polynomials); for double
+ * scattering the Newton estimate of c->solver, random starts drawn from the stream
+ * keyed by `key` (any 64-bit value; the estimator derives it from the pixel, sample,
+ * dimension and tuple id). Needs c->scene, c->accel, c->no_fresnel, c->solver and
+ * c->newton_max_trials only (no cache). Exposed for the tests. */
+bbc_vec3 bbc__caustics_tuple(const bbc__caustics *c, bbc__caustics_thread *t,
+                             const bbc_tuple *tuple, bbc_vec3 p, bbc_vec3 ng, uint64_t key);
+
+/* The value of one solution of a tuple at p: its irradiance per unit intensity times the
+ * light's RGB intensity, the Fresnel transmittance of every refraction (unless
+ * c->no_fresnel) and the reflectance of every mirror, if every segment is unoccluded,
+ * the light arrives at p from the side ng points to and every refraction agrees with
+ * the side the bounds assume; else 0. g must be bbc_path_geometry_init of the tuple.
+ * Exposed for the tests. */
+bbc_vec3 bbc__caustics_solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
+                                      const bbc_path_geometry *g, const bbc_solution *s, bbc_vec3 p,
+                                      bbc_vec3 ng);
 
 #endif

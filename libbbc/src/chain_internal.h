@@ -1,5 +1,6 @@
-/* Rational forms of a single-scattering chain on one piece of T1's barycentric domain
- * (paper Sec. 4.3, Eq. 6-11), as Bernstein polynomials in the piece's box variables. */
+/* Rational forms of a chain of one or two specular vertices on one piece of T1's
+ * barycentric domain (paper Sec. 4.3, Eq. 6-11), as Bernstein polynomials in the piece's
+ * box variables. */
 #ifndef BBC_CHAIN_INTERNAL_H
 #define BBC_CHAIN_INTERNAL_H
 
@@ -15,17 +16,32 @@ typedef enum chain_sqrt_mode {
   CHAIN_SQRT_NO_REMAINDER      /* the bare linearisation: not conservative (Fig. 18) */
 } chain_sqrt_mode;
 
-/* u_k = up / kappa and v_k = vp / kappa (Eq. 9, Moller-Trumbore with the common
- * denominator kappa = (d1 x e_k2) . e_k1); the hit distance along d1 is tnum / kappa.
+/* u_k = up / kappa and v_k = vp / kappa (Eq. 9, Moller-Trumbore with a common
+ * denominator: kappa = (d1 x e_k2) . e_k1 for one bounce, kappa2 kappa_k for two); the
+ * ray reaches the receiver ahead of its last vertex where tnum kappa > 0.
  * facing = -(n1 . d0) must be positive for light arriving on the normal's side; beta
- * (refraction only) must be non-negative (no total internal reflection); dist2 = d0 . d0. */
+ * (refraction only) must be non-negative (no total internal reflection); dist2 = d0 . d0.
+ *
+ * Two bounces: u2 = up2 / kappa2, v2 = vp2 / kappa2 on T2, ahead of x1 where
+ * tnum2 kappa2 > 0; facing2 (the same sign as -(n2 . d1)) and beta2 as at the first
+ * vertex. */
 typedef struct chain_forms {
   bbc_poly up, vp, kappa, tnum, facing, dist2;
   bbc_poly beta;
   bbc_poly3 x1, d1; /* the first vertex and the unnormalised outgoing direction (Eq. 10) */
+  int length;       /* specular vertices: 1 or 2 */
   int has_beta;
-  int slope_enclosed; /* derivative-aware mode: 0 when beta came too close to 0 for the
+  int slope_enclosed; /* derivative-aware mode: 0 when a beta came too close to 0 for the
                          slope of sqrt to be enclosed (irradiance is then unbounded) */
+  bbc_poly up2, vp2, kappa2, tnum2, facing2, beta2;
+  int has_beta2;
+  int slope_enclosed2; /* derivative mode: 0 when beta2 came too close to 0 for the slope
+                          of its sqrt (the explicit Jacobian, not the implicit one) */
+  /* Two bounces, irradiance: the derivatives of up, vp and kappa with respect to the
+   * piece's variables, carried in forward mode (chain_double.c). */
+  int has_derivatives;
+  bbc_poly up_s, up_t, vp_s, vp_t, kappa_s, kappa_t;
+  void *scratch; /* state between the two steps below, in the arena */
 } chain_forms;
 
 /* The box of the piece: u = u_lo + (u_hi - u_lo) s, v = v_lo + (v_hi - v_lo) t with s on
@@ -33,5 +49,43 @@ typedef struct chain_forms {
 bbc_result bbc__chain_forms(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
                             const double box[4], int s_axis, int t_axis, chain_sqrt_mode mode,
                             chain_forms *out);
+
+/* bbc__chain_forms in two steps, so that a piece whose light provably misses T2 is
+ * discarded before the costly rest is built: the prefix computes x1, d1, facing, beta,
+ * dist2 and (two bounces) up2, vp2, kappa2, tnum2; the rest everything else. */
+bbc_result bbc__chain_forms_prefix(bbc_arena *arena, bbc_space *space,
+                                   const bbc_tuple_geometry *g, const double box[4], int s_axis,
+                                   int t_axis, chain_sqrt_mode mode, chain_forms *out);
+bbc_result bbc__chain_forms_rest(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
+                                 chain_sqrt_mode mode, chain_forms *out);
+
+/* c + du (u_lo + su s) + dv (v_lo + sv t) per coordinate, widened by the rounding of the
+ * caller-side setup (Eq. 6-7 on a piece). */
+bbc_result bbc__chain_affine(bbc_arena *arena, bbc_poly3 *out, bbc_vec3 base, bbc_vec3 du,
+                             bbc_vec3 dv, double u_lo, double v_lo, double su, double sv, int s_axis,
+                             int t_axis);
+
+/* The two steps for two bounces (chain_double.c), in forward mode: with derivatives set
+ * (irradiance), up, vp and kappa come with their derivatives. */
+bbc_result bbc__chain_double_prefix(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
+                                    const double box[4], int s_axis, int t_axis, int derivatives,
+                                    chain_forms *out);
+bbc_result bbc__chain_double_rest(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
+                                  int derivatives, chain_forms *out);
+
+/* Implicit differentiation of the last refraction (Eq. 17-19) for two bounces whose
+ * second vertex refracts, on forms computed with derivatives: with the receiver
+ * barycentrics as two more variables over uk_box = {u_lo, u_hi, v_lo, v_hi} (alpha,
+ * beta on [0, 1]) and the constraints F, G built with the vector b,
+ * |det d(s,t)/d(alpha,beta)| = |det_ab / det_st| at every path of the piece. */
+bbc_result bbc__chain_double_implicit(bbc_arena *arena, const bbc_space *space,
+                                      const bbc_tuple_geometry *g, const chain_forms *f,
+                                      const double uk_box[4], bbc_vec3 b, bbc_poly *det_ab,
+                                      bbc_poly *det_st);
+
+/* p reduced to at most max_degree on every geometric axis and without remainder axes,
+ * what the reduction misses folded into the error radius (see chain_double.c). */
+bbc_result bbc__flatten(bbc_arena *arena, const bbc_space *space, bbc_poly *out,
+                        const bbc_poly *p, int max_degree);
 
 #endif

@@ -159,10 +159,10 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
   out.direct =
       v3(sum.x * albedo[0] / BBC_PI, sum.y * albedo[1] / BBC_PI, sum.z * albedo[2] / BBC_PI);
   out.caustic = v3(0, 0, 0);
-  /* A single-scattering caustic path adds two segments to the point. */
+  /* A caustic path of n specular vertices adds n + 1 segments to the point. */
   if (ctx->caustics && segments + 2 <= ctx->max_depth) {
-    bbc_vec3 e =
-        bbc__caustics_estimate(ctx->caustics, ct, s->p, s->ng, s->triangle, s->b1, s->b2, rng);
+    bbc_vec3 e = bbc__caustics_estimate(ctx->caustics, ct, s->p, s->ng, s->triangle, s->b1, s->b2,
+                                        (int)(ctx->max_depth - segments - 1), rng);
     out.caustic = v3(e.x * albedo[0] / BBC_PI, e.y * albedo[1] / BBC_PI, e.z * albedo[2] / BBC_PI);
   }
   return out;
@@ -272,6 +272,8 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
   if (options) opts = *options;
   if (!scene || !accel || !image) return BBC_ERR_INVALID_ARGUMENT;
   if (opts.time_limit < 0 || !isfinite(opts.time_limit)) return BBC_ERR_INVALID_ARGUMENT;
+  if (opts.solver != BBC_SOLVER_NEWTON_STOCH && opts.solver != BBC_SOLVER_NEWTON_DET)
+    return BBC_ERR_INVALID_ARGUMENT;
   uint32_t planned = opts.spp ? opts.spp : (opts.time_limit > 0 ? UINT32_MAX : 16);
   render_ctx ctx = {scene,
                     accel,
@@ -301,6 +303,8 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     caustics.tuples = bbc_cache_tuples(opts.cache);
     caustics.chains = opts.chains ? opts.chains : BBC_CHAIN_MASK_ALL;
     caustics.no_fresnel = opts.no_fresnel;
+    caustics.solver = opts.solver;
+    caustics.newton_max_trials = opts.newton_max_trials;
     static const bbc__sampling_method methods[] = {BBC__SAMPLE_BOUND, BBC__SAMPLE_BOUND,
                                                    BBC__SAMPLE_ENUMERATE, BBC__SAMPLE_UNIFORM,
                                                    BBC__SAMPLE_ONE};
@@ -400,6 +404,11 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
       stats->bins += t->bins;
       stats->sampled += t->sampled;
       stats->solutions += t->solutions;
+      stats->newton_solves += t->newton_solves;
+      stats->newton_converged += t->newton_converged;
+      stats->newton_estimates += t->newton_estimates;
+      stats->newton_trials += t->newton_trials;
+      stats->newton_cap_hits += t->newton_cap_hits;
       stats->sampling_seconds += t->sampling_seconds;
       stats->decoding_seconds += t->decoding_seconds;
       stats->solving_seconds += t->solving_seconds;

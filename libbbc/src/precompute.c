@@ -10,6 +10,7 @@
 
 #include <omp.h>
 
+#include "cache_shard_internal.h"
 #include "report_internal.h"
 
 #define BATCH_TUPLES 256
@@ -96,10 +97,6 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   *out = NULL;
   if (!scene || !options) return BBC_ERR_INVALID_ARGUMENT;
   const bbc_precompute_params *params = &options->params;
-  const uint32_t single = (1u << BBC_CHAIN_R) | (1u << BBC_CHAIN_T);
-  if (!(params->chains & single))
-    return bbc__report(options->error_fn, options->user, BBC_ERR_UNSUPPORTED,
-                       "%s: only the chain types R and T are implemented", scene->path);
   bbc_precompute_stats st;
   memset(&st, 0, sizeof st);
   st.threads = options->threads > 0 ? options->threads : omp_get_max_threads();
@@ -114,9 +111,28 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   double t0 = omp_get_wtime();
   bbc_tuple *tuples = NULL;
   size_t tuple_count = 0;
-  result = bbc_tuples_find(scene, params->chains & single, &tuples, &tuple_count);
+  result = bbc_tuples_find(scene, params->chains, &tuples, &tuple_count);
   st.construction_seconds = omp_get_wtime() - t0;
   st.candidate_tuples = tuple_count;
+  {
+    /* Tuples come ordered by light, T1, T2: count the distinct prefixes and pairs. */
+    uint64_t firsts = 0, pairs = 0;
+    const bbc_tuple *p = NULL; /* the previous two-bounce tuple */
+    for (size_t i = 0; i < tuple_count; i++) {
+      const bbc_tuple *t = &tuples[i];
+      if (bbc_chain_length((bbc_chain)t->chain) != 2) continue;
+      int new_first = !p || p->light != t->light || p->specular[0] != t->specular[0];
+      firsts += new_first;
+      pairs += new_first || p->specular[1] != t->specular[1];
+      p = t;
+    }
+    st.second_per_first = firsts ? (double)pairs / (double)firsts : 0.0;
+  }
+  /* A shard (spec Sec. 5.10) bounds the candidates k % N == i, remembering each k. */
+  uint64_t *candidate = NULL;
+  if (result == BBC_OK && options->shard_count)
+    result = bbc__cache_builder_shard(builder, options->shard_index, options->shard_count, tuples,
+                                      &tuple_count, &candidate);
 
   bbc_bound_params bound;
   memset(&bound, 0, sizeof bound);
@@ -125,6 +141,8 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   bound.alpha = params->alpha_single;
   bound.no_remainder = !params->remainder;
   bound.jacobian = options->jacobian;
+  bbc_bound_params bound2 = bound; /* two bounces: their own alpha */
+  bound2.alpha = params->alpha_double;
 
   const int threads = st.threads;
   bbc_bounder **bounders = calloc((size_t)threads, sizeof *bounders);
@@ -147,7 +165,8 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       bbc_tuple_geometry g;
       pieces[i].count = 0;
       if (bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) != BBC_OK ||
-          bbc_bound_tuple(bounders[id], &g, &bound, keep_piece, &pieces[i], &thread_stats[id]) !=
+          bbc_bound_tuple(bounders[id], &g, g.length == 2 ? &bound2 : &bound, keep_piece, &pieces[i],
+                          &thread_stats[id]) !=
               BBC_OK ||
           pieces[i].failed)
         failed = 1;
@@ -166,6 +185,9 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       if (pieces[i].count == 0) continue;
       const bbc_tuple *tuple = &tuples[first + i];
       if ((result = bbc_cache_builder_add_tuple(builder, tuple, &ids[i])) != BBC_OK) break;
+      if (candidate && (result = bbc__cache_builder_set_candidate(builder, ids[i],
+                                                                  candidate[first + i])) != BBC_OK)
+        break;
       st.tuples++;
       st.tuples_per_chain[tuple->chain]++;
     }
@@ -202,6 +224,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   free(rasters);
   free(thread_stats);
   free(tuples);
+  free(candidate);
   if (result != BBC_OK) {
     bbc_cache_builder_free(builder);
     if (result != BBC_ERR_CANCELLED)

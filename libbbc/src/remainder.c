@@ -11,6 +11,8 @@
 #include "bbc/bernstein.h"
 
 #include <math.h>
+#include <stdatomic.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "bernstein_internal.h"
@@ -207,9 +209,38 @@ static bbc_result fit_matrix(bbc_arena *arena, int n, int d, double *out) {
   return BBC_OK;
 }
 
-bbc_result bbc_poly_reduce(bbc_arena *arena, bbc_space *space, bbc_poly *out, const bbc_poly *p,
-                           int max_degree, int *axis) {
-  if (!space || !out || !poly_ok(p) || max_degree < 0) return BBC_ERR_INVALID_ARGUMENT;
+/* The fit matrices depend only on (n, d): computed once per process and shared. A slot
+ * is published with a compare-and-swap; a thread that loses the race frees its copy. The
+ * matrices are deterministic, so which copy wins does not matter. */
+static _Atomic(double *) fit_cache[MAXD + 1][MAXD + 1];
+
+static bbc_result cached_fit_matrix(bbc_arena *arena, int n, int d, const double **out) {
+  double *m = atomic_load_explicit(&fit_cache[n][d], memory_order_acquire);
+  if (!m) {
+    double *fresh = malloc(sizeof(double) * (size_t)(d + 1) * (n + 1));
+    if (!fresh) return BBC_ERR_OUT_OF_MEMORY;
+    bbc_result r = fit_matrix(arena, n, d, fresh);
+    if (r != BBC_OK) {
+      free(fresh);
+      return r;
+    }
+    double *expected = NULL;
+    if (atomic_compare_exchange_strong_explicit(&fit_cache[n][d], &expected, fresh,
+                                                memory_order_acq_rel, memory_order_acquire)) {
+      m = fresh;
+    } else {
+      free(fresh);
+      m = expected;
+    }
+  }
+  *out = m;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_reduce_split(bbc_arena *arena, const bbc_space *space, bbc_poly *fit_out,
+                                 bbc_interval *error, const bbc_poly *p, int max_degree) {
+  if (!space || !fit_out || !error || !poly_ok(p) || max_degree < 0)
+    return BBC_ERR_INVALID_ARGUMENT;
   unsigned char target[NAX];
   for (int j = 0; j < NAX; j++) {
     int n = p->deg[j];
@@ -234,20 +265,26 @@ bbc_result bbc_poly_reduce(bbc_arena *arena, bbc_space *space, bbc_poly *out, co
   for (int j = 0; j < NAX && res == BBC_OK; j++) {
     int n = p->deg[j], d = target[j];
     if (d == n) continue;
-    double *m = (double *)bbc_arena_alloc(arena, sizeof(double) * (size_t)(d + 1) * (n + 1));
     unsigned char next[NAX];
     memcpy(next, fit.deg, NAX);
     next[j] = (unsigned char)d;
     double *dst = (double *)bbc_arena_alloc(arena, sizeof(double) * bbc__size(next));
-    if (!m || !dst) {
+    if (!dst) {
       res = BBC_ERR_OUT_OF_MEMORY;
       break;
     }
+    const double *m;
     if (d == 0) {
       /* Projection onto constants: the mean, since each B_{i,n} integrates to 1/(n+1). */
-      for (int i = 0; i <= n; i++) m[i] = 1.0 / (n + 1);
+      double *mean = (double *)bbc_arena_alloc(arena, sizeof(double) * (size_t)(n + 1));
+      if (!mean) {
+        res = BBC_ERR_OUT_OF_MEMORY;
+        break;
+      }
+      for (int i = 0; i <= n; i++) mean[i] = 1.0 / (n + 1);
+      m = mean;
     } else {
-      res = fit_matrix(arena, n, d, m);
+      res = cached_fit_matrix(arena, n, d, &m);
       if (res != BBC_OK) break;
     }
     bbc__axis_apply(fit.coef, fit.deg, j, m, d + 1, dst);
@@ -266,8 +303,28 @@ bbc_result bbc_poly_reduce(bbc_arena *arena, bbc_space *space, bbc_poly *out, co
   }
   bbc_interval e = bbc_poly_bound(&diff);
 
-  /* The result is built above the temporaries (it needs them), then moved down to where
-   * this call's allocations began so that the temporaries can be dropped. */
+  /* F is moved down to where this call's allocations began, so that the temporaries
+   * can be dropped. */
+  size_t bytes = bbc__size(fit.deg) * sizeof(double);
+  bbc_arena_reset(arena, outer);
+  double *c = (double *)bbc_arena_alloc(arena, bytes);
+  /* The new block starts at or below fit.coef, so memmove handles the overlap. */
+  memmove(c, fit.coef, bytes);
+  fit.coef = c;
+  *fit_out = fit;
+  *error = e;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_reduce(bbc_arena *arena, bbc_space *space, bbc_poly *out, const bbc_poly *p,
+                           int max_degree, int *axis) {
+  if (!space || !out || !poly_ok(p) || max_degree < 0) return BBC_ERR_INVALID_ARGUMENT;
+  size_t outer = bbc_arena_mark(arena);
+  bbc_poly fit;
+  bbc_interval e;
+  bbc_result res = bbc_poly_reduce_split(arena, space, &fit, &e, p, max_degree);
+  if (res != BBC_OK) return res;
+  /* The result is built above F (it needs it), then moved down over it. */
   bbc_poly r;
   int z;
   res = affine_remainder(arena, space, &r, &fit, 1.0, 0.0, e.lo, e.hi, &z);
@@ -278,7 +335,6 @@ bbc_result bbc_poly_reduce(bbc_arena *arena, bbc_space *space, bbc_poly *out, co
   size_t bytes = bbc__size(r.deg) * sizeof(double);
   bbc_arena_reset(arena, outer);
   double *c = (double *)bbc_arena_alloc(arena, bytes);
-  /* The new block starts at or below r.coef, so memmove handles the overlap. */
   memmove(c, r.coef, bytes);
   r.coef = c;
   *out = r;

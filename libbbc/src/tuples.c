@@ -1,8 +1,10 @@
 /* Tuple construction (paper Sec. 6.1, DESIGN 3.7): from a prefix (light, T1), bound the
  * first vertex x1 and the outgoing direction d1 over all of T1, then walk a BVH over the
- * receiver triangles keeping every node whose box B can meet the beam: the bound of
- * (x - x1) x d1 over x in B must contain zero, and (x - x1) . d1 must be able to be
- * positive. Never all pairs: the work follows the beam. */
+ * next triangles (receivers, or specular casters for a second bounce) keeping every node
+ * whose box B can meet the beam: the bound of (x - x1) x d1 over x in B must contain
+ * zero, and (x - x1) . d1 must be able to be positive. A prefix (light, T1, T2) extends
+ * the same way with the beam of T2: x2 over T2's box and d2 scattered from d1 by T2's
+ * normals, in interval arithmetic. Never all pairs: the work follows the beam. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -141,56 +143,133 @@ static bbc_result beam_of(bbc_arena *arena, const bbc_tuple_geometry *g, bbc_ive
   return BBC_OK;
 }
 
+/* A BVH over the triangles of meshes with the given role. */
+static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role) {
+  memset(b, 0, sizeof *b);
+  uint32_t n = 0;
+  for (uint32_t t = 0; t < scene->triangle_count; t++)
+    if (scene->meshes[scene->triangle_mesh[t]].role == role) n++;
+  if (n == 0) return BBC_OK;
+  b->order = malloc(n * sizeof *b->order);
+  b->nodes = malloc(2 * (size_t)n * sizeof *b->nodes);
+  if (!b->order || !b->nodes) return BBC_ERR_OUT_OF_MEMORY;
+  n = 0;
+  for (uint32_t t = 0; t < scene->triangle_count; t++)
+    if (scene->meshes[scene->triangle_mesh[t]].role == role) b->order[n++] = t;
+  bvh_build(b, scene, 0, n);
+  return BBC_OK;
+}
+
+static void bvh_free(bvh *b) {
+  free(b->nodes);
+  free(b->order);
+}
+
+/* The triangles of b the beam (x, d) can meet, sorted, into found; returns their number.
+ * stack holds b->node_count entries. */
+static uint32_t bvh_beam(const bvh *b, const bbc_scene *scene, const bbc_ivec3 *x,
+                         const bbc_ivec3 *d, uint32_t *stack, uint32_t *found) {
+  uint32_t n = 0, top = 0;
+  if (b->node_count == 0) return 0;
+  stack[top++] = 0;
+  while (top) {
+    const bvh_node *node = &b->nodes[stack[--top]];
+    if (!beam_meets(x, d, node->lo, node->hi)) continue;
+    if (node->count) {
+      for (uint32_t i = node->first; i < node->first + node->count; i++) {
+        double lo[3], hi[3];
+        triangle_bounds(scene, b->order[i], lo, hi);
+        if (beam_meets(x, d, lo, hi)) found[n++] = b->order[i];
+      }
+    } else {
+      stack[top++] = node->right;
+      stack[top++] = node->left;
+    }
+  }
+  qsort(found, n, sizeof *found, compare_u32);
+  return n;
+}
+
+/* The chain letter of a specular material: 0 mirror (R), 1 dielectric (T), -1 neither. */
+static int scattering_of(const bbc_scene *scene, uint32_t t) {
+  const bbc_mesh *mesh = &scene->meshes[scene->triangle_mesh[t]];
+  if (mesh->role != BBC_ROLE_CASTER) return -1;
+  const bbc_material *m = &scene->materials[mesh->material];
+  return m->type == BBC_MATERIAL_MIRROR ? 0 : m->type == BBC_MATERIAL_DIELECTRIC ? 1 : -1;
+}
+
+/* The beam of T2 for the prefix (light, T1, T2): x2 anywhere on T2's box, and d2 the
+ * scattering (Eq. 10-11, unnormalised) of any d1 of T1's beam by any normal in the box
+ * of T2's oriented vertex normals (their convex hull holds every interpolated normal).
+ * Returns 0 when no direction leaves (total internal reflection everywhere). */
+static int second_beam(const bbc_tuple_geometry *g, const bbc_ivec3 *d1, bbc_ivec3 *x,
+                       bbc_ivec3 *d) {
+  bbc_ivec3 n = bbc_ivec3_point(g->n2[0]), lo_hi;
+  for (int i = 1; i < 3; i++) {
+    lo_hi = bbc_ivec3_point(g->n2[i]);
+    n.x = bbc_interval_hull(n.x, lo_hi.x);
+    n.y = bbc_interval_hull(n.y, lo_hi.y);
+    n.z = bbc_interval_hull(n.z, lo_hi.z);
+  }
+  *x = bbc_ivec3_point(g->p2[0]);
+  for (int i = 1; i < 3; i++) {
+    lo_hi = bbc_ivec3_point(g->p2[i]);
+    x->x = bbc_interval_hull(x->x, lo_hi.x);
+    x->y = bbc_interval_hull(x->y, lo_hi.y);
+    x->z = bbc_interval_hull(x->z, lo_hi.z);
+  }
+  bbc_interval nn = bbc_ivec3_dot(n, n), dn = bbc_ivec3_dot(*d1, n);
+  bbc_ivec3 nn_d = bbc_ivec3_scale(nn, *d1);
+  if (!g->refract2) {
+    *d = bbc_ivec3_sub(nn_d, bbc_ivec3_scale(bbc_interval_scale(dn, 2.0), n));
+    return 1;
+  }
+  const double eta = g->eta2;
+  bbc_interval e2 = bbc_interval_mul(bbc_interval_point(eta), bbc_interval_point(eta));
+  bbc_interval beta = bbc_interval_add(
+      bbc_interval_mul(bbc_interval_sub(bbc_interval_point(1.0), e2),
+                       bbc_interval_mul(nn, bbc_ivec3_dot(*d1, *d1))),
+      bbc_interval_mul(e2, bbc_interval_sqr(dn)));
+  if (beta.hi < 0) return 0;
+  if (beta.lo < 0) beta.lo = 0;
+  bbc_ivec3 tangential = bbc_ivec3_sub(nn_d, bbc_ivec3_scale(dn, n));
+  *d = bbc_ivec3_sub(bbc_ivec3_scale(bbc_interval_point(eta), tangential),
+                     bbc_ivec3_scale(bbc_interval_sqrt(beta), n));
+  return 1;
+}
+
 bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
                            size_t *count) {
   *out = NULL;
   *count = 0;
-  bvh tree;
-  memset(&tree, 0, sizeof tree);
-  uint32_t receivers = 0;
-  for (uint32_t t = 0; t < scene->triangle_count; t++)
-    if (scene->meshes[scene->triangle_mesh[t]].role == BBC_ROLE_RECEIVER) receivers++;
-  if (receivers == 0) return BBC_OK;
-  tree.order = malloc(receivers * sizeof *tree.order);
-  tree.nodes = malloc(2 * (size_t)receivers * sizeof *tree.nodes);
+  const uint32_t doubles = (1u << BBC_CHAIN_RR) | (1u << BBC_CHAIN_RT) | (1u << BBC_CHAIN_TR) |
+                           (1u << BBC_CHAIN_TT);
+  bvh receivers, casters;
+  memset(&casters, 0, sizeof casters);
   const size_t arena_bytes = (size_t)4 << 20;
   void *arena_memory = malloc(arena_bytes);
-  uint32_t *found = malloc(receivers * sizeof *found);
+  uint32_t *found = malloc((scene->triangle_count + 1) * sizeof *found);
+  uint32_t *found2 = malloc((scene->triangle_count + 1) * sizeof *found2);
+  uint32_t *stack = malloc(2 * ((size_t)scene->triangle_count + 1) * sizeof *stack);
   tuple_list list = {NULL, 0, 0};
-  bbc_result result = BBC_OK;
-  if (!tree.order || !tree.nodes || !arena_memory || !found) {
+  bbc_result result = bvh_init(&receivers, scene, BBC_ROLE_RECEIVER);
+  if (result == BBC_OK && (chains & doubles)) result = bvh_init(&casters, scene, BBC_ROLE_CASTER);
+  if (result == BBC_OK && (!arena_memory || !found || !found2 || !stack))
     result = BBC_ERR_OUT_OF_MEMORY;
-    goto done;
-  }
-  receivers = 0;
-  for (uint32_t t = 0; t < scene->triangle_count; t++)
-    if (scene->meshes[scene->triangle_mesh[t]].role == BBC_ROLE_RECEIVER)
-      tree.order[receivers++] = t;
-  bvh_build(&tree, scene, 0, receivers);
+  if (result != BBC_OK || receivers.node_count == 0) goto done;
   bbc_arena arena;
   bbc_arena_init(&arena, arena_memory, arena_bytes);
 
-  /* A stack as deep as the tree has nodes: an unbalanced tree cannot overflow it. */
-  uint32_t *stack = malloc((size_t)tree.node_count * sizeof *stack);
-  if (!stack) {
-    result = BBC_ERR_OUT_OF_MEMORY;
-    goto done;
-  }
   for (uint32_t l = 0; l < scene->point_light_count && result == BBC_OK; l++) {
     for (uint32_t t = 0; t < scene->triangle_count && result == BBC_OK; t++) {
-      const bbc_mesh *mesh = &scene->meshes[scene->triangle_mesh[t]];
-      if (mesh->role != BBC_ROLE_CASTER) continue;
-      const bbc_material *m = &scene->materials[mesh->material];
-      bbc_chain chain;
-      if (m->type == BBC_MATERIAL_MIRROR)
-        chain = BBC_CHAIN_R;
-      else if (m->type == BBC_MATERIAL_DIELECTRIC)
-        chain = BBC_CHAIN_T;
-      else
-        continue;
-      if (!(chains & (1u << chain))) continue;
+      int first = scattering_of(scene, t);
+      if (first < 0) continue;
+      const bbc_chain single = first ? BBC_CHAIN_T : BBC_CHAIN_R;
+      const uint32_t after[2] = {1u << (first ? BBC_CHAIN_TR : BBC_CHAIN_RR),
+                                 1u << (first ? BBC_CHAIN_TT : BBC_CHAIN_RT)};
+      if (!(chains & ((1u << single) | after[0] | after[1]))) continue;
       /* The beam does not depend on the receiver: use any as a stand-in. */
-      bbc_tuple tuple = {l, (uint32_t)chain, {t, BBC_NO_TRIANGLE}, tree.order[0]};
+      bbc_tuple tuple = {l, (uint32_t)single, {t, BBC_NO_TRIANGLE}, receivers.order[0]};
       bbc_tuple_geometry g;
       if ((result = bbc_tuple_geometry_init(&g, scene, &tuple)) != BBC_OK) break;
       /* A light in T1's plane sees it edge-on: no light passes through. */
@@ -198,38 +277,43 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
       if (v3_dot(ng, v3_sub(g.light, g.p[0])) == 0) continue;
       bbc_ivec3 x, d;
       if ((result = beam_of(&arena, &g, &x, &d)) != BBC_OK) break;
-      uint32_t n = 0, top = 0;
-      stack[top++] = 0;
-      while (top) {
-        const bvh_node *node = &tree.nodes[stack[--top]];
-        if (!beam_meets(&x, &d, node->lo, node->hi)) continue;
-        if (node->count) {
-          for (uint32_t i = node->first; i < node->first + node->count; i++) {
-            double lo[3], hi[3];
-            triangle_bounds(scene, tree.order[i], lo, hi);
-            if (beam_meets(&x, &d, lo, hi)) found[n++] = tree.order[i];
-          }
-        } else {
-          stack[top++] = node->right;
-          stack[top++] = node->left;
+      /* Tuples in the order (T2, receiver) with single scattering first (T2 = none). */
+      if (chains & (1u << single)) {
+        uint32_t n = bvh_beam(&receivers, scene, &x, &d, stack, found);
+        for (uint32_t i = 0; i < n && result == BBC_OK; i++) {
+          tuple.receiver = found[i];
+          if (!tuple_push(&list, &tuple)) result = BBC_ERR_OUT_OF_MEMORY;
         }
       }
-      qsort(found, n, sizeof *found, compare_u32);
-      for (uint32_t i = 0; i < n; i++) {
-        tuple.receiver = found[i];
-        if (!tuple_push(&list, &tuple)) {
-          result = BBC_ERR_OUT_OF_MEMORY;
-          break;
+      if (!(chains & (after[0] | after[1])) || casters.node_count == 0) continue;
+      uint32_t n2 = bvh_beam(&casters, scene, &x, &d, stack, found2);
+      for (uint32_t j = 0; j < n2 && result == BBC_OK; j++) {
+        const uint32_t t2 = found2[j];
+        int second = scattering_of(scene, t2);
+        if (t2 == t || second < 0 || !(chains & after[second])) continue;
+        bbc_tuple pair = tuple;
+        pair.chain = (uint32_t)(first ? (second ? BBC_CHAIN_TT : BBC_CHAIN_TR)
+                                      : (second ? BBC_CHAIN_RT : BBC_CHAIN_RR));
+        pair.specular[1] = t2;
+        bbc_tuple_geometry g2;
+        if ((result = bbc_tuple_geometry_init(&g2, scene, &pair)) != BBC_OK) break;
+        bbc_ivec3 x2, d2;
+        if (!second_beam(&g2, &d, &x2, &d2)) continue;
+        uint32_t n = bvh_beam(&receivers, scene, &x2, &d2, stack, found);
+        for (uint32_t i = 0; i < n && result == BBC_OK; i++) {
+          pair.receiver = found[i];
+          if (!tuple_push(&list, &pair)) result = BBC_ERR_OUT_OF_MEMORY;
         }
       }
     }
   }
-  free(stack);
 done:
-  free(tree.order);
-  free(tree.nodes);
+  bvh_free(&receivers);
+  bvh_free(&casters);
   free(arena_memory);
   free(found);
+  free(found2);
+  free(stack);
   if (result != BBC_OK) {
     free(list.items);
     return result;

@@ -214,6 +214,7 @@ void bbc_validation_sample_u1(uint64_t seed, const bbc_tuple *tuple, uint32_t sa
    * tuple gets the same samples whichever subset of tuples a tool validates. */
   uint64_t key = bbc__mix64(((uint64_t)tuple->light << 32) ^ tuple->chain) ^
                  (((uint64_t)tuple->specular[0] << 32) | tuple->receiver);
+  if (bbc_chain_length((bbc_chain)tuple->chain) == 2) key = bbc__mix64(key ^ tuple->specular[1]);
   bbc_rng rng = bbc_rng_make(seed, sample, key);
   double a = bbc_rng_next(&rng), c = bbc_rng_next(&rng);
   /* Folding the unit square's upper triangle onto the lower one keeps the density
@@ -240,26 +241,35 @@ static void record_failure(bbc_validation *acc, const bbc_tuple *tuple, uint32_t
   if (piece) f->piece = *piece;
 }
 
-/* The bounder turned T1's normals toward the light (bounds.h) and the path geometry
- * keeps a refracting triangle's normals as loaded, so the two agree exactly when the
- * light is in front of T1. The bounder negates all three or none, so the sign of the
- * summed dot products is that of each. */
-static int light_in_front_of(const bbc_tuple_geometry *tg, const bbc_path_geometry *pg) {
-  double agree = 0;
-  for (int i = 0; i < 3; i++) agree += v3_dot(tg->n[i], pg->specular[0].n[i]);
-  return agree > 0;
+/* The bounder turned T1's normals toward the light and T2's toward T1 (bounds.h), while
+ * the path geometry keeps a refracting triangle's normals as loaded. The bounder negates
+ * all three normals of a triangle or none, so the sign of the summed dot products says
+ * whether the two agree. */
+typedef struct orientation {
+  int t1, t2; /* +1 where bounds and path geometry agree, -1 where they are opposite */
+} orientation;
+
+static orientation orientation_of(const bbc_tuple_geometry *tg, const bbc_path_geometry *pg) {
+  double a1 = 0, a2 = 0;
+  for (int i = 0; i < 3; i++) {
+    a1 += v3_dot(tg->n[i], pg->specular[0].n[i]);
+    if (pg->length == 2) a2 += v3_dot(tg->n2[i], pg->specular[1].n[i]);
+  }
+  orientation o = {a1 > 0 ? 1 : -1, a2 > 0 ? 1 : -1};
+  return o;
 }
 
-/* Traces u1 and applies the renderer's rule (caustics.c): no rejecting flag and, for
- * refraction, the light on the side of T1 the bounds were computed for. */
-static int admissible_path(const bbc_path_geometry *pg, const bbc_tuple *tuple,
-                           int light_in_front, const double u1[2], bbc_specular_path *path) {
+/* Traces u1 and applies the renderer's rule (caustics.c): no rejecting flag and, at a
+ * refracting vertex, the light arriving from the side the bounds were computed for. */
+static int admissible_path(const bbc_path_geometry *pg, orientation o, const double u1[2],
+                           bbc_specular_path *path) {
   if (bbc_specular_path_trace(pg, u1[0], u1[1], path) != BBC_OK) return 0;
   if (path->flags & BBC_PATH_REJECT) return 0;
-  if (tuple->chain == BBC_CHAIN_T) {
-    int against = v3_dot(v3_sub(path->x1, pg->light), path->n1) < 0;
-    if (against != light_in_front) return 0;
-  }
+  if (pg->specular[0].refract && o.t1 * v3_dot(v3_sub(path->x1, pg->light), path->n1) >= 0)
+    return 0;
+  if (pg->length == 2 && pg->specular[1].refract &&
+      o.t2 * v3_dot(v3_sub(path->x2, path->x1), path->n2) >= 0)
+    return 0;
   return 1;
 }
 
@@ -267,14 +277,14 @@ bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, cons
                               const bbc_bound_params *params, uint32_t samples, uint64_t seed,
                               bbc_validation *acc) {
   if (!bounder || !scene || !tuple || !acc) return BBC_ERR_INVALID_ARGUMENT;
-  if (tuple->chain != BBC_CHAIN_R && tuple->chain != BBC_CHAIN_T) return BBC_ERR_INVALID_ARGUMENT;
+  if (tuple->chain >= BBC_CHAIN_COUNT) return BBC_ERR_INVALID_ARGUMENT;
   bbc_tuple_geometry tg;
   bbc_path_geometry pg;
   bbc_result r = bbc_tuple_geometry_init(&tg, scene, tuple);
   if (r != BBC_OK) return r;
   if ((r = bbc_path_geometry_init(&pg, scene, tuple)) != BBC_OK) return r;
 
-  const int light_in_front = light_in_front_of(&tg, &pg);
+  const orientation o = orientation_of(&tg, &pg);
 
   bbc_bound_params defaults;
   if (!params) {
@@ -299,7 +309,7 @@ bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, cons
     bbc_validation_sample_u1(seed, tuple, i, u1);
     acc->samples++;
     bbc_specular_path path;
-    if (!admissible_path(&pg, tuple, light_in_front, u1, &path)) continue;
+    if (!admissible_path(&pg, o, u1, &path)) continue;
     acc->admissible++;
 
     const bbc_piece *piece = find_leaf(&leaves, u1[0], u1[1]);
@@ -347,13 +357,13 @@ bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *c
                                      int64_t tuple_id, uint32_t samples, uint64_t seed,
                                      bbc_validation *acc) {
   if (!cache || !cursor || !scene || !tuple || !acc) return BBC_ERR_INVALID_ARGUMENT;
-  if (tuple->chain != BBC_CHAIN_R && tuple->chain != BBC_CHAIN_T) return BBC_ERR_INVALID_ARGUMENT;
+  if (tuple->chain >= BBC_CHAIN_COUNT) return BBC_ERR_INVALID_ARGUMENT;
   bbc_tuple_geometry tg;
   bbc_path_geometry pg;
   bbc_result r = bbc_tuple_geometry_init(&tg, scene, tuple);
   if (r != BBC_OK) return r;
   if ((r = bbc_path_geometry_init(&pg, scene, tuple)) != BBC_OK) return r;
-  const int light_in_front = light_in_front_of(&tg, &pg);
+  const orientation o = orientation_of(&tg, &pg);
   bbc_cache_info info;
   bbc_cache_get_info(cache, &info);
   const bbc_precompute_params params = info.params;
@@ -368,7 +378,7 @@ bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *c
     bbc_validation_sample_u1(seed, tuple, i, u1);
     local.samples++;
     bbc_specular_path path;
-    if (!admissible_path(&pg, tuple, light_in_front, u1, &path)) continue;
+    if (!admissible_path(&pg, o, u1, &path)) continue;
     local.admissible++;
     if (tuple_id < 0) {
       /* The precompute proved this tuple empty and stored nothing. */

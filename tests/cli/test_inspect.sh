@@ -155,7 +155,7 @@ test_heatmap_writes_exr() {
 # precompute SCENE OUT [OPTIONS...]: a small cache of a test scene by bbc-precompute.
 precompute() {
   scene=$1; out=$2; shift 2
-  "$BBC_BIN/bbc-precompute/bbc-precompute" "$BBC_TEST_SCENES/$scene" -o "$out" --max-level 4 \
+  "$BBC_BIN/bbc-precompute/bbc-precompute" "$BBC_TEST_SCENES/$scene" -o "$out" --max-level 4 --chains R,T \
     "$@" >/dev/null 2>"$TMP/precompute.err" || { cat "$TMP/precompute.err" >&2; fail "cannot precompute $scene"; }
 }
 

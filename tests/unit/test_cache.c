@@ -4,7 +4,8 @@
  * Oracles are independent of the code under test: hash vectors from the reference
  * xxhsum, quantisation checked in exact double comparisons, grid cells from the uvs or
  * the geometry directly, splats against dense point sampling, cell contents against the
- * recorded splats, error codes against the corpus file names. */
+ * recorded splats, error codes against the corpus file names, merged shard caches
+ * against the complete cache written from the same content. */
 #define _POSIX_C_SOURCE 200809L
 #include <dirent.h>
 #include <math.h>
@@ -17,6 +18,7 @@
 #include "bbc/grid.h"
 #include "cache_fixtures.h"
 #include "cache_format_internal.h"
+#include "cache_shard_internal.h"
 #include "harness.h"
 
 #define INVALID_DIR SOURCE_PATH("tests/corpus/invalid")
@@ -1109,4 +1111,413 @@ TEST(layout_compression_ratios) {
   free(code);
   free(raw);
   free(out);
+}
+
+/* ------------------------------------------------------------------ shards */
+
+/* A synthetic sharded precompute on a real scene, without the bounder: candidates are
+ * (light 0, R, caster triangle, receiver triangle) in a fixed order, a fixed
+ * pseudo-random two thirds of them are "stored", and the splats of candidate k depend
+ * on k alone. The complete cache written from all candidates is the oracle the merge
+ * of the shard caches must reproduce byte for byte. */
+typedef struct shard_setup {
+  bbc_scene *scene;
+  bbc_tuple *candidates;
+  size_t count;
+  uint32_t resolution;
+} shard_setup;
+
+static int shard_setup_init(shard_setup *s) {
+  memset(s, 0, sizeof *s);
+  s->resolution = 24;
+  s->scene = load(TEST_SCENE("pool.gltf"));
+  if (!s->scene) return 0;
+  const bbc_scene *sc = s->scene;
+  s->candidates = malloc(sizeof *s->candidates * sc->triangle_count * 4);
+  for (uint32_t t = 0; t < sc->triangle_count && s->count < 120; t++) {
+    if (sc->meshes[sc->triangle_mesh[t]].role != BBC_ROLE_CASTER) continue;
+    for (uint32_t r = 0; r < sc->triangle_count; r++)
+      if (sc->meshes[sc->triangle_mesh[r]].role == BBC_ROLE_RECEIVER)
+        s->candidates[s->count++] = (bbc_tuple){0, BBC_CHAIN_R, {t, BBC_NO_TRIANGLE}, r};
+  }
+  return s->count >= 120;
+}
+
+static void shard_setup_free(shard_setup *s) {
+  free(s->candidates);
+  bbc_scene_free(s->scene);
+}
+
+static int candidate_stored(size_t k) {
+  return ((uint64_t)k * 2654435761u >> 7) % 3 != 0;
+}
+
+/* Writes the cache of the candidates, complete (shards 0) or shard index/shards. */
+static bbc_result write_candidates(const shard_setup *s, uint32_t index, uint32_t shards,
+                                   int omit_info, void **bytes, size_t *size) {
+  bbc_precompute_params p;
+  bbc_precompute_params_default(&p);
+  p.grid_resolution = s->resolution;
+  bbc_cache_builder *b = NULL;
+  bbc_result r = bbc_cache_builder_create(&b, s->scene, &p);
+  if (r != BBC_OK) return r;
+  bbc_tuple *work = malloc(sizeof *work * s->count);
+  memcpy(work, s->candidates, sizeof *work * s->count);
+  size_t n = s->count;
+  uint64_t *k = NULL;
+  if (shards) r = bbc__cache_builder_shard(b, index, shards, work, &n, &k);
+  for (size_t i = 0; i < n && r == BBC_OK; i++) {
+    size_t cand = shards ? k[i] : i;
+    if (!candidate_stored(cand)) continue;
+    uint32_t id;
+    r = bbc_cache_builder_add_tuple(b, &work[i], &id);
+    if (r == BBC_OK && shards) r = bbc__cache_builder_set_candidate(b, id, cand);
+    uint64_t state = cand + 1;
+    for (int piece = 0; piece < 3 && r == BBC_OK; piece++) {
+      double c1 = fx_random(&state) * 0.8, c2 = fx_random(&state) * (0.9 - c1);
+      double h = 0.05 + 0.3 * fx_random(&state);
+      double bound = cand % 37 == 5 && piece == 0 ? INFINITY : 0.5 + fx_random(&state);
+      r = bbc_cache_builder_splat(b, id, work[i].receiver, c1 - h, c1 + h, c2 - h, c2 + h, bound);
+    }
+  }
+  bbc_cache_write_options o;
+  memset(&o, 0, sizeof o);
+  o.omit_info = omit_info;
+  o.chunk_bytes = 600; /* several chunks */
+  if (r == BBC_OK) r = bbc_cache_builder_write_memory(b, bytes, size, &o);
+  free(k);
+  free(work);
+  bbc_cache_builder_free(b);
+  return r;
+}
+
+/* Opens and merges shard files given as bytes; the merged file in *bytes. */
+static bbc_result merge_bytes(void *const *shard_bytes, const size_t *shard_sizes, size_t n,
+                              int threads, messages *m, void **bytes, size_t *size) {
+  bbc_cache **c = calloc(n, sizeof *c);
+  bbc_cache_options co = {on_message, m};
+  bbc_result r = BBC_OK;
+  for (size_t i = 0; i < n && r == BBC_OK; i++)
+    r = bbc_cache_open_memory(&c[i], shard_bytes[i], shard_sizes[i], &co);
+  bbc_cache_builder *b = NULL;
+  bbc_cache_merge_options mo;
+  memset(&mo, 0, sizeof mo);
+  mo.error_fn = on_message;
+  mo.user = m;
+  mo.threads = threads;
+  if (r == BBC_OK) r = bbc_cache_merge(&b, (const bbc_cache *const *)c, n, &mo);
+  for (size_t i = 0; i < n; i++) bbc_cache_close(c[i]);
+  free(c);
+  /* The chunk size of write_candidates; INFO as the shards have it. */
+  bbc_cache_write_options o;
+  memset(&o, 0, sizeof o);
+  o.chunk_bytes = 600;
+  if (r == BBC_OK) r = bbc_cache_builder_write_memory(b, bytes, size, &o);
+  bbc_cache_builder_free(b);
+  return r;
+}
+
+TEST(merged_shards_equal_the_complete_cache) {
+  shard_setup s;
+  REQUIRE(shard_setup_init(&s));
+  const uint32_t splits[] = {1, 2, 3, 7, 150}; /* 150: more shards than candidates */
+  for (int omit = 0; omit < 2; omit++) {
+    void *full = NULL;
+    size_t full_size = 0;
+    REQUIRE(write_candidates(&s, 0, 0, omit, &full, &full_size) == BBC_OK);
+    for (size_t k = 0; k < sizeof splits / sizeof *splits; k++) {
+      uint32_t n = splits[k];
+      if (omit && n != 3) continue; /* without INFO, one split is enough */
+      void **bytes = calloc(n, sizeof *bytes);
+      size_t *sizes = calloc(n, sizeof *sizes);
+      /* The shards in reverse order: the merge sorts them. */
+      for (uint32_t i = 0; i < n; i++)
+        CHECK_INT(write_candidates(&s, n - 1 - i, n, omit, &bytes[i], &sizes[i]), BBC_OK);
+      for (int threads = 1; threads <= 3; threads += 2) {
+        messages m = {0};
+        void *merged = NULL;
+        size_t merged_size = 0;
+        CHECK_INT(merge_bytes(bytes, sizes, n, threads, &m, &merged, &merged_size), BBC_OK);
+        if (merged_size != full_size || memcmp(merged, full, full_size) != 0)
+          harness_fail(__FILE__, __LINE__,
+                       "%u shards, %d threads, INFO %s: merged (%zu bytes) "
+                       "differs from the complete cache (%zu bytes)",
+                       n, threads, omit ? "omitted" : "kept", merged_size, full_size);
+        CHECK_INT(m.count, 0);
+        free(merged);
+      }
+      for (uint32_t i = 0; i < n; i++) free(bytes[i]);
+      free(bytes);
+      free(sizes);
+    }
+    free(full);
+  }
+  shard_setup_free(&s);
+}
+
+TEST(shard_section_is_read_back) {
+  shard_setup s;
+  REQUIRE(shard_setup_init(&s));
+  void *bytes = NULL, *full = NULL;
+  size_t size = 0, full_size = 0;
+  REQUIRE(write_candidates(&s, 2, 5, 0, &bytes, &size) == BBC_OK);
+  REQUIRE(write_candidates(&s, 0, 0, 0, &full, &full_size) == BBC_OK);
+  messages m = {0};
+  CHECK_INT(open_and_validate(bytes, size, &m), BBC_OK);
+  bbc_cache *c = NULL, *f = NULL;
+  REQUIRE(bbc_cache_open_memory(&c, bytes, size, NULL) == BBC_OK);
+  REQUIRE(bbc_cache_open_memory(&f, full, full_size, NULL) == BBC_OK);
+  bbc_cache_info in;
+  bbc_cache_get_info(c, &in);
+  CHECK_INT(in.version_minor, BBC__MINOR_SHARD);
+  bbc_cache_shard sh;
+  CHECK_INT(bbc_cache_get_shard(c, &sh), 1);
+  CHECK_INT(sh.index, 2);
+  CHECK_INT(sh.count, 5);
+  CHECK_INT(sh.candidate_count, s.count);
+  CHECK(sh.candidates_hash == bbc__xxh64(s.candidates, sizeof *s.candidates * s.count));
+  /* The stored tuples are the candidates 2, 7, 12, ... that are stored, in order. */
+  uint32_t expect = 0;
+  for (size_t k = 2; k < s.count; k += 5)
+    if (candidate_stored(k)) {
+      if (expect < in.tuple_count) {
+        CHECK_INT(sh.candidates[expect], k);
+        CHECK(memcmp(&bbc_cache_tuples(c)[expect], &s.candidates[k], sizeof(bbc_tuple)) == 0);
+      }
+      expect++;
+    }
+  CHECK_INT(in.tuple_count, expect);
+  /* A complete cache has no SHRD and is version 1.0. */
+  bbc_cache_get_info(f, &in);
+  CHECK_INT(in.version_minor, 0);
+  CHECK_INT(bbc_cache_get_shard(f, &sh), 0);
+  CHECK(sh.candidates == NULL && sh.count == 0);
+  CHECK_INT(bbc_cache_get_shard(f, NULL), 0);
+  bbc_cache_close(c);
+  bbc_cache_close(f);
+  free(bytes);
+  free(full);
+  shard_setup_free(&s);
+}
+
+TEST(writer_refuses_a_shard_without_candidate_indices) {
+  shard_setup s;
+  REQUIRE(shard_setup_init(&s));
+  bbc_precompute_params p;
+  bbc_precompute_params_default(&p);
+  p.grid_resolution = 8;
+  bbc_cache_builder *b = NULL;
+  REQUIRE(bbc_cache_builder_create(&b, s.scene, &p) == BBC_OK);
+  bbc_tuple *work = malloc(sizeof *work * s.count);
+  memcpy(work, s.candidates, sizeof *work * s.count);
+  size_t n = s.count;
+  uint64_t *k = NULL;
+  CHECK_INT(bbc__cache_builder_shard(b, 3, 3, work, &n, &k), BBC_ERR_INVALID_ARGUMENT);
+  CHECK_INT(bbc__cache_builder_shard(b, 0, 0, work, &n, &k), BBC_ERR_INVALID_ARGUMENT);
+  CHECK_INT(n, s.count);
+  REQUIRE(bbc__cache_builder_shard(b, 1, 2, work, &n, &k) == BBC_OK);
+  CHECK_INT(n, s.count / 2);
+  uint32_t id0, id1;
+  REQUIRE(bbc_cache_builder_add_tuple(b, &work[0], &id0) == BBC_OK);
+  REQUIRE(bbc_cache_builder_add_tuple(b, &work[1], &id1) == BBC_OK);
+  messages m = {0};
+  bbc_cache_write_options o;
+  memset(&o, 0, sizeof o);
+  o.error_fn = on_message;
+  o.user = &m;
+  void *bytes = NULL;
+  size_t size = 0;
+  /* No candidate index, then a wrong residue, then decreasing ones: R-SHR-3. */
+  CHECK_INT(bbc_cache_builder_write_memory(b, &bytes, &size, &o), BBC_ERR_INVALID_ARGUMENT);
+  CHECK_STR_CONTAINS(m.last, "R-SHR-3");
+  CHECK_INT(bbc__cache_builder_set_candidate(b, id0, 1), BBC_OK);
+  CHECK_INT(bbc__cache_builder_set_candidate(b, id1, 4), BBC_OK);
+  CHECK_INT(bbc_cache_builder_write_memory(b, &bytes, &size, &o), BBC_ERR_INVALID_ARGUMENT);
+  CHECK_INT(bbc__cache_builder_set_candidate(b, id0, 3), BBC_OK);
+  CHECK_INT(bbc__cache_builder_set_candidate(b, id1, 1), BBC_OK);
+  CHECK_INT(bbc_cache_builder_write_memory(b, &bytes, &size, &o), BBC_ERR_INVALID_ARGUMENT);
+  CHECK_INT(bbc__cache_builder_set_candidate(b, id1, 5), BBC_OK);
+  CHECK_INT(bbc__cache_builder_set_candidate(b, 7, 9), BBC_ERR_INVALID_ARGUMENT);
+  CHECK_INT(bbc_cache_builder_write_memory(b, &bytes, &size, &o), BBC_OK);
+  free(bytes);
+  free(k);
+  free(work);
+  bbc_cache_builder_free(b);
+  shard_setup_free(&s);
+}
+
+/* Shard files that break one rule of spec Sec. 5.10 each (with valid checksums, through
+ * the re-layout of cache_fixtures.h), named like the invalid corpus. */
+static int shard_invalid_cases(fx_case *cases) {
+  void *base_v = NULL;
+  size_t size = 0;
+  shard_setup s;
+  if (!shard_setup_init(&s)) return 0;
+  /* Small files: 16 candidates, a 4 x 4 grid, no INFO (no version text in the corpus). */
+  s.count = 16;
+  s.resolution = 4;
+  bbc_result wr = write_candidates(&s, 1, 3, 1, &base_v, &size);
+  shard_setup_free(&s);
+  if (wr != BBC_OK) return 0;
+  const uint8_t *base = base_v;
+  uint64_t shrd_size = 0;
+  /* The edits below need at least two tuples. */
+  if (!fx_section_offset(base, "SHRD", &shrd_size, NULL) || shrd_size < 48) {
+    free(base_v);
+    return 0;
+  }
+  int n = 0;
+  uint8_t *b;
+  size_t sz;
+  fx_file f;
+  fx_section *sec;
+#define SHARD_EDIT(code, label, ...)       \
+  do {                                     \
+    fx_parse(base, &f);                    \
+    sec = fx_find(&f, "SHRD");             \
+    __VA_ARGS__;                           \
+    b = fx_serialize(&f, &sz);             \
+    fx_free(&f);                           \
+    fx_add(cases, &n, code, label, b, sz); \
+  } while (0)
+  /* R-DIR-4: SHRD is optional. */
+  SHARD_EDIT(BBC_ERR_CORRUPT, "shard-section-marked-required", sec->flags = 1);
+  /* R-SEC-1: head and whole entries. */
+  SHARD_EDIT(BBC_ERR_CORRUPT, "shard-section-shorter-than-head", sec->size = 24);
+  SHARD_EDIT(BBC_ERR_CORRUPT, "shard-section-not-whole-entries", sec->size -= 3);
+  /* R-SHR-1: one entry per tuple. */
+  SHARD_EDIT(BBC_ERR_CORRUPT, "shard-entries-not-tuple-count", sec->size -= 8);
+  /* R-FILE-2 */
+  SHARD_EDIT(BBC_ERR_CORRUPT, "shard-nonzero-reserved", sec->data[28] = 1);
+  /* R-SHR-2 */
+  SHARD_EDIT(BBC_ERR_CORRUPT, "shard-index-not-below-count", fx_st32(sec->data, 3));
+  SHARD_EDIT(BBC_ERR_CORRUPT, "shard-count-zero", {
+    fx_st32(sec->data, 0);
+    fx_st32(sec->data + 4, 0);
+  });
+  SHARD_EDIT(BBC_ERR_CORRUPT, "shard-fewer-candidates-than-tuples", fx_st64(sec->data + 8, 2));
+  /* R-SHR-3 */
+  SHARD_EDIT(BBC_ERR_CORRUPT, "shard-candidates-not-increasing", {
+    uint64_t a = fx_ld64(sec->data + 32), c = fx_ld64(sec->data + 40);
+    fx_st64(sec->data + 32, c);
+    fx_st64(sec->data + 40, a);
+  });
+  SHARD_EDIT(BBC_ERR_CORRUPT, "shard-candidate-of-another-shard",
+             fx_st64(sec->data + 32, fx_ld64(sec->data + 32) - 1));
+  SHARD_EDIT(BBC_ERR_CORRUPT, "shard-candidate-past-list",
+             fx_st64(sec->data + sec->size - 8, fx_ld64(sec->data + 8) + 1));
+#undef SHARD_EDIT
+  /* R-DIR-6: a flipped byte. */
+  uint64_t ssize = 0, off = fx_section_offset(base, "SHRD", &ssize, NULL);
+  b = fx_copy(base, size);
+  b[off + ssize / 2] ^= 0x20;
+  fx_add(cases, &n, BBC_ERR_CHECKSUM, "flipped-byte-in-SHRD", b, size);
+  free(base_v);
+  return n;
+}
+
+TEST(shard_section_rules_fail_with_the_named_code) {
+  static fx_case cases[32];
+  int n = shard_invalid_cases(cases);
+  CHECK(n >= 12);
+  /* BBC_WRITE_SHARD_CORPUS=DIR writes the cases as DIR/<name>.bbc: this is how the
+   * shard files of tests/corpus/invalid were made. */
+  const char *dir = getenv("BBC_WRITE_SHARD_CORPUS");
+  for (int i = 0; i < n; i++) {
+    messages m = {0};
+    bbc_result r = open_and_validate(cases[i].bytes, cases[i].size, &m);
+    if (r != cases[i].expected)
+      harness_fail(__FILE__, __LINE__, "%s: got %s (%s)", cases[i].name, bbc_result_string(r),
+                   m.last);
+    if (m.count < 1 || !strstr(m.last, "(memory)") || strchr(m.last, '\n'))
+      harness_fail(__FILE__, __LINE__, "%s: message \"%s\"", cases[i].name, m.last);
+    if (dir) {
+      char path[4096];
+      snprintf(path, sizeof path, "%s/%s.bbc", dir, cases[i].name);
+      FILE *out = fopen(path, "wb");
+      CHECK(out && fwrite(cases[i].bytes, 1, cases[i].size, out) == cases[i].size);
+      if (out) fclose(out);
+    }
+    free(cases[i].bytes);
+  }
+}
+
+TEST(merge_refuses_shards_that_do_not_belong_together) {
+  shard_setup s;
+  REQUIRE(shard_setup_init(&s));
+  void *b[4] = {0}, *full = NULL, *other = NULL, *split = NULL, *out = NULL;
+  size_t z[4] = {0}, full_size = 0, other_size = 0, split_size = 0, out_size = 0;
+  for (uint32_t i = 0; i < 3; i++) REQUIRE(write_candidates(&s, i, 3, 0, &b[i], &z[i]) == BBC_OK);
+  REQUIRE(write_candidates(&s, 0, 0, 0, &full, &full_size) == BBC_OK);
+  REQUIRE(write_candidates(&s, 1, 2, 0, &split, &split_size) == BBC_OK);
+  /* The same shard 2/3 of a list with one candidate less: another candidate list. */
+  s.count--;
+  REQUIRE(write_candidates(&s, 2, 3, 0, &other, &other_size) == BBC_OK);
+  s.count++;
+  struct {
+    void *bytes[3];
+    size_t sizes[3];
+    size_t n;
+    bbc_result code;
+    const char *words;
+  } cases[] = {
+      {{b[0], b[1]}, {z[0], z[1]}, 2, BBC_ERR_INVALID_ARGUMENT, "shard 2/3 is missing"},
+      {{b[1], b[2]}, {z[1], z[2]}, 2, BBC_ERR_INVALID_ARGUMENT, "shard 0/3 is missing"},
+      {{b[0], b[1], b[1]}, {z[0], z[1], z[1]}, 3, BBC_ERR_INVALID_ARGUMENT, "both shard 1/3"},
+      {{b[0], b[1], full},
+       {z[0], z[1], full_size},
+       3,
+       BBC_ERR_INVALID_ARGUMENT,
+       "not a shard cache"},
+      {{b[0], split}, {z[0], split_size}, 2, BBC_ERR_INVALID_ARGUMENT, "different splits"},
+      {{b[0], b[1], other},
+       {z[0], z[1], other_size},
+       3,
+       BBC_ERR_SCENE_MISMATCH,
+       "different candidate tuple lists"},
+  };
+  for (size_t i = 0; i < sizeof cases / sizeof *cases; i++) {
+    messages m = {0};
+    bbc_result r = merge_bytes(cases[i].bytes, cases[i].sizes, cases[i].n, 0, &m, &out, &out_size);
+    if (r != cases[i].code || m.count != 1 || !strstr(m.last, cases[i].words))
+      harness_fail(__FILE__, __LINE__, "case %zu: %s, %d messages, last \"%s\"", i,
+                   bbc_result_string(r), m.count, m.last);
+    CHECK(out == NULL);
+  }
+  /* Another scene: the sphere's grid and fingerprint. */
+  bbc_scene *sphere = load(TEST_SCENE("glass-sphere.gltf"));
+  REQUIRE(sphere);
+  bbc_scene *pool = s.scene;
+  s.scene = sphere;
+  void *sb = NULL;
+  size_t ss = 0;
+  bbc_tuple *keep = s.candidates;
+  size_t keep_count = s.count;
+  /* Tuples valid for the sphere: its first caster and receiver triangles. */
+  bbc_tuple t = {0, BBC_CHAIN_R, {0, BBC_NO_TRIANGLE}, 0};
+  for (uint32_t k = 0; k < sphere->triangle_count; k++) {
+    bbc_role role = sphere->meshes[sphere->triangle_mesh[k]].role;
+    if (role == BBC_ROLE_CASTER) t.specular[0] = k;
+    if (role == BBC_ROLE_RECEIVER) t.receiver = k;
+  }
+  bbc_tuple list[6] = {t, t, t, t, t, t};
+  s.candidates = list;
+  s.count = 6;
+  REQUIRE(write_candidates(&s, 2, 3, 0, &sb, &ss) == BBC_OK);
+  s.candidates = keep;
+  s.count = keep_count;
+  s.scene = pool;
+  bbc_scene_free(sphere);
+  void *mixed[3] = {b[0], b[1], sb};
+  size_t mixed_sizes[3] = {z[0], z[1], ss};
+  messages m = {0};
+  CHECK_INT(merge_bytes(mixed, mixed_sizes, 3, 0, &m, &out, &out_size), BBC_ERR_SCENE_MISMATCH);
+  CHECK_STR_CONTAINS(m.last, "different scenes");
+  CHECK_INT(m.count, 1);
+  free(sb);
+  for (int i = 0; i < 3; i++) free(b[i]);
+  free(full);
+  free(other);
+  free(split);
+  shard_setup_free(&s);
 }

@@ -234,6 +234,14 @@ BBC_API bbc_result bbc_poly_remainder(bbc_arena *arena, bbc_space *space, bbc_po
 BBC_API bbc_result bbc_poly_reduce(bbc_arena *arena, bbc_space *space, bbc_poly *out,
                                    const bbc_poly *p, int max_degree, int *axis);
 
+/* The two halves of bbc_poly_reduce: the fit F (geometric axes only) in *fit and the
+ * enclosure of p - F over every axis in *error, without claiming an axis;
+ * bbc_poly_remainder(F, error->lo, error->hi) then gives what bbc_poly_reduce returns. A
+ * caller reducing several quantities can so finish with their old remainder axes, release
+ * them, and only then give each reduced quantity its own fresh axis. */
+BBC_API bbc_result bbc_poly_reduce_split(bbc_arena *arena, const bbc_space *space, bbc_poly *fit,
+                                         bbc_interval *error, const bbc_poly *p, int max_degree);
+
 /* Primal square-root linearisation on [l, r] (Supp. Eq. 6-12): sqrt(x) = a x + b + delta
  * with delta in [delta_lo, delta_hi] for every x in [max(l, 0), max(r, 0)]. a is the secant
  * slope (Eq. 8, computed as 1/(sqrt r + sqrt l)), b matches sqrt at the left end (Eq. 9).

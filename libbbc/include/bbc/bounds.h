@@ -1,5 +1,5 @@
-/* Single-scattering caustic bounds (paper Sec. 4.2-4.5): for a tuple (point light, one
- * specular triangle T1, a receiver triangle Tk) and boxes ("pieces") of T1's barycentrics
+/* Caustic bounds (paper Sec. 4.2-4.5): for a tuple (point light, one or two specular
+ * triangles T1 (T2), a receiver triangle Tk) and boxes ("pieces") of T1's barycentrics
  * u1, conservative bounds of where on the receiver the caustic lands (the position bound,
  * a box of receiver barycentrics u_k) and of the irradiance it carries there (the
  * irradiance bound), refined by breadth-first subdivision of u1. */
@@ -13,14 +13,19 @@
 extern "C" {
 #endif
 
-/* The geometry of a single-scattering tuple in the form the bounds use (doubles; plain
- * struct, fill it with bbc_tuple_geometry_init or by hand for synthetic tuples).
+/* The geometry of a tuple in the form the bounds use (doubles; plain struct, fill it with
+ * bbc_tuple_geometry_init or by hand for synthetic tuples).
  *
  * T1's normals are oriented toward the light: if the light lies behind T1's plane (as
  * seen from the vertex normals), they are negated, so mirrors reflect on whichever side
  * the light is and a dielectric is entered from the light's side. eta is then the ratio
  * n_incident / n_transmitted (1/ior entering the front side, ior leaving through the
- * back); it is unused for reflection. */
+ * back); it is unused for reflection.
+ *
+ * Double scattering (length 2): T2's normals are oriented the same way toward the side
+ * of T2's plane that T1's centroid lies on (the light's side for the second vertex), and
+ * eta2 follows from that side. Light reaching T2 from the other side is not part of the
+ * tuple. */
 typedef struct bbc_tuple_geometry {
   bbc_vec3 light; /* x0 */
   int refract;    /* 0: reflection (R), 1: refraction (T) */
@@ -29,10 +34,15 @@ typedef struct bbc_tuple_geometry {
   bbc_vec3 n[3];  /* T1's vertex normals n_{1,0..2}, oriented as described and
                      interpolated unnormalised (Eq. 7) */
   bbc_vec3 r[3];  /* Tk's vertices */
+  int length;     /* specular vertices: 1 (0 is read as 1) or 2 */
+  int refract2;   /* length 2: the second vertex refracts */
+  double eta2;    /* length 2: eta' at the second vertex */
+  bbc_vec3 p2[3]; /* length 2: T2's vertices */
+  bbc_vec3 n2[3]; /* length 2: T2's vertex normals, oriented as described */
 } bbc_tuple_geometry;
 
-/* Fills g for a single-scattering tuple of the scene (chain R or T).
- * BBC_ERR_INVALID_ARGUMENT for another chain or out-of-range indices. */
+/* Fills g for a tuple of the scene (any chain type).
+ * BBC_ERR_INVALID_ARGUMENT for an unknown chain, out-of-range indices or T2 = T1. */
 BBC_API bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene,
                                            const bbc_tuple *tuple);
 
@@ -45,7 +55,8 @@ typedef enum bbc_jacobian_form {
 typedef struct bbc_bound_params {
   int max_level;    /* deepest subdivision level of the u1 box; 0 = 10 */
   double sigma;     /* stop when the position bound's area is below this; 0 = 1e-4 */
-  double alpha;     /* stop when E_hi / E_lo is below this; 0 = 2 */
+  double alpha;     /* stop when E_hi / E_lo is below this; 0 = 2 for one specular
+                       vertex, 10 for two (Sec. 6.1) */
   int no_remainder; /* replace sqrt by its linearisation without remainder variables
                        (NOT conservative: the paper's Fig. 18 ablation) */
   bbc_jacobian_form jacobian;

@@ -127,6 +127,9 @@ typedef struct bbc_cache_write_options {
 /* Writes the cache to path through a temporary file in the same folder renamed on
  * success. The bytes depend only on the scene, the parameters, the tuples in id order,
  * the set of splats (not their order or threads) and the options (spec Sec. 7.3).
+ * The builder of a sharded precompute (bbc_precompute_options.shard_count) writes a
+ * shard cache: the SHRD section and format version 1.1 (spec Sec. 5.10); every other
+ * builder a 1.0 file without it.
  * May be called more than once; the builder stays usable. options may be NULL. */
 BBC_API bbc_result bbc_cache_builder_write(bbc_cache_builder *b, const char *path,
                                            const bbc_cache_write_options *options);
@@ -253,6 +256,58 @@ BBC_API bbc_result bbc_cache_cell(bbc_cache_cursor *cursor, uint64_t cell,
  * empty list and BBC_OK. */
 BBC_API bbc_result bbc_cache_lookup(bbc_cache_cursor *cursor, uint32_t triangle, double b1,
                                     double b2, const bbc_cache_entry **entries, uint32_t *count);
+
+/* ------------------------------------------------------------------ shards */
+
+/* A sharded precompute (bbc-precompute --shard i/N, bbc_precompute_options.shard_*)
+ * bounds only the candidate tuples whose index k in the deterministic candidate list
+ * (bbc_tuples_find) has k % N == i, and writes a shard cache: a cache whose optional
+ * SHRD section (spec Sec. 5.10) says which shard it is and gives, per stored tuple, its
+ * candidate index. The N shards merge (bbc_cache_merge) into the cache the unsharded
+ * precompute writes, byte for byte. A shard alone is incomplete: renderers refuse it. */
+typedef struct bbc_cache_shard {
+  uint32_t index;           /* i, below count */
+  uint32_t count;           /* N >= 1 */
+  uint64_t candidate_count; /* candidate tuples of the whole precompute */
+  uint64_t candidates_hash; /* XXH64 of the whole candidate list (spec Sec. 5.10) */
+  /* Per stored tuple (bbc_cache_info.tuple_count of them, in id order), its candidate
+   * index: strictly increasing, below candidate_count, each one % count == index.
+   * Borrowed from the mapping: valid until bbc_cache_close. */
+  const uint64_t *candidates;
+} bbc_cache_shard;
+
+/* Returns 1 and fills *out (may be NULL) if the cache is a shard cache (it has a SHRD
+ * section), else returns 0 and zeroes *out. Cheap; thread-safe. */
+BBC_API int bbc_cache_get_shard(const bbc_cache *cache, bbc_cache_shard *out);
+
+typedef struct bbc_cache_merge_options {
+  bbc_message_fn error_fn; /* optional: one line naming the shard(s) and the problem */
+  void *user;
+  bbc_progress_fn progress_fn; /* optional: cells merged / total; non-zero cancels */
+  void *progress_user;
+  int threads; /* 0: every core; the result does not depend on it */
+} bbc_cache_merge_options;
+
+/* Merges the shards of one sharded precompute into a builder holding the complete
+ * cache (*out, free with bbc_cache_builder_free; NULL on failure): the tuples of all
+ * shards renumbered in candidate order and every cell's lists joined. Written with
+ * bbc_cache_builder_write and default write options, the file is byte-identical to the
+ * cache of the unsharded precompute of the same scene and parameters (spec Sec. 7.4);
+ * it keeps the shards' INFO text (the program that computed the bounds) unless
+ * omit_info is set, and has no SHRD section.
+ *
+ * The shards may come in any order. Fails, with one line to options->error_fn, with
+ * BBC_ERR_INVALID_ARGUMENT when a cache is not a shard cache, when the shards are of
+ * different splits (N), when a shard is given twice or one is missing;
+ * BBC_ERR_SCENE_MISMATCH when the shards were computed for different scenes or
+ * parameters, from different candidate lists or by different programs (INFO);
+ * BBC_ERR_CHECKSUM or BBC_ERR_CORRUPT for a damaged shard (every shard is fully
+ * validated first, as by bbc_cache_validate; the first problem is the line);
+ * BBC_ERR_UNSUPPORTED when the tuples exceed a cache's limit; BBC_ERR_CANCELLED (no
+ * line); BBC_ERR_OUT_OF_MEMORY. options may be NULL. The caches are only read; they
+ * may be closed once the call returns. Thread-safe for distinct builders. */
+BBC_API bbc_result bbc_cache_merge(bbc_cache_builder **out, const bbc_cache *const *shards,
+                                   size_t shard_count, const bbc_cache_merge_options *options);
 
 #ifdef __cplusplus
 }

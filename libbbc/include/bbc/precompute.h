@@ -23,6 +23,11 @@ typedef struct bbc_precompute_options {
   void *progress_user;
   bbc_message_fn error_fn; /* optional: details of a failure */
   void *user;
+  /* A sharded precompute (bbc_cache_shard): with shard_count N >= 1, only the candidate
+   * tuples k with k % N == shard_index are bounded and the builder writes a shard cache
+   * (SHRD section). shard_count 0 (the default): the whole precompute, no SHRD.
+   * shard_index >= shard_count is BBC_ERR_INVALID_ARGUMENT. */
+  uint32_t shard_index, shard_count;
 } bbc_precompute_options;
 
 /* The paper's Table 2 precompute columns and more. Times are wall-clock seconds of
@@ -31,6 +36,7 @@ typedef struct bbc_precompute_stats {
   uint64_t candidate_tuples; /* tuples found by the beam bounds */
   uint64_t tuples;           /* tuples with at least one kept piece (stored) */
   uint64_t tuples_per_chain[BBC_CHAIN_COUNT];
+  double second_per_first; /* candidate T2 per (light, T1) prefix that has any (DESIGN 3.7) */
   uint64_t position_pieces, irradiance_pieces, kept_pieces;
   uint64_t entries;            /* (cell, tuple) entries in the grids */
   double construction_seconds; /* finding tuples */
@@ -41,18 +47,17 @@ typedef struct bbc_precompute_stats {
 } bbc_precompute_stats;
 
 /* Precomputes the scene's bounds into a new cache builder (*out, free with
- * bbc_cache_builder_free), ready to be written. Single-scattering chains (R for mirror
- * casters, T for dielectric ones) are computed; requesting only chain types that are
- * not implemented gives BBC_ERR_UNSUPPORTED. The tuples are stored in a deterministic
- * order, so the written file does not depend on the number of threads. stats may be
- * NULL. */
+ * bbc_cache_builder_free), ready to be written. The chain types of params.chains are
+ * computed, each specular vertex reflecting on mirrors and refracting through
+ * dielectrics (R, T, RR, RT, TR, TT). The tuples are stored in a deterministic order,
+ * so the written file does not depend on the number of threads. stats may be NULL. */
 BBC_API bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
                                   const bbc_precompute_options *options,
                                   bbc_precompute_stats *stats);
 
 /* The candidate tuples of the scene for the chain types in `chains` (a mask of
  * BBC_CHAIN_BIT), in the deterministic order bbc_precompute uses: by light, then first
- * specular triangle, then receiver triangle. *out is allocated with malloc. */
+ * specular triangle, then second specular triangle (none first), then receiver. *out is allocated with malloc. */
 BBC_API bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
                                    size_t *count);
 

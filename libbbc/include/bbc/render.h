@@ -33,6 +33,27 @@ typedef enum bbc_gamma_mode {
  * point light) the probabilities are min(gamma E~ / I, 1) and the variance target is
  * gamma_value I^2. */
 
+/* How the paths of a double-scattering tuple (RR, RT, TR, TT) are found at a shading
+ * point (paper Sec. 6.1, "Root-finding"; DESIGN 3.10): Newton's method on the chain
+ * (bbc_solver_newton), u1 clamped back onto T1. Single scattering (R, T) always uses
+ * the specular polynomials, which find every solution. */
+typedef enum bbc_solver_method {
+  /* One start drawn uniformly on T1; a solution it reaches is weighted by K, the number
+   * of further independent starts drawn until one reaches the same solution again
+   * (geometric, E[K] = 1 / its probability): the reciprocal-probability estimate of
+   * specular manifold sampling (Zeltner et al. 2020). Unbiased for the sum over every
+   * solution some start on T1 reaches, but adds variance. The default. */
+  BBC_SOLVER_NEWTON_STOCH = 0,
+  /* One start at T1's centre, weight 1: deterministic and free of variance, biased
+   * (too dark) wherever the centre does not lead to every solution. */
+  BBC_SOLVER_NEWTON_DET = 1
+} bbc_solver_method;
+
+/* The cap on K of BBC_SOLVER_NEWTON_STOCH when bbc_render_options.newton_max_trials is
+ * 0. K reaches it only for a solution whose start-point basin covers less than about
+ * 1/65536 of T1; a capped estimate is biased low and counted in the stats. */
+#define BBC_NEWTON_MAX_TRIALS_DEFAULT 65536u
+
 /* Parts of the image, for comparisons; a mask, 0 = everything. */
 #define BBC_COMPONENT_CAUSTICS 1u /* the caustic estimator's contributions, at any depth */
 #define BBC_COMPONENT_DIRECT 2u   /* emission and lights seen before any diffuse bounce */
@@ -55,12 +76,16 @@ typedef struct bbc_render_options {
                              caller with bbc_cache_check_scene) */
   bbc_gamma_mode gamma_mode;
   double gamma_value;
-  uint32_t components;      /* BBC_COMPONENT_* mask; 0 = all */
-  uint32_t chains;          /* BBC_CHAIN_BIT mask of chain types the caustic estimator
-                               uses; 0 = all in the cache */
-  bbc_progress_fn progress; /* optional; called between passes on the calling thread
-                               with samples per pixel done / planned (planned is 0
-                               under a pure time limit) */
+  uint32_t components;        /* BBC_COMPONENT_* mask; 0 = all */
+  uint32_t chains;            /* BBC_CHAIN_BIT mask of chain types the caustic estimator
+                                 uses; 0 = all in the cache */
+  bbc_solver_method solver;   /* double-scattering tuples; default BBC_SOLVER_NEWTON_STOCH */
+  uint32_t newton_max_trials; /* BBC_SOLVER_NEWTON_STOCH: K stops at this many draws (the
+                                 estimate is then biased low; stats count it); 0 =
+                                 BBC_NEWTON_MAX_TRIALS_DEFAULT */
+  bbc_progress_fn progress;   /* optional; called between passes on the calling thread
+                                 with samples per pixel done / planned (planned is 0
+                                 under a pure time limit) */
   void *progress_user;
 } bbc_render_options;
 
@@ -71,15 +96,22 @@ typedef struct bbc_render_stats {
   uint64_t rays;    /* closest-hit plus occlusion rays */
   int threads;      /* threads used */
   /* The caustic estimator (the paper's Table 2 render columns). */
-  uint64_t lookups;        /* shading points that looked up a cell */
-  uint64_t candidates;     /* sum of |U| (tuples of the cell on the point's triangle) */
-  uint64_t bins;           /* sum of |B| */
-  uint64_t sampled;        /* sum of |S| */
-  uint64_t solutions;      /* admissible paths found in sampled tuples */
-  double sampling_seconds; /* thread time preparing and drawing (sum over threads) */
-  double decoding_seconds; /* thread time decoding cells */
-  double solving_seconds;  /* thread time in the solver and the path's visibility */
-  double thread_seconds;   /* thread time rendering, for the shares above */
+  uint64_t lookups;    /* shading points that looked up a cell */
+  uint64_t candidates; /* sum of |U| (tuples of the cell on the point's triangle) */
+  uint64_t bins;       /* sum of |B| */
+  uint64_t sampled;    /* sum of |S| */
+  uint64_t solutions;  /* admissible paths found in sampled tuples (for newton-stoch,
+                          the first start's solution of each tuple) */
+  /* Newton's method on double-scattering tuples. */
+  uint64_t newton_solves;    /* Newton runs: every start, those drawn for K included */
+  uint64_t newton_converged; /* runs that ended on an admissible path */
+  uint64_t newton_estimates; /* reciprocal-probability estimates made (newton-stoch) */
+  uint64_t newton_trials;    /* the sum of their K: mean K = trials / estimates */
+  uint64_t newton_cap_hits;  /* estimates whose K reached newton_max_trials */
+  double sampling_seconds;   /* thread time preparing and drawing (sum over threads) */
+  double decoding_seconds;   /* thread time decoding cells */
+  double solving_seconds;    /* thread time in the solver and the path's visibility */
+  double thread_seconds;     /* thread time rendering, for the shares above */
 } bbc_render_stats;
 
 /* Renders the scene's camera into image (whose size sets the resolution and the

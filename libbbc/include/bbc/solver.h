@@ -13,7 +13,10 @@
  *    u1 as the only unknown, later vertices traced, and the half-vector constraint at the
  *    last specular vertex as the residual (see solver_newton.c for why this
  *    formulation); u1 is clamped back onto T1 when it leaves it by more than 1e-6 (Li et
- *    al., supplement); x2 follows the trace and is only checked at the end.
+ *    al., supplement); x2 follows the trace and is only checked at the end. For length
+ *    2, a start from which this ends where its residual is singular (the path meets
+ *    T2's plane behind x1, or x1 and x2 meet on a shared edge) gets a second run on the
+ *    constraints of both vertices over (u1, u2), from u1 and T2's centre, both clamped.
  *    It finds at most one solution per start: from the triangle centre (deterministic,
  *    may miss solutions) or from a caller-supplied start (so an unbiased
  *    reciprocal-probability estimator in the manner of specular manifold sampling can be

@@ -1,0 +1,61 @@
+/* Sharded precomputes (format-spec/bbc-format.md Sec. 5.10 and 7.4): the SHRD section
+ * and the internal calls that the precompute driver (precompute.c), the writer
+ * (cache_write.c), the reader (cache_read.c) and the merge (cache_merge.c) share.
+ * Tests may include this header; tools may not. */
+#ifndef BBC_CACHE_SHARD_INTERNAL_H
+#define BBC_CACHE_SHARD_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "bbc/cache.h"
+#include "cache_format_internal.h"
+
+/* Sec. 5.10: the SHRD section, a 32-byte head and one u64 per stored tuple. */
+#define BBC__SEC_SHRD BBC__FOURCC('S', 'H', 'R', 'D')
+#define BBC__SHRD_HEAD_SIZE 32u
+#define BBC__SHRD_ENTRY_SIZE 8u
+
+/* R-HDR-3: the minor version a writer writes, the smallest whose sections the file
+ * uses: 0 without SHRD (so a complete cache is the same bytes as before shards
+ * existed), 1 with it. */
+#define BBC__MINOR_COMPLETE 0u
+#define BBC__MINOR_SHARD 1u
+
+/* XXH64 of a candidate list as TUPL records (the candidates_hash of SHRD). */
+uint64_t bbc__candidates_hash(const bbc_tuple *tuples, size_t count);
+
+/* Makes the builder write a shard cache, shard `index` of `count` (index < count, else
+ * BBC_ERR_INVALID_ARGUMENT), of the complete candidate list tuples[0, *tuple_count).
+ * The list is compacted in place to the shard's candidates (k % count == index, in
+ * order) and *tuple_count updated; *candidate (malloc, the caller frees it) receives
+ * the candidate index of each candidate left. Every tuple later added to the builder
+ * must then be given its candidate index with bbc__cache_builder_set_candidate. */
+bbc_result bbc__cache_builder_shard(bbc_cache_builder *b, uint32_t index, uint32_t count,
+                                    bbc_tuple *tuples, size_t *tuple_count, uint64_t **candidate);
+
+/* Records the candidate index of tuple `id` of a shard builder. The writer checks the
+ * rules of R-SHR-3 and fails with BBC_ERR_INVALID_ARGUMENT if they do not hold. */
+bbc_result bbc__cache_builder_set_candidate(bbc_cache_builder *b, uint32_t id, uint64_t candidate);
+
+/* A builder for the scene and parameters of an open cache, with copies of its grid,
+ * parameters, fingerprint and scene counts and no tuple. */
+bbc_result bbc__cache_builder_from_cache(bbc_cache_builder **out, const bbc_cache *c);
+
+/* The INFO text the builder writes instead of "bbc <version>": `size` bytes of `text`
+ * (at most 4096), or no INFO section when text is NULL. */
+bbc_result bbc__cache_builder_set_info(bbc_cache_builder *b, const void *text, size_t size);
+
+/* Adds entries (tuple id, bound code) to cell `cell`, keeping the maximum code per
+ * tuple. No lock is taken: concurrent callers must use distinct cells, and nothing
+ * else may use the builder meanwhile. */
+bbc_result bbc__cache_builder_add_codes(bbc_cache_builder *b, uint64_t cell, const uint32_t *tuples,
+                                        const uint16_t *codes, uint32_t n);
+
+/* The path (or "(memory)") a cache was opened from. */
+const char *bbc__cache_path(const bbc_cache *c);
+
+/* The INFO section's bytes and size, or NULL when the file has none. Borrowed. */
+const uint8_t *bbc__cache_info_bytes(const bbc_cache *c, uint64_t *size);
+
+#endif
