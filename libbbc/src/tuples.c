@@ -122,15 +122,14 @@ static int compare_u32(const void *a, const void *b) {
 
 /* The beam of T1: x1 over the triangle and d1 over the whole domain, bounded with the
  * chain forms of the root piece (the receiver is irrelevant here; T1 stands in). */
-static bbc_result beam_of(bbc_arena *arena, const bbc_tuple_geometry *g, bbc_ivec3 *x,
-                          bbc_ivec3 *d) {
+static bbc_result beam_of(bbc_arena *arena, const bbc_tuple_geometry *g, const double box[4],
+                          bbc_ivec3 *x, bbc_ivec3 *d) {
   bbc_arena_reset(arena, 0);
   bbc_space space;
   memset(&space, 0, sizeof space);
   int s_axis, t_axis;
   bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &s_axis);
   bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &t_axis);
-  const double box[4] = {0, 1, 0, 1};
   chain_forms f;
   bbc_result r = bbc__chain_forms(arena, &space, g, box, s_axis, t_axis, CHAIN_SQRT_PRIMAL, &f);
   if (r != BBC_OK) return r;
@@ -374,7 +373,7 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
   const size_t arena_bytes = (size_t)4 << 20;
   void *arena_memory = malloc(arena_bytes);
   uint32_t *found = malloc((scene->triangle_count + 1) * sizeof *found);
-  uint32_t *found2 = malloc((scene->triangle_count + 1) * sizeof *found2);
+  uint32_t *found2 = malloc(3 * ((size_t)scene->triangle_count + 1) * sizeof *found2);
   uint32_t *stack = malloc(2 * ((size_t)scene->triangle_count + 1) * sizeof *stack);
   tuple_list list = {NULL, 0, 0};
   bbc_result result = bvh_init(&receivers, scene, BBC_ROLE_RECEIVER);
@@ -405,7 +404,8 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
       bbc_vec3 ng = v3_cross(v3_sub(g.p[1], g.p[0]), v3_sub(g.p[2], g.p[0]));
       if (v3_dot(ng, v3_sub(g.light, g.p[0])) == 0) continue;
       bbc_ivec3 x, d;
-      if ((result = beam_of(&arena, &g, &x, &d)) != BBC_OK) break;
+      static const double whole[4] = {0, 1, 0, 1};
+      if ((result = beam_of(&arena, &g, whole, &x, &d)) != BBC_OK) break;
       /* Tuples in the order (T2, receiver) with single scattering first (T2 = none). */
       if (chains & (1u << single)) {
         uint32_t n = bvh_beam(&receivers, scene, &x, &d, stack, found);
@@ -415,7 +415,21 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
         }
       }
       if (!(chains & (after[0] | after[1])) || casters.node_count == 0) continue;
-      uint32_t n2 = bvh_beam(&casters, scene, &x, &d, stack, found2);
+      /* T2 from the beams of T1's three corner quadrants (tighter than T1's whole beam,
+       * whose box of u1 is twice the triangle), merged. */
+      uint32_t n2 = 0;
+      static const double quadrants[3][4] = {{0, 0.5, 0, 0.5}, {0.5, 1, 0, 0.5}, {0, 0.5, 0.5, 1}};
+      for (int q = 0; q < 3 && result == BBC_OK; q++) {
+        bbc_ivec3 xq, dq;
+        if ((result = beam_of(&arena, &g, quadrants[q], &xq, &dq)) != BBC_OK) break;
+        n2 += bvh_beam(&casters, scene, &xq, &dq, stack, found2 + n2);
+      }
+      if (result != BBC_OK) break;
+      qsort(found2, n2, sizeof *found2, compare_u32);
+      uint32_t unique = 0;
+      for (uint32_t j = 0; j < n2; j++)
+        if (unique == 0 || found2[unique - 1] != found2[j]) found2[unique++] = found2[j];
+      n2 = unique;
       for (uint32_t j = 0; j < n2 && result == BBC_OK; j++) {
         const uint32_t t2 = found2[j];
         int second = scattering_of(scene, t2);
