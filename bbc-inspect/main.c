@@ -388,10 +388,11 @@ static void write_validation_json(const char *path, const bbc_validation *acc) {
   snprintf(tmp, sizeof tmp, "%s.tmp", path);
   FILE *f = fopen(tmp, "w");
   if (!f) cli_fail("%s: cannot write: %s", path, strerror(errno));
-  int bad = fputs("{\"R\": ", f) < 0;
-  bad |= bbc_validation_write_json(&acc[0], f) != BBC_OK;
-  bad |= fputs(", \"T\": ", f) < 0;
-  bad |= bbc_validation_write_json(&acc[1], f) != BBC_OK;
+  int bad = 0;
+  for (int k = 0; k < BBC_CHAIN_COUNT; k++) {
+    bad |= fprintf(f, "%s\"%s\": ", k ? ", " : "{", bbc_chain_name((bbc_chain)k)) < 0;
+    bad |= bbc_validation_write_json(&acc[k], f) != BBC_OK;
+  }
   bad |= fputs("}\n", f) < 0;
   bad |= ferror(f) != 0;
   bad |= fclose(f) != 0;
@@ -447,7 +448,7 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
              scene_path, next, in.tuple_count);
 
   size_t blocks = (count + CHECK_BLOCK - 1) / CHECK_BLOCK;
-  bbc_validation *acc = calloc(2 * (blocks ? blocks : 1), sizeof *acc);
+  bbc_validation *acc = calloc(BBC_CHAIN_COUNT * (blocks ? blocks : 1), sizeof *acc);
   if (!acc) cli_fail("out of memory");
   cli_progress bar;
   cli_progress_begin(&bar, "checking", progress);
@@ -460,10 +461,8 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
 #pragma omp for schedule(dynamic, 1)
     for (size_t b = 0; b < blocks; b++) {
       for (size_t i = b * CHECK_BLOCK; i < count && i < (b + 1) * CHECK_BLOCK && r == BBC_OK; i++) {
-        uint32_t chain = cand[i].chain;
-        if (chain != BBC_CHAIN_R && chain != BBC_CHAIN_T) continue;
         r = bbc_validate_cached_tuple(c, cur, scene, &cand[i], ids[i], samples, 1,
-                                      &acc[2 * b + chain]);
+                                      &acc[BBC_CHAIN_COUNT * b + cand[i].chain]);
       }
 #pragma omp atomic
       done++;
@@ -486,22 +485,24 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
   cli_progress_end(&bar);
   if (error != BBC_OK) cli_fail("%s: %s", cache_path, bbc_result_string(error));
 
-  bbc_validation total[2];
-  bbc_validation_reset(&total[0]);
-  bbc_validation_reset(&total[1]);
+  bbc_validation total[BBC_CHAIN_COUNT];
+  for (int k = 0; k < BBC_CHAIN_COUNT; k++) bbc_validation_reset(&total[k]);
   for (size_t b = 0; b < blocks; b++)
-    for (int k = 0; k < 2; k++) bbc_validation_merge(&total[k], &acc[2 * b + k]);
-  static const char *const labels[2] = {"R", "T"};
+    for (int k = 0; k < BBC_CHAIN_COUNT; k++)
+      bbc_validation_merge(&total[k], &acc[BBC_CHAIN_COUNT * b + k]);
+  /* The chain types of the cache's parameters, and any other that holds tuples. */
   uint64_t failures = 0;
-  for (int k = 0; k < 2; k++) {
-    if (bbc_validation_print_summary(&total[k], labels[k], stdout) != BBC_OK ||
+  for (int k = 0; k < BBC_CHAIN_COUNT; k++) {
+    if (!(in.params.chains & BBC_CHAIN_BIT(k)) && total[k].tuples == 0) continue;
+    const char *label = bbc_chain_name((bbc_chain)k);
+    if (bbc_validation_print_summary(&total[k], label, stdout) != BBC_OK ||
         bbc_validation_print_histogram(&total[k], stdout) != BBC_OK)
       cli_fail("cannot write to stdout");
     failures += bbc_validation_failures(&total[k]);
   }
-  for (int k = 0; k < 2; k++)
+  for (int k = 0; k < BBC_CHAIN_COUNT; k++)
     if (bbc_validation_failures(&total[k])) {
-      print_failure(labels[k], &total[k].first_failure, stdout);
+      print_failure(bbc_chain_name((bbc_chain)k), &total[k].first_failure, stdout);
       break;
     }
   if (json) write_validation_json(json, total);

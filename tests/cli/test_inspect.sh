@@ -159,6 +159,14 @@ precompute() {
     "$@" >/dev/null 2>"$TMP/precompute.err" || { cat "$TMP/precompute.err" >&2; fail "cannot precompute $scene"; }
 }
 
+test_check_bounds_two_mirrors_rr_has_no_violations() {
+  precompute two-mirrors.gltf "$TMP/rr.bbc" --chains RR
+  expect_status 0 "$INSPECT" check-bounds "$BBC_TEST_SCENES/two-mirrors.gltf" "$TMP/rr.bbc" \
+    --samples 400
+  grep -q "^RR: .*(0 failing paths)" "$TMP/out" || fail "no clean RR summary: $(cat "$TMP/out")"
+  grep -q "^RR: .* [1-9][0-9]* admissible paths" "$TMP/out" || fail "no admissible RR path"
+}
+
 test_check_bounds_flat_mirror_has_no_violations() {
   precompute flat-mirror.gltf "$TMP/fm.bbc"
   expect_status 0 "$INSPECT" check-bounds "$BBC_TEST_SCENES/flat-mirror.gltf" "$TMP/fm.bbc" \
@@ -171,7 +179,7 @@ test_check_bounds_flat_mirror_has_no_violations() {
   python3 - "$TMP/fm.json" <<'PY' || fail "bad JSON: $(cat "$TMP/fm.json")"
 import json, sys
 d = json.load(open(sys.argv[1]))
-assert set(d) == {"R", "T"}, d.keys()
+assert set(d) == {"R", "T", "RR", "RT", "TR", "TT"}, d.keys()
 assert d["R"]["admissible"] > 0 and d["R"]["failing"] == 0, d["R"]
 PY
   ls "$TMP" | grep -q "\.tmp" && fail "a temporary file was left behind"
