@@ -288,10 +288,11 @@ static bbc_interval irradiance_scale(const bbc_tuple_geometry *g, const chain_fo
 /* The irradiance bound by implicit differentiation of the last refraction (Eq. 17-19):
  * |du1/duk| = du dv / (wa wb) |det_ab / det_st|, with the receiver's barycentrics free
  * over the piece's position box (widths wa, wb), intersected over b = x and b = y (Sec.
- * 4.4). [lo, hi] = [0, inf] when nothing is learnt. */
+ * 4.4; the second is skipped when the first is within alpha). [lo, hi] = [0, inf] when
+ * nothing is learnt. */
 static bbc_result implicit_bound(bbc_arena *arena, const bbc_space *space,
                                  const bbc_tuple_geometry *g, const chain_forms *f,
-                                 const double uk_box[4], bbc_interval scale,
+                                 const double uk_box[4], bbc_interval scale, double alpha,
                                  double *e_lo, double *e_hi) {
   *e_lo = 0;
   *e_hi = INFINITY;
@@ -312,6 +313,7 @@ static bbc_result implicit_bound(bbc_arena *arena, const bbc_space *space,
     magnitude(&ratio, &l, &h);
     lo = fmax(lo, l);
     hi = fmin(hi, h);
+    if (hi <= alpha * lo) break; /* tight enough: the second b could only tighten it */
   }
   bbc_interval k = bbc_interval_div(scale, bbc_interval_mul(bbc_interval_point(wa),
                                                               bbc_interval_point(wb)));
@@ -352,7 +354,7 @@ static bbc_result irradiance_bound(bbc_arena *arena, const bbc_space *space,
       if (*e_hi <= alpha * *e_lo) return BBC_OK;
     }
     double ilo, ihi;
-    if ((res = implicit_bound(arena, space, g, f, uk_box, scale, &ilo, &ihi)) != BBC_OK) return res;
+    if ((res = implicit_bound(arena, space, g, f, uk_box, scale, alpha, &ilo, &ihi)) != BBC_OK) return res;
     *e_lo = fmax(*e_lo, ilo);
     *e_hi = fmin(*e_hi, ihi);
     return BBC_OK;

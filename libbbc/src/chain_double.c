@@ -40,7 +40,7 @@
 
 /* The degree intermediates are reduced to. The piece is small and the chain smooth, so a
  * low degree loses little; the receiver forms then have degree about twice this. */
-#define FLATTEN_DEGREE 6
+#define FLATTEN_DEGREE 3
 
 typedef struct dscal {
   bbc_poly v, s, t; /* value, d/ds, d/dt */
