@@ -1,7 +1,8 @@
 #!/bin/sh
 # Regenerates the benchmark tables in bench/results/ (Markdown) on this machine:
 #   precompute.md  precompute of the shared scenes: time by phase, tuples, pieces,
-#                  peak memory, file size and compression of the cell lists;
+#                  peak memory, file size and compression of the cell lists; double
+#                  refraction through the balls at the paper's levels (Table 3 bottom);
 #   render.md      equal-time renders of the caustic alone: relMSE of bbc, uniform and
 #                  enumerate against a converged enumeration.
 # Usage: sh bench/run.sh [SHARED_SCENES_DIR] [SECONDS_PER_RENDER]
@@ -45,6 +46,27 @@ json() { sed -n "s/.*\"$1\": \([-0-9.e+]*\).*/\1/p" "$2"; }
       "$(json bounding_seconds "$work/$s.json")" "$(json recording_seconds "$work/$s.json")" \
       "$(json peak_memory_mb "$work/$s.json")" \
       "$(echo "$(json file_bytes "$work/$s.json")" | awk '{printf "%.1f", $1 / 1e6}')" "${ratio:-?}"
+  done
+  echo
+  echo "Double refraction (TT) through the balls at the paper's levels (Table 3 bottom); CPU s"
+  echo "is the bounding threads' CPU time, the per-core figure. Paper: i9-13900KF, 32 threads."
+  echo
+  echo "| scene | level | candidates | tuples | T2 per T1 | pos. pieces/tuple | irr. pieces/tuple | time s | CPU s | peak MB | file MB | paper |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
+  for spec in ball80:4:15K,4.1s ball320:3:52K,7.1s ball1280:2:198K,17.5s ball5120:1:771K,47.1s; do
+    s=${spec%%:*}; rest=${spec#*:}; level=${rest%%:*}; paper=${rest#*:}
+    [ -f "$scenes/$s.gltf" ] || continue
+    "$bin/bbc-precompute/bbc-precompute" "$scenes/$s.gltf" \
+      -o "$work/$s.bbc" --json "$work/$s.json" --chains TT --max-level "$level" --no-progress
+    cpu=$(awk -v a="$(json position_cpu_seconds "$work/$s.json")" \
+      -v b="$(json irradiance_cpu_seconds "$work/$s.json")" 'BEGIN {printf "%.1f", a + b}')
+    printf '| %s | %s | %s | %s | %.1f | %.1f | %.1f | %.2f | %s | %.0f | %.1f | %s |\n' "$s" "$level" \
+      "$(json candidate_tuples "$work/$s.json")" "$(json tuples "$work/$s.json")" \
+      "$(json second_per_first "$work/$s.json")" "$(json position_pieces_per_tuple "$work/$s.json")" \
+      "$(json irradiance_pieces_per_tuple "$work/$s.json")" "$(json seconds "$work/$s.json")" \
+      "$cpu" "$(json peak_memory_mb "$work/$s.json")" \
+      "$(echo "$(json file_bytes "$work/$s.json")" | awk '{printf "%.1f", $1 / 1e6}')" \
+      "$(echo "$paper" | tr ',' ' ')"
   done
 } > "$out/precompute.md"
 
