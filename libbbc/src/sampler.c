@@ -44,10 +44,23 @@ static int reserve(bbc__tuple_sampler *s, uint32_t n) {
   return 1;
 }
 
-/* Expected |S| for gamma: sum min(gamma E, 1) (an infinite bound always counts 1). */
-static double expected_count(const bbc_cache_entry *e, uint32_t n, double gamma) {
+/* Expected number of tuples with a finite bound chosen for gamma: sum min(gamma E, 1).
+ * Tuples with an infinite bound (irradiance unbounded near focal points) have P = 1 for
+ * every gamma, so they are left out of the target: were they counted, a cell with W of
+ * them would drive gamma to 0 and starve every finite tuple (P ~ 1e-24: unbiased, but
+ * its variance is unusable). *infinite (may be NULL) receives their number. */
+static double expected_count(const bbc_cache_entry *e, uint32_t n, double gamma,
+                             uint32_t *infinite) {
   double sum = 0;
-  for (uint32_t i = 0; i < n; i++) sum += fmin(gamma * (double)e[i].bound, 1.0);
+  uint32_t inf = 0;
+  for (uint32_t i = 0; i < n; i++) {
+    double b = e[i].bound;
+    if (isfinite(b))
+      sum += fmin(gamma * b, 1.0);
+    else
+      inf++;
+  }
+  if (infinite) *infinite = inf;
   return sum;
 }
 
@@ -66,7 +79,9 @@ static double variance_bound(const bbc_cache_entry *e, uint32_t n, double gamma)
 double bbc__sampler_gamma(const bbc_cache_entry *entries, uint32_t n, bbc__gamma_source source,
                           double value) {
   if (source == BBC__GAMMA_FIXED) return value;
-  if (source == BBC__GAMMA_EXPECTED && value >= n) return INFINITY;
+  uint32_t infinite = 0;
+  expected_count(entries, n, 0.0, &infinite);
+  if (source == BBC__GAMMA_EXPECTED && value >= n - infinite) return INFINITY;
   /* Bisection in log space between tiny and huge gamma: both functions are monotonic
    * (the count increases, the variance bound decreases with gamma). */
   double lo = -80, hi = 80;
@@ -75,7 +90,7 @@ double bbc__sampler_gamma(const bbc_cache_entry *entries, uint32_t n, bbc__gamma
   for (int it = 0; it < 60; it++) {
     double mid = 0.5 * (lo + hi);
     double g = exp2(mid);
-    int too_small = source == BBC__GAMMA_EXPECTED ? expected_count(entries, n, g) < value
+    int too_small = source == BBC__GAMMA_EXPECTED ? expected_count(entries, n, g, NULL) < value
                                                   : variance_bound(entries, n, g) > value;
     if (too_small)
       lo = mid;
@@ -126,7 +141,10 @@ int bbc__sampler_prepare(bbc__tuple_sampler *s, const bbc_cache_entry *entries, 
     gamma = bbc__sampler_gamma(entries, n, sampling->source, sampling->value);
   double *p = s->scratch;
   if (sampling->method == BBC__SAMPLE_UNIFORM) {
-    double w = isfinite(gamma) ? expected_count(entries, n, gamma) : n;
+    /* The same expected count as the bbc method: the finite tuples' and every infinite
+     * one. */
+    uint32_t infinite = 0;
+    double w = isfinite(gamma) ? expected_count(entries, n, gamma, &infinite) + infinite : n;
     for (uint32_t i = 0; i < n; i++) p[i] = fmin(w / n, 1.0);
   } else {
     for (uint32_t i = 0; i < n; i++) {

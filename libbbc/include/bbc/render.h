@@ -25,7 +25,9 @@ typedef enum bbc_method {
  * the same choice gives. */
 typedef enum bbc_gamma_mode {
   BBC_GAMMA_FIXED = 0,    /* gamma = gamma_value (default 100 when 0) */
-  BBC_GAMMA_EXPECTED = 1, /* per cell, gamma such that E|S| = gamma_value (default 4) */
+  BBC_GAMMA_EXPECTED = 1, /* per cell, gamma such that gamma_value (default 4) of the
+                             tuples with a finite bound are expected; tuples with an
+                             infinite bound are always taken on top */
   BBC_GAMMA_VARIANCE = 2  /* per cell, gamma such that the variance bound is gamma_value */
 } bbc_gamma_mode;
 /* As in the paper (Supp. Table 1), gamma and the variance target are stated for a light
