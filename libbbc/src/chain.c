@@ -110,23 +110,16 @@ static bbc_result scatter(bbc_arena *arena, bbc_space *space, const bbc_poly3 *d
   return bbc_poly3_sub(arena, out, &scaled, &root_n);
 }
 
-/* Moller-Trumbore (Eq. 9) for the ray o/w + t d against the triangle tri, with o and w
- * polynomials (w NULL for 1): u = up / (w kappa), v = vp / (w kappa) and
- * t = tnum / (w kappa), where kappa = (d x e2) . e1. */
-static bbc_result hit(bbc_arena *arena, const bbc_poly3 *o, const bbc_poly *w, const bbc_poly3 *d,
+/* Moller-Trumbore (Eq. 9) for the ray o + t d against the triangle tri:
+ * u = up / kappa, v = vp / kappa and t = tnum / kappa, where kappa = (d x e2) . e1. */
+static bbc_result hit(bbc_arena *arena, const bbc_poly3 *o, const bbc_poly3 *d,
                       const bbc_vec3 tri[3], bbc_poly *up, bbc_poly *vp, bbc_poly *kappa,
                       bbc_poly *tnum) {
   bbc_poly3 p0, e1, e2, rel, pvec, qvec;
   TRY(bbc_poly3_constant(arena, &p0, tri[0]));
   TRY(rounded_constant(arena, &e1, v3_sub(tri[1], tri[0])));
   TRY(rounded_constant(arena, &e2, v3_sub(tri[2], tri[0])));
-  if (w) {
-    bbc_poly3 wp0;
-    TRY(bbc_poly3_scale(arena, &wp0, w, &p0));
-    TRY(bbc_poly3_sub(arena, &rel, o, &wp0));
-  } else {
-    TRY(bbc_poly3_sub(arena, &rel, o, &p0));
-  }
+  TRY(bbc_poly3_sub(arena, &rel, o, &p0));
   TRY(bbc_poly3_cross(arena, &pvec, d, &e2));
   TRY(bbc_poly3_dot(arena, kappa, &pvec, &e1));
   TRY(bbc_poly3_dot(arena, up, &pvec, &rel));
@@ -140,7 +133,7 @@ bbc_result bbc__chain_forms_rest(bbc_arena *arena, bbc_space *space, const bbc_t
                                  chain_sqrt_mode mode, chain_forms *out) {
   if (out->length == 2)
     return bbc__chain_double_rest(arena, space, g, mode == CHAIN_SQRT_DERIVATIVE_AWARE, out);
-  return hit(arena, &out->x1, NULL, &out->d1, g->r, &out->up, &out->vp, &out->kappa, &out->tnum);
+  return hit(arena, &out->x1, &out->d1, g->r, &out->up, &out->vp, &out->kappa, &out->tnum);
 }
 
 bbc_result bbc__chain_forms(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
