@@ -7,18 +7,7 @@ INSPECT="$BBC_BIN/bbc-inspect/bbc-inspect"
 MAKE_CACHE="$BBC_BIN/tests/bbc-test-cache"
 SCENE="$BBC_TEST_SCENES/pool.gltf"
 INVALID="$BBC_SOURCE_DIR/tests/corpus/invalid"
-TMP=$(mktemp -d)
-trap 'rm -rf "$TMP"' EXIT
-
-fail() { echo "FAILED: $*" >&2; exit 1; }
-
-# expect_status CODE COMMAND...: runs the command, stdout/stderr to $TMP/out, $TMP/err.
-expect_status() {
-  want=$1; shift
-  "$@" >"$TMP/out" 2>"$TMP/err"
-  got=$?
-  [ "$got" -eq "$want" ] || { cat "$TMP/err" >&2; fail "$* exited $got, expected $want"; }
-}
+. "$BBC_SOURCE_DIR/tests/cli/lib.sh"
 
 make_cache() {
   "$MAKE_CACHE" synthetic "$SCENE" "$TMP/c.bbc" 32 || fail "cannot write a test cache"

@@ -6,17 +6,7 @@ PRECOMPUTE="$BBC_BIN/bbc-precompute/bbc-precompute"
 RENDER="$BBC_BIN/bbc-render/bbc-render"
 MIRROR="$BBC_TEST_SCENES/flat-mirror.gltf"
 POOL="$BBC_TEST_SCENES/pool.glb"
-TMP=$(mktemp -d)
-trap 'rm -rf "$TMP"' EXIT
-
-fail() { echo "FAILED: $*" >&2; exit 1; }
-
-expect_status() {
-  want=$1; shift
-  "$@" >"$TMP/out" 2>"$TMP/err"
-  got=$?
-  [ "$got" -eq "$want" ] || { cat "$TMP/err" >&2; fail "$* exited $got, expected $want"; }
-}
+. "$BBC_SOURCE_DIR/tests/cli/lib.sh"
 
 test_help_documents_every_flag() {
   expect_status 0 "$PRECOMPUTE" --help

@@ -6,18 +6,7 @@ RENDER="$BBC_BIN/bbc-render/bbc-render"
 PRECOMPUTE="$BBC_BIN/bbc-precompute/bbc-precompute"
 INSPECT="$BBC_BIN/bbc-inspect/bbc-inspect"
 SCENE="$BBC_TEST_SCENES/glass-sphere.gltf"
-TMP=$(mktemp -d)
-trap 'rm -rf "$TMP"' EXIT
-
-fail() { echo "FAILED: $*" >&2; exit 1; }
-
-# expect_status CODE COMMAND...: runs the command, stdout/stderr to $TMP/out, $TMP/err.
-expect_status() {
-  want=$1; shift
-  "$@" >"$TMP/out" 2>"$TMP/err"
-  got=$?
-  [ "$got" -eq "$want" ] || { cat "$TMP/err" >&2; fail "$* exited $got, expected $want"; }
-}
+. "$BBC_SOURCE_DIR/tests/cli/lib.sh"
 
 test_help_documents_every_flag() {
   expect_status 0 "$RENDER" --help

@@ -6,18 +6,7 @@ set -u
 RENDER="$BBC_BIN/bbc-render/bbc-render"
 TEST_CACHE="$BBC_BIN/tests/bbc-test-cache"
 SCENE="$BBC_TEST_SCENES/glass-sphere.gltf"
-TMP=$(mktemp -d)
-trap 'rm -rf "$TMP"' EXIT
-
-fail() { echo "FAILED: $*" >&2; exit 1; }
-
-# expect_status CODE COMMAND...: runs the command, stdout/stderr to $TMP/out, $TMP/err.
-expect_status() {
-  want=$1; shift
-  "$@" >"$TMP/out" 2>"$TMP/err"
-  got=$?
-  [ "$got" -eq "$want" ] || { cat "$TMP/err" >&2; fail "$* exited $got, expected $want"; }
-}
+. "$BBC_SOURCE_DIR/tests/cli/lib.sh"
 
 # A cache of the glass ball whose tuples are one third TT (bbc-test-cache synthetic).
 make_cache() {

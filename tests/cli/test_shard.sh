@@ -10,18 +10,7 @@ INSPECT="$BBC_BIN/bbc-inspect/bbc-inspect"
 RENDER="$BBC_BIN/bbc-render/bbc-render"
 MIRROR="$BBC_TEST_SCENES/flat-mirror.gltf"
 POOL="$BBC_TEST_SCENES/pool.glb"
-TMP=$(mktemp -d)
-trap 'rm -rf "$TMP"' EXIT
-
-fail() { echo "FAILED: $*" >&2; exit 1; }
-
-# expect_status CODE COMMAND...: runs the command, stdout/stderr to $TMP/out, $TMP/err.
-expect_status() {
-  want=$1; shift
-  "$@" >"$TMP/out" 2>"$TMP/err"
-  got=$?
-  [ "$got" -eq "$want" ] || { cat "$TMP/err" >&2; fail "$* exited $got, expected $want"; }
-}
+. "$BBC_SOURCE_DIR/tests/cli/lib.sh"
 
 # The explicit chains keep the tests independent of the default chain list.
 mirror() { expect_status 0 "$PRECOMPUTE" "$MIRROR" --chains R --max-level 4 --resolution 64 \
