@@ -813,13 +813,6 @@ static int on_merge_progress(void *user, uint64_t done, uint64_t total) {
   return cli_interrupted;
 }
 
-static int on_write_progress(void *user, uint64_t done, uint64_t total) {
-  (void)user;
-  (void)done;
-  (void)total;
-  return cli_interrupted;
-}
-
 static int cmd_merge(cli_args *a) {
   const char *out = NULL, *threads_text = NULL;
   const char **paths = calloc((size_t)a->argc, sizeof *paths);
@@ -871,7 +864,7 @@ static int cmd_merge(cli_args *a) {
     bbc_cache_write_options wo;
     memset(&wo, 0, sizeof wo);
     wo.error_fn = cli_print_message;
-    wo.progress_fn = on_write_progress;
+    wo.progress_fn = cli_poll_interrupt;
     r = bbc_cache_builder_write(b, out, &wo);
   }
   bbc_cache_builder_free(b);

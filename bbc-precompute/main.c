@@ -72,13 +72,6 @@ static int on_progress(void *user, uint64_t done, uint64_t total) {
   return cli_interrupted;
 }
 
-static int on_write_progress(void *user, uint64_t done, uint64_t total) {
-  (void)user;
-  (void)done;
-  (void)total;
-  return cli_interrupted;
-}
-
 /* --shard I/N: two decimal integers, 0 <= I < N < 2^32; anything else is a usage error. */
 static void parse_shard(const char *text, uint32_t *index, uint32_t *count) {
   unsigned long long v[2];
@@ -221,7 +214,7 @@ int main(int argc, char **argv) {
   bbc_cache_write_options write_options;
   memset(&write_options, 0, sizeof write_options);
   write_options.error_fn = cli_print_message;
-  write_options.progress_fn = on_write_progress;
+  write_options.progress_fn = cli_poll_interrupt;
   r = bbc_cache_builder_write(builder, output, &write_options);
   double write_seconds = cli_now() - w0;
   bbc_cache_builder_free(builder);

@@ -123,6 +123,13 @@ void cli_catch_interrupts(void) {
   sigaction(SIGTERM, &sa, NULL);
 }
 
+int cli_poll_interrupt(void *user, uint64_t done, uint64_t total) {
+  (void)user;
+  (void)done;
+  (void)total;
+  return cli_interrupted;
+}
+
 double cli_now(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);

@@ -51,6 +51,8 @@ uint32_t cli_parse_chains(const cli_args *a, const char *name, const char *text)
  * it (through their progress callbacks) and stop; the tool then exits with 130. */
 extern volatile int cli_interrupted;
 void cli_catch_interrupts(void);
+/* A progress callback (bbc_progress_fn) that shows nothing and cancels on an interrupt. */
+int cli_poll_interrupt(void *user, uint64_t done, uint64_t total);
 
 /* A progress bar on stderr: shown only when enabled, redrawn at most five times a
  * second, with percent, elapsed time and ETA. */
