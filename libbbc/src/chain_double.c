@@ -119,18 +119,34 @@ static bbc_result ds_scale(const dual_ctx *c, dscal *out, const dscal *a, double
   return bbc_poly_scale(c->arena, &out->t, &a->t, k);
 }
 
+/* Whether p is the exact constant 0 (the derivative of a constant). */
+static int is_zero(const bbc_poly *p) {
+  for (int j = 0; j < BBC_POLY_MAX_AXES; j++)
+    if (p->deg[j]) return 0;
+  return p->coef[0] == 0 && p->err == 0;
+}
+
+/* da b + a db, skipping the products with an exactly zero derivative (constants are
+ * common: vertices, edges, normals of flat triangles). */
+static bbc_result product_rule(bbc_arena *arena, bbc_poly *out, const bbc_poly *da,
+                               const bbc_poly *b, const bbc_poly *a, const bbc_poly *db) {
+  int za = is_zero(da), zb = is_zero(db);
+  if (za && zb) return zero(arena, out);
+  if (za) return bbc_poly_mul(arena, out, a, db);
+  if (zb) return bbc_poly_mul(arena, out, da, b);
+  bbc_poly x, y;
+  TRY(bbc_poly_mul(arena, &x, da, b));
+  TRY(bbc_poly_mul(arena, &y, a, db));
+  return bbc_poly_add(arena, out, &x, &y);
+}
+
 /* The product rule. */
 static bbc_result ds_mul(const dual_ctx *c, dscal *out, const dscal *a, const dscal *b) {
   dscal r;
   TRY(bbc_poly_mul(c->arena, &r.v, &a->v, &b->v));
   if (c->derivatives) {
-    bbc_poly x, y;
-    TRY(bbc_poly_mul(c->arena, &x, &a->s, &b->v));
-    TRY(bbc_poly_mul(c->arena, &y, &a->v, &b->s));
-    TRY(bbc_poly_add(c->arena, &r.s, &x, &y));
-    TRY(bbc_poly_mul(c->arena, &x, &a->t, &b->v));
-    TRY(bbc_poly_mul(c->arena, &y, &a->v, &b->t));
-    TRY(bbc_poly_add(c->arena, &r.t, &x, &y));
+    TRY(product_rule(c->arena, &r.s, &a->s, &b->v, &a->v, &b->s));
+    TRY(product_rule(c->arena, &r.t, &a->t, &b->v, &a->v, &b->t));
   }
   *out = r;
   return BBC_OK;
