@@ -317,21 +317,25 @@ static int point_inside(const bbc_scene *scene, const bbc_mesh *m, bbc_vec3 x) {
   return crossings & 1;
 }
 
-/* Per mesh: 0 unless it is a closed dielectric with the light outside, else the sign
- * that turns its triangles' winding normals outward. */
-static bbc_result closed_dielectrics(const bbc_scene *scene, bbc_vec3 light, int **out) {
+/* Per mesh: 0 unless it is a closed dielectric caster, else the sign that turns its
+ * triangles' winding normals outward. */
+static bbc_result closed_dielectrics(const bbc_scene *scene, int **out) {
   int *sign = calloc(scene->mesh_count ? scene->mesh_count : 1, sizeof *sign);
   if (!sign) return BBC_ERR_OUT_OF_MEMORY;
   for (uint32_t i = 0; i < scene->mesh_count; i++) {
     const bbc_mesh *m = &scene->meshes[i];
-    if (m->role != BBC_ROLE_CASTER ||
-        scene->materials[m->material].type != BBC_MATERIAL_DIELECTRIC || !mesh_closed(scene, m) ||
-        point_inside(scene, m, light))
-      continue;
-    sign[i] = winding_outward(scene, m);
+    if (m->role == BBC_ROLE_CASTER &&
+        scene->materials[m->material].type == BBC_MATERIAL_DIELECTRIC && mesh_closed(scene, m))
+      sign[i] = winding_outward(scene, m);
   }
   *out = sign;
   return BBC_OK;
+}
+
+/* closed for one light: the meshes the light is inside of are dropped (set to 0). */
+static void light_outside(const bbc_scene *scene, const int *closed, bbc_vec3 light, int *out) {
+  for (uint32_t i = 0; i < scene->mesh_count; i++)
+    out[i] = closed[i] && !point_inside(scene, &scene->meshes[i], light) ? closed[i] : 0;
 }
 
 /* Signed distances of x from triangle t's plane along its outward winding normal. */
@@ -376,6 +380,7 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
   uint32_t *found2 = malloc(3 * ((size_t)scene->triangle_count + 1) * sizeof *found2);
   uint32_t *stack = malloc(2 * ((size_t)scene->triangle_count + 1) * sizeof *stack);
   tuple_list list = {NULL, 0, 0};
+  int *meshes_closed = NULL, *closed = NULL; /* closed_dielectrics, and per light */
   bbc_result result = bvh_init(&receivers, scene, BBC_ROLE_RECEIVER);
   if (result == BBC_OK && (chains & doubles)) result = bvh_init(&casters, scene, BBC_ROLE_CASTER);
   if (result == BBC_OK && (!arena_memory || !found || !found2 || !stack))
@@ -384,10 +389,14 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
   bbc_arena arena;
   bbc_arena_init(&arena, arena_memory, arena_bytes);
 
+  if ((result = closed_dielectrics(scene, &meshes_closed)) != BBC_OK) goto done;
+  closed = calloc(scene->mesh_count ? scene->mesh_count : 1, sizeof *closed);
+  if (!closed) {
+    result = BBC_ERR_OUT_OF_MEMORY;
+    goto done;
+  }
   for (uint32_t l = 0; l < scene->point_light_count && result == BBC_OK; l++) {
-    int *closed = NULL;
-    if ((result = closed_dielectrics(scene, scene->point_lights[l].position, &closed)) != BBC_OK)
-      break;
+    light_outside(scene, meshes_closed, scene->point_lights[l].position, closed);
     for (uint32_t t = 0; t < scene->triangle_count && result == BBC_OK; t++) {
       int first = scattering_of(scene, t);
       if (first < 0) continue;
@@ -450,9 +459,10 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
         }
       }
     }
-    free(closed);
   }
 done:
+  free(meshes_closed);
+  free(closed);
   bvh_free(&receivers);
   bvh_free(&casters);
   free(arena_memory);
