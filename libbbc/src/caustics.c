@@ -23,6 +23,7 @@
  * stays a pure function of the seed, whatever thread rendered what, and the variable
  * number of draws of K does not shift the path's later random numbers. */
 #include "caustics_internal.h"
+#include "media_internal.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -104,6 +105,7 @@ static int solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
   if (v3_dot(v3_sub(p, x[length]), ng) >= 0) return 0;
   double factor[3] = {1, 1, 1};
   bbc_vec3 ngeo[2];
+  uint32_t medium = light->medium;
   for (int i = 0; i < length; i++) {
     const uint32_t tri = tuple->specular[i];
     const bbc_material *m = bbc_scene_triangle_material(scene, tri);
@@ -123,6 +125,9 @@ static int solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
       bbc_vec3 n = i == 0 ? s->path.n1 : s->path.n2;
       double dn = v3_dot(v3_normalize(v3_sub(x[i + 1], x[i])), n);
       if ((dn < 0) != source_in_front) return 0;
+      /* The medium rule (media_internal.h), for the point the light comes from. */
+      if (!bbc__media_refract(scene, medium, tri, bbc__media_side(scene, tri, x[i]), &medium))
+        return 0;
       double eta = dn < 0 ? 1.0 / m->ior : m->ior;
       double f = c->no_fresnel ? 0.0 : fresnel(fabs(dn), eta);
       for (int k = 0; k < 3; k++) factor[k] *= 1.0 - f;

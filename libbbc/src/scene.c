@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "gltf_shim_internal.h"
+#include "media_internal.h"
 
 #define PI 3.14159265358979323846
 
@@ -542,6 +543,7 @@ static bbc_result build(bbc_scene **out, const loader *ld, const bbc__gltf_data 
   bbc_result r = load_geometry(ld, g, s);
   if (r == BBC_OK) r = load_lights(ld, g, s);
   if (r == BBC_OK) r = load_camera(ld, g, s);
+  if (r == BBC_OK) r = bbc__scene_media(s);
   if (r != BBC_OK) {
     bbc_scene_free(s);
     return r;

@@ -12,6 +12,7 @@
 #include "bbc/interval.h"
 #include "bbc/precompute.h"
 #include "chain_internal.h"
+#include "media_internal.h"
 #include "vec_internal.h"
 
 typedef struct bvh_node {
@@ -237,133 +238,21 @@ static int second_beam(const bbc_tuple_geometry *g, const bbc_ivec3 *d1, bbc_ive
   return 1;
 }
 
-/* ---- closed dielectrics ------------------------------------------------------------
- * Light from a point outside a closed (watertight) dielectric mesh can only meet one of
- * its triangles from the outside, and after refracting into it can only meet another of
- * its triangles from the inside: any other path crosses the surface on the way, so the
- * renderer's visibility test rejects it. Tuples that hold only such paths are dropped.
- * Outside is decided by the winding (the sign of the enclosed volume), not by the vertex
- * normals. */
-
-typedef struct edge {
-  float a[3], b[3]; /* endpoints, ordered */
-} edge;
-
-static int compare_edge(const void *x, const void *y) {
-  return memcmp(x, y, sizeof(edge));
-}
-
-/* 1 when every edge of the mesh (by vertex positions) is shared by exactly two of its
- * triangles. */
-static int mesh_closed(const bbc_scene *scene, const bbc_mesh *m) {
-  size_t n = 3 * (size_t)m->triangle_count;
-  if (m->triangle_count < 4) return 0;
-  edge *e = malloc(n * sizeof *e);
-  if (!e) return 0;
-  for (uint32_t t = 0; t < m->triangle_count; t++) {
-    const uint32_t *idx = scene->indices + 3 * ((size_t)m->first_triangle + t);
-    for (int k = 0; k < 3; k++) {
-      const float *p = scene->positions + 3 * (size_t)idx[k];
-      const float *q = scene->positions + 3 * (size_t)idx[(k + 1) % 3];
-      edge *x = &e[3 * (size_t)t + k];
-      memset(x, 0, sizeof *x);
-      int swap = memcmp(p, q, 3 * sizeof(float)) > 0;
-      memcpy(x->a, swap ? q : p, 3 * sizeof(float));
-      memcpy(x->b, swap ? p : q, 3 * sizeof(float));
-    }
-  }
-  qsort(e, n, sizeof *e, compare_edge);
-  int closed = 1;
-  for (size_t i = 0; i < n && closed;) {
-    size_t j = i;
-    while (j < n && compare_edge(&e[i], &e[j]) == 0) j++;
-    if (j - i != 2) closed = 0;
-    i = j;
-  }
-  free(e);
-  return closed;
-}
-
-/* +1 when the winding's normals point out of the closed mesh, -1 when in. */
-static int winding_outward(const bbc_scene *scene, const bbc_mesh *m) {
-  double volume = 0;
-  for (uint32_t t = 0; t < m->triangle_count; t++) {
-    const uint32_t *idx = scene->indices + 3 * ((size_t)m->first_triangle + t);
-    bbc_vec3 p[3];
-    for (int k = 0; k < 3; k++) p[k] = v3_load(scene->positions + 3 * (size_t)idx[k]);
-    volume += v3_dot(p[0], v3_cross(p[1], p[2]));
-  }
-  return volume >= 0 ? 1 : -1;
-}
-
-/* Whether x lies inside the closed mesh: the parity of the crossings of a ray. */
-static int point_inside(const bbc_scene *scene, const bbc_mesh *m, bbc_vec3 x) {
-  const bbc_vec3 d = v3_normalize(v3(0.5773, 0.5779, 0.5768));
-  int crossings = 0;
-  for (uint32_t t = 0; t < m->triangle_count; t++) {
-    const uint32_t *idx = scene->indices + 3 * ((size_t)m->first_triangle + t);
-    bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)idx[0]);
-    bbc_vec3 e1 = v3_sub(v3_load(scene->positions + 3 * (size_t)idx[1]), p0);
-    bbc_vec3 e2 = v3_sub(v3_load(scene->positions + 3 * (size_t)idx[2]), p0);
-    bbc_vec3 pv = v3_cross(d, e2);
-    double det = v3_dot(e1, pv);
-    if (det == 0) continue;
-    bbc_vec3 w = v3_sub(x, p0);
-    double u = v3_dot(w, pv) / det;
-    bbc_vec3 qv = v3_cross(w, e1);
-    double v = v3_dot(d, qv) / det, h = v3_dot(e2, qv) / det;
-    if (u >= 0 && v >= 0 && u + v <= 1 && h > 0) crossings++;
-  }
-  return crossings & 1;
-}
-
-/* Per mesh: 0 unless it is a closed dielectric caster, else the sign that turns its
- * triangles' winding normals outward. */
-static bbc_result closed_dielectrics(const bbc_scene *scene, int **out) {
-  int *sign = calloc(scene->mesh_count ? scene->mesh_count : 1, sizeof *sign);
-  if (!sign) return BBC_ERR_OUT_OF_MEMORY;
-  for (uint32_t i = 0; i < scene->mesh_count; i++) {
-    const bbc_mesh *m = &scene->meshes[i];
-    if (m->role == BBC_ROLE_CASTER &&
-        scene->materials[m->material].type == BBC_MATERIAL_DIELECTRIC && mesh_closed(scene, m))
-      sign[i] = winding_outward(scene, m);
-  }
-  *out = sign;
-  return BBC_OK;
-}
-
-/* closed for one light: the meshes the light is inside of are dropped (set to 0). */
-static void light_outside(const bbc_scene *scene, const int *closed, bbc_vec3 light, int *out) {
-  for (uint32_t i = 0; i < scene->mesh_count; i++)
-    out[i] = closed[i] && !point_inside(scene, &scene->meshes[i], light) ? closed[i] : 0;
-}
-
-/* Signed distances of x from triangle t's plane along its outward winding normal. */
-static double outward_side(const bbc_scene *scene, uint32_t t, int sign, bbc_vec3 x) {
-  const uint32_t *idx = scene->indices + 3 * (size_t)t;
-  bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)idx[0]);
-  bbc_vec3 n = v3_cross(v3_sub(v3_load(scene->positions + 3 * (size_t)idx[1]), p0),
-                        v3_sub(v3_load(scene->positions + 3 * (size_t)idx[2]), p0));
-  return sign * v3_dot(n, v3_sub(x, p0));
-}
-
-/* T1 of a closed dielectric must face the light (see above). */
-static int light_enters(const bbc_scene *scene, const int *closed, uint32_t t1, bbc_vec3 light) {
-  int sign = closed[scene->triangle_mesh[t1]];
-  return !sign || outward_side(scene, t1, sign, light) > 0;
-}
-
-/* After entering a closed dielectric at T1, the ray meets T2 of the same mesh from the
- * inside: some vertex of T1 must lie on T2's inner side. */
-static int reaches_from_inside(const bbc_scene *scene, const int *closed, uint32_t t1,
-                               uint32_t t2) {
-  uint32_t m = scene->triangle_mesh[t1];
-  if (!closed[m] || scene->triangle_mesh[t2] != m) return 1;
+/* The medium rule (media_internal.h) for T2, over every x1 of T1: 1 when light in
+ * `medium` may refract at dielectric T2 coming from some point of T1 (a vertex of T1
+ * in T2's plane allows either side). */
+static int second_refraction_possible(const bbc_scene *scene, uint32_t medium, uint32_t t1,
+                                      uint32_t t2) {
   const uint32_t *idx = scene->indices + 3 * (size_t)t1;
-  for (int k = 0; k < 3; k++)
-    if (outward_side(scene, t2, closed[m], v3_load(scene->positions + 3 * (size_t)idx[k])) < 0)
-      return 1;
-  return 0;
+  int front = 0, behind = 0;
+  for (int k = 0; k < 3; k++) {
+    int side = bbc__media_side(scene, t2, v3_load(scene->positions + 3 * (size_t)idx[k]));
+    front |= side >= 0;
+    behind |= side <= 0;
+  }
+  uint32_t after;
+  return (front && bbc__media_refract(scene, medium, t2, 1, &after)) ||
+         (behind && bbc__media_refract(scene, medium, t2, -1, &after));
 }
 
 bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
@@ -380,7 +269,6 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
   uint32_t *found2 = malloc(3 * ((size_t)scene->triangle_count + 1) * sizeof *found2);
   uint32_t *stack = malloc(2 * ((size_t)scene->triangle_count + 1) * sizeof *stack);
   tuple_list list = {NULL, 0, 0};
-  int *meshes_closed = NULL, *closed = NULL; /* closed_dielectrics, and per light */
   bbc_result result = bvh_init(&receivers, scene, BBC_ROLE_RECEIVER);
   if (result == BBC_OK && (chains & doubles)) result = bvh_init(&casters, scene, BBC_ROLE_CASTER);
   if (result == BBC_OK && (!arena_memory || !found || !found2 || !stack))
@@ -389,18 +277,16 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
   bbc_arena arena;
   bbc_arena_init(&arena, arena_memory, arena_bytes);
 
-  if ((result = closed_dielectrics(scene, &meshes_closed)) != BBC_OK) goto done;
-  closed = calloc(scene->mesh_count ? scene->mesh_count : 1, sizeof *closed);
-  if (!closed) {
-    result = BBC_ERR_OUT_OF_MEMORY;
-    goto done;
-  }
   for (uint32_t l = 0; l < scene->point_light_count && result == BBC_OK; l++) {
-    light_outside(scene, meshes_closed, scene->point_lights[l].position, closed);
+    const bbc_point_light *light = &scene->point_lights[l];
     for (uint32_t t = 0; t < scene->triangle_count && result == BBC_OK; t++) {
       int first = scattering_of(scene, t);
       if (first < 0) continue;
-      if (first == 1 && !light_enters(scene, closed, t, scene->point_lights[l].position)) continue;
+      /* The medium beyond T1 (media_internal.h). */
+      uint32_t medium = light->medium;
+      if (first == 1 && !bbc__media_refract(scene, light->medium, t,
+                                            bbc__media_side(scene, t, light->position), &medium))
+        continue;
       const bbc_chain single = first ? BBC_CHAIN_T : BBC_CHAIN_R;
       const uint32_t after[2] = {1u << (first ? BBC_CHAIN_TR : BBC_CHAIN_RR),
                                  1u << (first ? BBC_CHAIN_TT : BBC_CHAIN_RT)};
@@ -443,7 +329,7 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
         const uint32_t t2 = found2[j];
         int second = scattering_of(scene, t2);
         if (t2 == t || second < 0 || !(chains & after[second])) continue;
-        if (first == 1 && !reaches_from_inside(scene, closed, t, t2)) continue;
+        if (second == 1 && !second_refraction_possible(scene, medium, t, t2)) continue;
         bbc_tuple pair = tuple;
         pair.chain = (uint32_t)(first ? (second ? BBC_CHAIN_TT : BBC_CHAIN_TR)
                                       : (second ? BBC_CHAIN_RT : BBC_CHAIN_RR));
@@ -461,8 +347,6 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
     }
   }
 done:
-  free(meshes_closed);
-  free(closed);
   bvh_free(&receivers);
   bvh_free(&casters);
   free(arena_memory);

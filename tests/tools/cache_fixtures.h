@@ -29,14 +29,14 @@ static float fx_uvs[] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 1, 0, 1};
 static uint32_t fx_indices[] = {0, 1, 2, 3, 5, 4, 3, 6, 5};
 static uint32_t fx_triangle_mesh[] = {0, 1, 1};
 static bbc_mesh fx_meshes[] = {
-    {"mirror", 0, 3, 0, 1, 0, BBC_ROLE_CASTER, 1, 0},
-    {"floor", 3, 4, 1, 2, 1, BBC_ROLE_RECEIVER, 1, 1},
+    {"mirror", 0, 3, 0, 1, 0, BBC_ROLE_CASTER, 1, 0, 0, 1},
+    {"floor", 3, 4, 1, 2, 1, BBC_ROLE_RECEIVER, 1, 1, 0, 1},
 };
 static bbc_material fx_materials[] = {
     {"mirror", BBC_MATERIAL_MIRROR, {1, 1, 1}, 1.5f, {0, 0, 0}},
     {"floor", BBC_MATERIAL_DIFFUSE, {0.8f, 0.8f, 0.8f}, 1.5f, {0, 0, 0}},
 };
-static bbc_point_light fx_lights[] = {{{0.5, 2, 0.5}, {10, 10, 10}}};
+static bbc_point_light fx_lights[] = {{{0.5, 2, 0.5}, {10, 10, 10}, 0}};
 
 static bbc_scene fx_tiny_scene(void) {
   bbc_scene s;

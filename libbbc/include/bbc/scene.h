@@ -43,12 +43,18 @@ typedef struct bbc_mesh {
   bbc_role role;
   int has_normals; /* vertex normals from the file; otherwise the flat normal is stored */
   int has_uvs;     /* TEXCOORD_0 from the file; otherwise uvs are zero */
+  /* Dielectrics only (else 0 and 1): closed is 1 when every edge is shared by exactly
+   * two of its triangles (a watertight volume); outward is +1 when the winding normals
+   * of a closed mesh point out of it, -1 when in. An open mesh's outside is where its
+   * vertex normals point. */
+  int closed, outward;
 } bbc_mesh;
 
 /* A point light: radiant intensity (W/sr) per RGB channel, glTF intensity x color. */
 typedef struct bbc_point_light {
   bbc_vec3 position;
   float intensity[3];
+  uint32_t medium; /* 0: in air; m + 1: inside the closed dielectric mesh m */
 } bbc_point_light;
 
 /* A pinhole camera looking along -w with up v and right u (orthonormal, world space). */

@@ -1,0 +1,35 @@
+/* Media: which side of a dielectric surface is glass, and which media light may pass
+ * through on its way along a specular chain.
+ *
+ * A dielectric mesh is a volume (glTF KHR_materials_volume): its inside lies behind its
+ * surface and its outside, air, in front. Front is where the winding normals of a
+ * closed (watertight) mesh point once oriented out of the enclosed volume, and where
+ * the vertex normals of an open mesh point. A point light is in air unless it lies
+ * inside a closed dielectric mesh (bbc_point_light.medium).
+ *
+ * The medium rule: light in air refracts only where it meets a dielectric from the
+ * front (and is then inside that mesh); light inside a mesh refracts only where it
+ * meets a triangle of that same mesh from behind (and is then in air). Reflections keep
+ * the medium. For closed meshes the rule only restates visibility (any other path
+ * crosses the surface first); for open meshes it is the volume convention. The tuple
+ * finder applies it to whole triangles, the renderer to each path, so a path the
+ * renderer counts always belongs to a candidate tuple. */
+#ifndef BBC_MEDIA_INTERNAL_H
+#define BBC_MEDIA_INTERNAL_H
+
+#include "bbc/scene.h"
+
+/* Fills every mesh's closed/outward and every point light's medium. */
+bbc_result bbc__scene_media(bbc_scene *scene);
+
+/* The side of dielectric triangle t's plane point q lies on: +1 front (outside), -1
+ * behind (inside), 0 in the plane. */
+int bbc__media_side(const bbc_scene *scene, uint32_t t, bbc_vec3 q);
+
+/* The medium rule at dielectric triangle t, met from `side` (+1 front, -1 behind) by
+ * light in `medium` (0 air, m + 1 inside mesh m): returns 1 and the medium beyond in
+ * *after when the light may refract there, else 0. */
+int bbc__media_refract(const bbc_scene *scene, uint32_t medium, uint32_t t, int side,
+                       uint32_t *after);
+
+#endif

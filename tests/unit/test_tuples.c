@@ -1,0 +1,262 @@
+/* Tuple construction against light tracing: every path that leaves a point light, meets
+ * one or two specular triangles and then a receiver, and that the renderer counts
+ * (nearest hits only, so every segment is unoccluded; refraction by Snell's law with
+ * the shading normal; the medium rule of media_internal.h), must belong to a candidate
+ * tuple of bbc_tuples_find. A missing tuple would be a caustic the cache cannot
+ * render at all.
+ *
+ * The tracer here is written from the physics, not from the library's tuple code: rays
+ * aimed at random points of random casters, Embree for the nearest hit, and the media
+ * tracked as the renderer defines them: a dielectric's outside is the side its vertex
+ * normals point to (all the scenes here have consistent normals), light starts in air
+ * (or inside the closed mesh that holds it, checked separately below), enters glass
+ * only through a front face and leaves only through a back face of the same mesh. Paths at a grazing hit where the shading normal and the geometric side
+ * disagree are left out, as the renderer skips them. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bbc/accel.h"
+#include "bbc/bbc.h"
+#include "bbc/precompute.h"
+#include "harness.h"
+#include "media_internal.h"
+#include "rng_internal.h"
+#include "vec_internal.h"
+
+static int compare_tuple(const void *a, const void *b) {
+  return memcmp(a, b, sizeof(bbc_tuple));
+}
+
+static bbc_vec3 vertex(const bbc_scene *s, uint32_t t, int k) {
+  return v3_load(s->positions + 3 * (size_t)s->indices[3 * (size_t)t + k]);
+}
+
+/* The geometric normal of t turned to the side its vertex normals point to, and the
+ * interpolated shading normal at barycentrics (u, v) of vertices 1 and 2. */
+static void normals_at(const bbc_scene *s, uint32_t t, double u, double v, bbc_vec3 *ng,
+                       bbc_vec3 *ns) {
+  bbc_vec3 n[3];
+  for (int k = 0; k < 3; k++) n[k] = v3_load(s->normals + 3 * (size_t)s->indices[3 * (size_t)t + k]);
+  *ns = v3_normalize(v3_add(v3_scale(n[0], 1 - u - v), v3_add(v3_scale(n[1], u), v3_scale(n[2], v))));
+  bbc_vec3 g = v3_normalize(v3_cross(v3_sub(vertex(s, t, 1), vertex(s, t, 0)),
+                                     v3_sub(vertex(s, t, 2), vertex(s, t, 0))));
+  *ng = v3_dot(g, v3_add(n[0], v3_add(n[1], n[2]))) >= 0 ? g : v3_neg(g);
+}
+
+typedef struct trace_totals {
+  long paths[BBC_CHAIN_COUNT]; /* counted paths per chain type */
+  long missing;                /* of them, not in a candidate tuple */
+  long wrong_medium;           /* stopped by the medium rule (for the record) */
+} trace_totals;
+
+/* Traces one light path aimed at point `aim`; adds it to the totals. */
+static void trace_one(const bbc_scene *s, const bbc_accel *accel, uint32_t light, bbc_vec3 aim,
+                      const bbc_tuple *sorted, size_t count, trace_totals *out) {
+  bbc_vec3 o = s->point_lights[light].position, d = v3_normalize(v3_sub(aim, o));
+  uint32_t medium = s->point_lights[light].medium; /* 0 air, else 1 + the mesh */
+  uint32_t specular[2] = {BBC_NO_TRIANGLE, BBC_NO_TRIANGLE};
+  int letters[2] = {0, 0}, length = 0;
+  for (;;) {
+    bbc_hit h;
+    if (!bbc_accel_intersect(accel, o, d, 0.0, INFINITY, &h)) return;
+    const bbc_mesh *mesh = &s->meshes[s->triangle_mesh[h.triangle]];
+    const bbc_material *m = &s->materials[mesh->material];
+    bbc_vec3 x = v3_add(o, v3_scale(d, h.t));
+    if (mesh->role == BBC_ROLE_RECEIVER) {
+      if (length == 0) return;
+      static const int two[2][2] = {{BBC_CHAIN_RR, BBC_CHAIN_RT}, {BBC_CHAIN_TR, BBC_CHAIN_TT}};
+      int type = length == 1 ? (letters[0] ? BBC_CHAIN_T : BBC_CHAIN_R) : two[letters[0]][letters[1]];
+      bbc_tuple key = {light, (uint32_t)type, {specular[0], specular[1]}, h.triangle};
+      out->paths[key.chain]++;
+      if (!bsearch(&key, sorted, count, sizeof key, compare_tuple)) out->missing++;
+      return;
+    }
+    if (mesh->role != BBC_ROLE_CASTER || length == 2) return;
+    if (m->type != BBC_MATERIAL_MIRROR && m->type != BBC_MATERIAL_DIELECTRIC) return;
+    bbc_vec3 ng, n;
+    normals_at(s, h.triangle, h.u, h.v, &ng, &n);
+    double cg = v3_dot(d, ng), c = v3_dot(d, n);
+    if (cg == 0 || (cg < 0) != (c < 0)) return; /* grazing: shading and geometry disagree */
+    if (c > 0) {
+      n = v3_neg(n);
+      c = -c;
+    }
+    if (m->type == BBC_MATERIAL_MIRROR) {
+      d = v3_sub(d, v3_scale(n, 2 * c));
+      letters[length] = 0;
+    } else {
+      const uint32_t here = s->triangle_mesh[h.triangle] + 1;
+      const int from_front = cg < 0;
+      if (medium == 0 && from_front)
+        medium = here;
+      else if (medium == here && !from_front)
+        medium = 0;
+      else {
+        out->wrong_medium++;
+        return;
+      }
+      double eta = from_front ? 1.0 / m->ior : m->ior;
+      double k = 1 - eta * eta * (1 - c * c);
+      if (k < 0) return; /* total internal reflection: not a refraction chain */
+      d = v3_normalize(v3_sub(v3_scale(d, eta), v3_scale(n, eta * c + sqrt(k))));
+      letters[length] = 1;
+    }
+    specular[length++] = h.triangle;
+    o = v3_offset_origin(x, ng, d); /* off the surface, as the renderer's rays */
+  }
+}
+
+/* Traces `rays` light paths aimed at uniform points of area-weighted casters (any aim
+ * works: the claim is about every path) and checks each against the candidates. */
+static void check_loaded(bbc_scene *s, uint32_t chains, long rays, const long *min_paths) {
+  const char *path = s->path;
+  bbc_accel *accel = NULL;
+  REQUIRE(bbc_accel_create(&accel, s, NULL, NULL) == BBC_OK);
+  bbc_tuple *tuples = NULL;
+  size_t count = 0;
+  REQUIRE(bbc_tuples_find(s, chains, &tuples, &count) == BBC_OK);
+  qsort(tuples, count, sizeof *tuples, compare_tuple);
+  /* Cumulative areas of the casters. */
+  double *cdf = malloc(s->triangle_count * sizeof *cdf), total = 0;
+  REQUIRE(cdf);
+  for (uint32_t t = 0; t < s->triangle_count; t++) {
+    if (s->meshes[s->triangle_mesh[t]].role == BBC_ROLE_CASTER)
+      total += v3_length(v3_cross(v3_sub(vertex(s, t, 1), vertex(s, t, 0)),
+                                  v3_sub(vertex(s, t, 2), vertex(s, t, 0))));
+    cdf[t] = total;
+  }
+  trace_totals totals;
+  memset(&totals, 0, sizeof totals);
+  bbc_rng rng = bbc_rng_make(0x70ce, 0, 0);
+  for (long i = 0; i < rays; i++) {
+    double pick = bbc_rng_next(&rng) * total;
+    uint32_t lo = 0, hi = s->triangle_count - 1;
+    while (lo < hi) {
+      uint32_t mid = (lo + hi) / 2;
+      if (cdf[mid] > pick) hi = mid;
+      else lo = mid + 1;
+    }
+    double a = bbc_rng_next(&rng), b = bbc_rng_next(&rng);
+    if (a + b > 1) {
+      a = 1 - a;
+      b = 1 - b;
+    }
+    bbc_vec3 aim = v3_add(vertex(s, lo, 0), v3_add(v3_scale(v3_sub(vertex(s, lo, 1), vertex(s, lo, 0)), a),
+                                                v3_scale(v3_sub(vertex(s, lo, 2), vertex(s, lo, 0)), b)));
+    trace_one(s, accel, (uint32_t)(i % s->point_light_count), aim, tuples, count, &totals);
+  }
+  fprintf(stderr, "%s: %zu candidates, %ld rays:", path, count, rays);
+  for (int c = 0; c < BBC_CHAIN_COUNT; c++)
+    if (totals.paths[c]) fprintf(stderr, " %s %ld", bbc_chain_name((bbc_chain)c), totals.paths[c]);
+  fprintf(stderr, "; stopped by the medium rule %ld; missing %ld\n", totals.wrong_medium,
+          totals.missing);
+  for (int c = 0; c < BBC_CHAIN_COUNT; c++)
+    if (chains & (1u << c)) CHECK(totals.paths[c] >= min_paths[c]);
+  CHECK_INT(totals.missing, 0);
+  free(cdf);
+  free(tuples);
+  bbc_accel_free(accel);
+}
+
+static void check_scene(const char *path, uint32_t chains, long rays, const long *min_paths) {
+  bbc_scene *s = NULL;
+  if (bbc_scene_load(&s, path, NULL) != BBC_OK) {
+    harness_fail(__FILE__, __LINE__, "cannot load %s", path);
+    return;
+  }
+  check_loaded(s, chains, rays, min_paths);
+  bbc_scene_free(s);
+}
+
+/* The centre of a mesh's vertices' box. */
+static bbc_vec3 mesh_centre(const bbc_scene *s, const bbc_mesh *m) {
+  bbc_vec3 lo = v3(INFINITY, INFINITY, INFINITY), hi = v3(-INFINITY, -INFINITY, -INFINITY);
+  for (uint32_t i = m->first_vertex; i < m->first_vertex + m->vertex_count; i++) {
+    bbc_vec3 p = v3_load(s->positions + 3 * (size_t)i);
+    lo = v3(fmin(lo.x, p.x), fmin(lo.y, p.y), fmin(lo.z, p.z));
+    hi = v3(fmax(hi.x, p.x), fmax(hi.y, p.y), fmax(hi.z, p.z));
+  }
+  return v3_scale(v3_add(lo, hi), 0.5);
+}
+
+/* The media the loader finds: the glass sphere is closed with its centre behind every
+ * triangle, the slab10k sheets are open with the light in front of the light-facing
+ * sheet; a light moved into the sphere is inside it, and then light leaves the sphere
+ * through the back of its triangles (and every such path has its tuple). */
+TEST(media) {
+  bbc_scene *s = NULL;
+  REQUIRE(bbc_scene_load(&s, TEST_SCENE("glass-sphere.gltf"), NULL) == BBC_OK);
+  uint32_t sphere = BBC_NO_TRIANGLE;
+  for (uint32_t i = 0; i < s->mesh_count; i++)
+    if (s->materials[s->meshes[i].material].type == BBC_MATERIAL_DIELECTRIC) sphere = i;
+  REQUIRE(sphere != BBC_NO_TRIANGLE);
+  const bbc_mesh *m = &s->meshes[sphere];
+  CHECK_INT(m->closed, 1);
+  CHECK_INT(s->point_lights[0].medium, 0);
+  bbc_vec3 centre = mesh_centre(s, m);
+  long behind = 0;
+  for (uint32_t t = m->first_triangle; t < m->first_triangle + m->triangle_count; t++)
+    behind += bbc__media_side(s, t, centre) < 0;
+  CHECK_INT(behind, m->triangle_count);
+  s->point_lights[0].position = centre;
+  REQUIRE(bbc__scene_media(s) == BBC_OK);
+  CHECK_INT(s->point_lights[0].medium, sphere + 1);
+  static const long min[BBC_CHAIN_COUNT] = {0, 10000, 0, 0, 0, 0};
+  check_loaded(s, BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000), min);
+  bbc_scene_free(s);
+
+  REQUIRE(bbc_scene_load(&s, SHARED_SCENE("slab10k.gltf"), NULL) == BBC_OK);
+  uint32_t slab = s->triangle_mesh[0];
+  CHECK_INT(s->meshes[slab].closed, 0);
+  CHECK_INT(s->point_lights[0].medium, 0);
+  /* The light (z = -2) is in front of the sheet facing it (winding normals toward -z)
+   * and behind the other. */
+  long front = 0, back = 0;
+  for (uint32_t t = 0; t < s->meshes[slab].triangle_count; t++) {
+    bbc_vec3 e = v3_cross(v3_sub(vertex(s, t, 1), vertex(s, t, 0)), v3_sub(vertex(s, t, 2), vertex(s, t, 0)));
+    int side = bbc__media_side(s, t, s->point_lights[0].position);
+    front += e.z < 0 && side > 0;
+    back += e.z > 0 && side < 0;
+  }
+  CHECK_INT(front + back, s->meshes[slab].triangle_count);
+  CHECK(front > 7000 && back > 1500);
+  bbc_scene_free(s);
+}
+
+/* Minimum counted paths per chain type (R, T, RR, RT, TR, TT), so a scene that stopped
+ * producing paths cannot pass silently. */
+TEST(two_mirrors_rr) {
+  static const long min[BBC_CHAIN_COUNT] = {1000, 0, 1000, 0, 0, 0};
+  check_scene(TEST_SCENE("two-mirrors.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
+              min);
+}
+TEST(wavy_mirror_r) {
+  static const long min[BBC_CHAIN_COUNT] = {10000, 0, 0, 0, 0, 0};
+  check_scene(TEST_SCENE("wavy-mirror.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
+              min);
+}
+TEST(pool_t) {
+  static const long min[BBC_CHAIN_COUNT] = {0, 10000, 0, 0, 0, 0};
+  check_scene(TEST_SCENE("pool.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000), min);
+}
+TEST(glass_sphere_closed) {
+  static const long min[BBC_CHAIN_COUNT] = {0, 0, 0, 0, 0, 10000};
+  check_scene(TEST_SCENE("glass-sphere.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
+              min);
+}
+TEST(ball80_closed) {
+  static const long min[BBC_CHAIN_COUNT] = {0, 0, 0, 0, 0, 10000};
+  check_scene(SHARED_SCENE("ball80.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
+              min);
+}
+TEST(slab10k_open) {
+  static const long min[BBC_CHAIN_COUNT] = {0, 0, 0, 0, 0, 10000};
+  check_scene(SHARED_SCENE("slab10k.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(200000, 2000000),
+              min);
+}
+TEST(diamond_closed_flat) {
+  static const long min[BBC_CHAIN_COUNT] = {0, 0, 0, 0, 0, 1000};
+  check_scene(SHARED_SCENE("diamond.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(200000, 2000000),
+              min);
+}
