@@ -548,7 +548,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
   bbc_bound_params prm;
   memset(&prm, 0, sizeof prm);
   if (params) prm = *params;
-  const int max_level = prm.max_level > 0 ? prm.max_level : 10;
+  const int max_level = prm.max_level > 0 ? prm.max_level : prm.max_level < 0 ? 0 : 10;
   const double sigma = prm.sigma > 0 ? prm.sigma : 1e-4;
   const double alpha = prm.alpha > 0 ? prm.alpha : g->length == 2 ? 10.0 : 2.0;
   const chain_sqrt_mode position_mode =

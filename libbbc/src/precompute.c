@@ -136,7 +136,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
 
   bbc_bound_params bound;
   memset(&bound, 0, sizeof bound);
-  bound.max_level = (int)params->max_level;
+  bound.max_level = params->max_level ? (int)params->max_level : -1; /* 0: the root only */
   bound.sigma = params->sigma;
   bound.alpha = params->alpha_single;
   bound.no_remainder = !params->remainder;

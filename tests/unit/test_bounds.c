@@ -349,3 +349,31 @@ TEST(flat_mirror_analytic) {
   bbc_bounder_free(b);
   bbc_scene_free(scene);
 }
+
+/* The level limit: negative means the root piece only (bbc-precompute --max-level 0),
+ * 0 the default of 10, else that level; kept and discarded leaves never go deeper. */
+TEST(max_level) {
+  bbc_bounder *b = NULL;
+  REQUIRE(bbc_bounder_create(&b) == BBC_OK);
+  static const int asked[4] = {-1, 1, 3, 0}, deepest[4] = {0, 1, 3, 10};
+  for (int k = 0; k < 4; k++) {
+    bbc_rng rng = bbc_rng_make(77, 0, 1);
+    bbc_tuple_geometry g;
+    random_tuple(&rng, 0, &g);
+    bbc_bound_params p;
+    memset(&p, 0, sizeof p);
+    p.max_level = asked[k];
+    p.sigma = 1e-12; /* never stop on area: the level limit decides */
+    p.alpha = 1.0;
+    leaves l = {NULL, 0, 0};
+    REQUIRE(bbc_bound_tuple(b, &g, &p, collect, &l, NULL) == BBC_OK);
+    int top = 0;
+    for (size_t i = 0; i < l.count; i++)
+      if (l.items[i].level > top) top = l.items[i].level;
+    CHECK(l.count > 0);
+    CHECK(top <= deepest[k]);
+    if (k < 3) CHECK_INT(top, deepest[k]);
+    free(l.items);
+  }
+  bbc_bounder_free(b);
+}

@@ -53,7 +53,8 @@ typedef enum bbc_jacobian_form {
 
 /* Parameters of the subdivision; a zero-initialised struct means the defaults. */
 typedef struct bbc_bound_params {
-  int max_level;    /* deepest subdivision level of the u1 box; 0 = 10 */
+  int max_level;    /* deepest subdivision level of the u1 box; 0 = 10, negative = 0
+                     * (the root piece only) */
   double sigma;     /* stop when the position bound's area is below this; 0 = 1e-4 */
   double alpha;     /* stop when E_hi / E_lo is below this; 0 = 2 for one specular
                        vertex, 10 for two (Sec. 6.1) */
