@@ -581,6 +581,7 @@ typedef enum kind {
   KIND_GLASS_SLAB,
   KIND_POOL,
   KIND_TWO_MIRRORS,
+  KIND_MIRROR_POOL,
   KIND_COUNT
 } kind;
 
@@ -598,6 +599,7 @@ static const kind_info KINDS[KIND_COUNT] = {
     {"glass-slab", 2000, "a closed glass box (ior 1.5) with a wavy top"},
     {"pool", 2000, "a wavy water surface (ior 1.33) over a pool floor"},
     {"two-mirrors", 8, "two flat mirror walls in a right-angled corner (double reflection)"},
+    {"mirror-pool", 2000, "the pool with a mirror above the water and one under it (RT, TR)"},
 };
 
 typedef struct options {
@@ -612,7 +614,7 @@ typedef struct options {
 
 typedef struct scene {
   const options *opts;
-  mesh meshes[3];
+  mesh meshes[4];
   int mesh_count;
   uint32_t caster_triangles;
   vec3 light;
@@ -697,7 +699,8 @@ static void build_scene(scene *s, const options *o) {
       s->eye = v3(3, 2.2, 3.5), s->target = v3(0, 0.25, 0);
       break;
     }
-    case KIND_POOL: {
+    case KIND_POOL:
+    case KIND_MIRROR_POOL: {
       mesh *water = scene_add_mesh(s, "water", MAT_WATER, ROLE_CASTER);
       uint32_t n = square_grid_side(size);
       mesh_add_grid(water, n, n, pool_surface, NULL);
@@ -706,6 +709,19 @@ static void build_scene(scene *s, const options *o) {
       /* The camera looks straight down through the water at the pool floor. */
       s->light = v3(0.5, 3, 1), s->intensity = 30;
       s->eye = v3(0, 6, 0), s->target = v3(0, -1.5, 0), s->up = v3(0, 0, -1);
+      if (o->kind == KIND_MIRROR_POOL) {
+        /* Mixed chains: mirror A stands above the water at x = -2, leaning back and
+         * facing +x, and sends the light down into the water (RT); mirror B lies under
+         * the water at x in [-1.5, -1], tilted to face +x and up, and turns the light
+         * that entered the water sideways onto the pool floor (TR). 4 x 4 grids each. */
+        mesh *mirrors = scene_add_mesh(s, "mirrors", MAT_MIRROR, ROLE_CASTER);
+        rect_params a = {v3(-2, 0.4, -1), v3(0, 0, 2), v3(0.3, 1.5, 0),
+                         v_normalize(v3(1.5, -0.3, 0))};
+        rect_params b = {v3(-1, -1.45, -1), v3(0, 0, 2), v3(-0.5, 0.8, 0),
+                         v_normalize(v3(0.8, 0.5, 0))};
+        mesh_add_grid(mirrors, 4, 4, rect_surface, &a);
+        mesh_add_grid(mirrors, 4, 4, rect_surface, &b);
+      }
       break;
     }
     case KIND_TWO_MIRRORS: {

@@ -46,3 +46,5 @@ scene pool --size 200 --glb -o "$out/pool.glb"
 scene wavy-mirror --size 5000 --width 640 --height 480 -o "$out/demo.gltf"
 # Analytic double reflection: two flat mirrors in a corner, the light's double image.
 scene two-mirrors --size 8 -o "$out/two-mirrors.gltf"
+# Mixed chains (RT, TR): the pool with a mirror above and one under the water.
+scene mirror-pool --size 800 -o "$out/mirror-pool.gltf"

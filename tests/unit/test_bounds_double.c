@@ -149,3 +149,21 @@ TEST(diamond_tt) {
   validate_scene(&c, "diamond TT", &acc);
   expect_valid(&acc, 300);
 }
+
+/* Mixed chains on the mirror pool: a flat mirror then the wavy water (interpolated
+ * normals) for RT, the water then a flat mirror under it for TR. */
+TEST(mirror_pool_rt) {
+  const scene_case c = {TEST_SCENE("mirror-pool.gltf"), 1u << BBC_CHAIN_RT, 4, 3, 20, 3000, 1, 20000};
+  bbc_validation acc;
+  validate_scene(&c, "mirror-pool RT", &acc);
+  expect_valid(&acc, 1000);
+  CHECK(acc.ratio_count > 0);
+}
+
+TEST(mirror_pool_tr) {
+  const scene_case c = {TEST_SCENE("mirror-pool.gltf"), 1u << BBC_CHAIN_TR, 4, 3, 20, 3000, 1, 20000};
+  bbc_validation acc;
+  validate_scene(&c, "mirror-pool TR", &acc);
+  expect_valid(&acc, 1000);
+  CHECK(acc.ratio_count > 0);
+}

@@ -260,3 +260,8 @@ TEST(diamond_closed_flat) {
   check_scene(SHARED_SCENE("diamond.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(200000, 2000000),
               min);
 }
+TEST(mirror_pool_rt_tr) {
+  static const long min[BBC_CHAIN_COUNT] = {0, 1000, 0, 1000, 1000, 0};
+  check_scene(TEST_SCENE("mirror-pool.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
+              min);
+}
