@@ -193,7 +193,7 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
   if (box[0] + box[2] > 1.0) return BBC_OK;
   bbc_result r = bbc__chain_forms_prefix(arena, space, g, box, s_axis, t_axis, mode, f);
   if (r != BBC_OK) return r;
-  int partial = 0, wide = 0, inside = 0;
+  int partial = 0, wide = 0, inside = 0, inside2 = 1;
 
   bbc_interval facing = bbc_poly_bound(&f->facing);
   if (facing.hi < 0) return BBC_OK;
@@ -207,7 +207,7 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
     /* The second vertex: ahead of x1 and inside T2, then (below) lit from the side its
      * normals face and, for refraction, not totally reflected. */
     if ((r = ray_lands(arena, &f->up2, &f->vp2, &f->kappa2, &f->tnum2, NULL, &partial, &wide,
-                       NULL)) != BBC_OK)
+                       &inside2)) != BBC_OK)
       return r;
     if (partial < 0) return BBC_OK;
   }
@@ -228,8 +228,8 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
     return r;
   if (partial < 0) return BBC_OK;
   piece->uk_lo = box_k[0], piece->uk_hi = box_k[1], piece->vk_lo = box_k[2], piece->vk_hi = box_k[3];
-  /* Every path of the piece lands inside the receiver: nothing to trim off. */
-  if (contained) *contained = inside;
+  /* Every path of the piece lands inside T2 and the receiver: nothing to trim off. */
+  if (contained) *contained = inside && inside2;
   *out = partial || wide ? VERDICT_PARTIAL : VERDICT_FULL;
   return BBC_OK;
 }
