@@ -48,12 +48,14 @@ json() { sed -n "s/.*\"$1\": \([-0-9.e+]*\).*/\1/p" "$2"; }
       "$(echo "$(json file_bytes "$work/$s.json")" | awk '{printf "%.1f", $1 / 1e6}')" "${ratio:-?}"
   done
   echo
-  echo "Double refraction (TT) through the balls at the paper's levels (Table 3 bottom); CPU s"
+  echo "Double refraction (TT) through the balls at the paper's levels (Table 3 bottom) and the slab at"
+  echo "its level (Table 2: tuples, memory); CPU s"
   echo "is the bounding threads' CPU time, the per-core figure. Paper: i9-13900KF, 32 threads."
   echo
   echo "| scene | level | candidates | tuples | T2 per T1 | pos. pieces/tuple | irr. pieces/tuple | time s | CPU s | peak MB | file MB | paper |"
   echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
-  for spec in ball80:4:15K,4.1s ball320:3:52K,7.1s ball1280:2:198K,17.5s ball5120:1:771K,47.1s; do
+  for spec in ball80:4:15K,4.1s ball320:3:52K,7.1s ball1280:2:198K,17.5s ball5120:1:771K,47.1s \
+    slab10k:1:127K,28.6MB; do
     s=${spec%%:*}; rest=${spec#*:}; level=${rest%%:*}; paper=${rest#*:}
     [ -f "$scenes/$s.gltf" ] || continue
     "$bin/bbc-precompute/bbc-precompute" "$scenes/$s.gltf" \

@@ -318,17 +318,25 @@ static void wall_surface(const void *params, uint32_t i, uint32_t ni, uint32_t j
   *n = v3(1.0, -dx_dy, -dx_dz);
 }
 
-/* A flat rectangle origin + s du + t dv, s and t in [0,1], with a constant normal: the
- * mirrors of the two-mirrors scene. */
+/* A rectangle origin + s du + t dv, s and t in [0,1] (du, dv and the unit normal
+ * orthogonal), raised along the normal by h = bump sin(2 pi s) sin(2 pi t): flat with
+ * bump 0 (the mirrors of the two-mirrors scene). The normal is the gradient of
+ * (p - origin) . normal - h. */
 typedef struct rect_params {
   vec3 origin, du, dv, normal;
+  double bump;
 } rect_params;
 
 static void rect_surface(const void *params, uint32_t i, uint32_t ni, uint32_t j, uint32_t nj,
                          vec3 *p, vec3 *n) {
   const rect_params *q = params;
-  *p = v_add(q->origin, v_add(v_scale(q->du, (double)i / ni), v_scale(q->dv, (double)j / nj)));
-  *n = q->normal;
+  double s = (double)i / ni, t = (double)j / nj, w = 2 * PI;
+  double h = q->bump * sin_cycles(1, i, ni) * sin_cycles(1, j, nj);
+  double h_s = q->bump * w * cos_cycles(1, i, ni) * sin_cycles(1, j, nj);
+  double h_t = q->bump * w * sin_cycles(1, i, ni) * cos_cycles(1, j, nj);
+  *p = v_add(q->origin, v_add(v_add(v_scale(q->du, s), v_scale(q->dv, t)), v_scale(q->normal, h)));
+  *n = v_sub(q->normal, v_add(v_scale(q->du, h_s / v_dot(q->du, q->du)),
+                              v_scale(q->dv, h_t / v_dot(q->dv, q->dv))));
 }
 
 /* The top of the glass slab: y = 0.8 + a sin(2 pi f (x + 1)) sin(2 pi f (z + 1)) over
@@ -582,6 +590,7 @@ typedef enum kind {
   KIND_POOL,
   KIND_TWO_MIRRORS,
   KIND_MIRROR_POOL,
+  KIND_WAVY_CORNER,
   KIND_COUNT
 } kind;
 
@@ -600,6 +609,7 @@ static const kind_info KINDS[KIND_COUNT] = {
     {"pool", 2000, "a wavy water surface (ior 1.33) over a pool floor"},
     {"two-mirrors", 8, "two flat mirror walls in a right-angled corner (double reflection)"},
     {"mirror-pool", 2000, "the pool with a mirror above the water and one under it (RT, TR)"},
+    {"wavy-corner", 200, "two-mirrors with bumpy walls (double reflection, curved)"},
 };
 
 typedef struct options {
@@ -716,15 +726,16 @@ static void build_scene(scene *s, const options *o) {
          * that entered the water sideways onto the pool floor (TR). 4 x 4 grids each. */
         mesh *mirrors = scene_add_mesh(s, "mirrors", MAT_MIRROR, ROLE_CASTER);
         rect_params a = {v3(-2, 0.4, -1), v3(0, 0, 2), v3(0.3, 1.5, 0),
-                         v_normalize(v3(1.5, -0.3, 0))};
+                         v_normalize(v3(1.5, -0.3, 0)), 0};
         rect_params b = {v3(-1, -1.45, -1), v3(0, 0, 2), v3(-0.5, 0.8, 0),
-                         v_normalize(v3(0.8, 0.5, 0))};
+                         v_normalize(v3(0.8, 0.5, 0)), 0};
         mesh_add_grid(mirrors, 4, 4, rect_surface, &a);
         mesh_add_grid(mirrors, 4, 4, rect_surface, &b);
       }
       break;
     }
-    case KIND_TWO_MIRRORS: {
+    case KIND_TWO_MIRRORS:
+    case KIND_WAVY_CORNER: {
       /* The analytic double-reflection test: mirror A in the plane x = 0 facing +x and
        * mirror B in the plane z = 0 facing +z, each 2 wide and 1.5 high, meet in a right
        * angle over the floor [0,4]^2. Light reflected by both (in either order) comes
@@ -735,8 +746,10 @@ static void build_scene(scene *s, const options *o) {
        * are one mesh. The camera looks straight down at the floor. */
       mesh *mirrors = scene_add_mesh(s, "mirrors", MAT_MIRROR, ROLE_CASTER);
       uint32_t n = square_grid_side(size / 2 ? size / 2 : 1);
-      rect_params a = {v3(0, 0, 0), v3(0, 0, 2), v3(0, 1.5, 0), v3(1, 0, 0)};
-      rect_params b = {v3(0, 0, 0), v3(2, 0, 0), v3(0, 1.5, 0), v3(0, 0, 1)};
+      /* wavy-corner: bumps of 0.04 (two cycles each way), vanishing on the edges. */
+      double bump = o->kind == KIND_WAVY_CORNER ? 0.04 : 0.0;
+      rect_params a = {v3(0, 0, 0), v3(0, 0, 2), v3(0, 1.5, 0), v3(1, 0, 0), bump};
+      rect_params b = {v3(0, 0, 0), v3(2, 0, 0), v3(0, 1.5, 0), v3(0, 0, 1), bump};
       mesh_add_grid(mirrors, n, n, rect_surface, &a);
       mesh_add_grid(mirrors, n, n, rect_surface, &b);
       mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);

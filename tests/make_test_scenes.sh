@@ -48,3 +48,5 @@ scene wavy-mirror --size 5000 --width 640 --height 480 -o "$out/demo.gltf"
 scene two-mirrors --size 8 -o "$out/two-mirrors.gltf"
 # Mixed chains (RT, TR): the pool with a mirror above and one under the water.
 scene mirror-pool --size 800 -o "$out/mirror-pool.gltf"
+# Curved double reflection (RR, interpolated normals): the corner with bumpy mirrors.
+scene wavy-corner --size 200 -o "$out/wavy-corner.gltf"

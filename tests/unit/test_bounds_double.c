@@ -104,6 +104,15 @@ TEST(two_mirrors_rr) {
   if (acc.ratio_count) CHECK(bbc_validation_log_ratio_quantile(&acc, 0.5) < 0.5);
 }
 
+/* The same corner with bumpy mirrors: double reflection with interpolated normals. */
+TEST(wavy_corner_rr) {
+  const scene_case c = {TEST_SCENE("wavy-corner.gltf"), RR, 5, 3, 30, 3000, 1, 20000};
+  bbc_validation acc;
+  validate_scene(&c, "wavy-corner RR", &acc);
+  expect_valid(&acc, 1000);
+  CHECK(acc.ratio_count > 0);
+}
+
 /* Glass ball with interpolated normals: double refraction (the paper's Ball). */
 TEST(glass_sphere_tt) {
   const scene_case c = {TEST_SCENE("glass-sphere.gltf"), TT, 4, 7, 25, 3000, 9, 20000};

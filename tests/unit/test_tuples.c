@@ -265,3 +265,8 @@ TEST(mirror_pool_rt_tr) {
   check_scene(TEST_SCENE("mirror-pool.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
               min);
 }
+TEST(wavy_corner_rr) {
+  static const long min[BBC_CHAIN_COUNT] = {1000, 0, 1000, 0, 0, 0};
+  check_scene(TEST_SCENE("wavy-corner.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
+              min);
+}
