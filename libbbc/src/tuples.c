@@ -239,16 +239,17 @@ static int second_beam(const bbc_tuple_geometry *g, const bbc_ivec3 *d1, bbc_ive
 }
 
 /* The medium rule (media_internal.h) for T2, over every x1 of T1: 1 when light in
- * `medium` may refract at dielectric T2 coming from some point of T1 (a vertex of T1
- * in T2's plane allows either side). */
+ * `medium` may refract at dielectric T2 coming from some point of T1. A side is
+ * possible when some vertex of T1 lies strictly on it (light from a point in T2's plane
+ * never meets T2 elsewhere). */
 static int second_refraction_possible(const bbc_scene *scene, uint32_t medium, uint32_t t1,
                                       uint32_t t2) {
   const uint32_t *idx = scene->indices + 3 * (size_t)t1;
   int front = 0, behind = 0;
   for (int k = 0; k < 3; k++) {
     int side = bbc__media_side(scene, t2, v3_load(scene->positions + 3 * (size_t)idx[k]));
-    front |= side >= 0;
-    behind |= side <= 0;
+    front |= side > 0;
+    behind |= side < 0;
   }
   uint32_t after;
   return (front && bbc__media_refract(scene, medium, t2, 1, &after)) ||

@@ -270,3 +270,8 @@ TEST(wavy_corner_rr) {
   check_scene(TEST_SCENE("wavy-corner.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
               min);
 }
+TEST(glass_slab_closed) {
+  static const long min[BBC_CHAIN_COUNT] = {0, 0, 0, 0, 0, 10000};
+  check_scene(TEST_SCENE("glass-slab.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
+              min);
+}
