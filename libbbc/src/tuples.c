@@ -15,6 +15,9 @@
 #include "media_internal.h"
 #include "vec_internal.h"
 
+/* T2 is searched with the beams of BEAM_SPLIT^2 / 2-odd boxes of T1's unit box. */
+#define BEAM_SPLIT 4
+
 typedef struct bvh_node {
   double lo[3], hi[3];
   uint32_t first, count; /* leaf: triangles order[first, first + count) */
@@ -267,12 +270,14 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
   const size_t arena_bytes = (size_t)4 << 20;
   void *arena_memory = malloc(arena_bytes);
   uint32_t *found = malloc((scene->triangle_count + 1) * sizeof *found);
-  uint32_t *found2 = malloc(3 * ((size_t)scene->triangle_count + 1) * sizeof *found2);
+  uint32_t *found2 = malloc(((size_t)scene->triangle_count + 1) * sizeof *found2);
+  uint32_t *seen = calloc((size_t)scene->triangle_count + 1, sizeof *seen);
   uint32_t *stack = malloc(2 * ((size_t)scene->triangle_count + 1) * sizeof *stack);
   tuple_list list = {NULL, 0, 0};
+  uint32_t stamp = 0; /* one per (light, T1) prefix, for `seen` */
   bbc_result result = bvh_init(&receivers, scene, BBC_ROLE_RECEIVER);
   if (result == BBC_OK && (chains & doubles)) result = bvh_init(&casters, scene, BBC_ROLE_CASTER);
-  if (result == BBC_OK && (!arena_memory || !found || !found2 || !stack))
+  if (result == BBC_OK && (!arena_memory || !found || !found2 || !seen || !stack))
     result = BBC_ERR_OUT_OF_MEMORY;
   if (result != BBC_OK || receivers.node_count == 0) goto done;
   bbc_arena arena;
@@ -311,21 +316,30 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
         }
       }
       if (!(chains & (after[0] | after[1])) || casters.node_count == 0) continue;
-      /* T2 from the beams of T1's three corner quadrants (tighter than T1's whole beam,
-       * whose box of u1 is twice the triangle), merged. */
+      /* T2 from the beams of the BEAM_SPLIT x BEAM_SPLIT boxes of T1's unit box that
+       * meet the triangle (far tighter than T1's whole beam, whose box of u1 is twice
+       * the triangle), merged: `seen` marks the T2 already found for this prefix. */
       uint32_t n2 = 0;
-      static const double quadrants[3][4] = {{0, 0.5, 0, 0.5}, {0.5, 1, 0, 0.5}, {0, 0.5, 0.5, 1}};
-      for (int q = 0; q < 3 && result == BBC_OK; q++) {
-        bbc_ivec3 xq, dq;
-        if ((result = beam_of(&arena, &g, quadrants[q], &xq, &dq)) != BBC_OK) break;
-        n2 += bvh_beam(&casters, scene, &xq, &dq, stack, found2 + n2);
+      if (++stamp == 0) { /* wrapped: start the marks afresh */
+        memset(seen, 0, ((size_t)scene->triangle_count + 1) * sizeof *seen);
+        stamp = 1;
+      }
+      for (int i = 0; i < BEAM_SPLIT && result == BBC_OK; i++) {
+        for (int j = 0; i + j < BEAM_SPLIT && result == BBC_OK; j++) {
+          const double box[4] = {(double)i / BEAM_SPLIT, (double)(i + 1) / BEAM_SPLIT,
+                                 (double)j / BEAM_SPLIT, (double)(j + 1) / BEAM_SPLIT};
+          bbc_ivec3 xq, dq;
+          if ((result = beam_of(&arena, &g, box, &xq, &dq)) != BBC_OK) break;
+          uint32_t n = bvh_beam(&casters, scene, &xq, &dq, stack, found);
+          for (uint32_t k = 0; k < n; k++)
+            if (seen[found[k]] != stamp) {
+              seen[found[k]] = stamp;
+              found2[n2++] = found[k];
+            }
+        }
       }
       if (result != BBC_OK) break;
       qsort(found2, n2, sizeof *found2, compare_u32);
-      uint32_t unique = 0;
-      for (uint32_t j = 0; j < n2; j++)
-        if (unique == 0 || found2[unique - 1] != found2[j]) found2[unique++] = found2[j];
-      n2 = unique;
       for (uint32_t j = 0; j < n2 && result == BBC_OK; j++) {
         const uint32_t t2 = found2[j];
         int second = scattering_of(scene, t2);
@@ -353,6 +367,7 @@ done:
   free(arena_memory);
   free(found);
   free(found2);
+  free(seen);
   free(stack);
   if (result != BBC_OK) {
     free(list.items);
