@@ -15,7 +15,8 @@
 #include "media_internal.h"
 #include "vec_internal.h"
 
-/* T2 is searched with the beams of BEAM_SPLIT^2 / 2-odd boxes of T1's unit box. */
+/* T2 is searched with the beams of the boxes of a BEAM_SPLIT x BEAM_SPLIT grid over T1's
+ * unit box that meet the triangle. */
 #define BEAM_SPLIT 4
 
 typedef struct bvh_node {
