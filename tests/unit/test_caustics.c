@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "bbc/bbc.h"
+#include "floor_footprint.h"
 #include "harness.h"
 #include "vec_internal.h"
 
@@ -64,6 +65,19 @@ static bbc_image *render(const fixture *f, bbc_method method, uint32_t spp, uint
   return image;
 }
 
+/* The floor's radiance from the mirrored point light: scale I cos(theta) / r^2. */
+typedef struct mirrored_light {
+  bbc_vec3 position;
+  double scale;
+} mirrored_light;
+
+static double mirrored_value(const void *user, bbc_vec3 p) {
+  const mirrored_light *m = user;
+  bbc_vec3 l = v3_sub(m->position, p);
+  double r2 = v3_dot(l, l);
+  return m->scale * (l.y / sqrt(r2)) / r2;
+}
+
 /* Flat mirror at x = 0, floor y = 0, point light: every floor point sees the mirror
  * image of the light, so the caustic radiance is albedo/pi I cos(theta)/r^2 from the
  * mirrored source (the whole floor of flat-mirror.gltf is lit that way). Each sample is
@@ -92,31 +106,15 @@ TEST(flat_mirror_caustic_is_the_mirrored_light) {
       z1 = fmax(z1, p[2]);
     }
   }
+  /* Clear of the floor's edges and the mirror's foot. */
+  const double box[4] = {x0 + 0.05, x1 - 0.05, z0 + 0.05, z1 - 0.05};
+  const mirrored_light ml = {image_light, albedo / PI * light->intensity[0]};
   int checked = 0, bad = 0;
   for (uint32_t y = 0; y < h; y++) {
     for (uint32_t x = 0; x < w; x++) {
-      double lo = 1e30, hi = -1e30;
-      int inside = 1;
-      for (int j = 0; j <= 6 && inside; j++) {
-        for (int i = 0; i <= 6 && inside; i++) {
-          bbc_vec3 o, d;
-          bbc_camera_ray(&f.scene->camera, w, h, x + i / 6.0, y + j / 6.0, &o, &d);
-          double t = -o.y / d.y;
-          bbc_vec3 p = v3_madd(o, d, t);
-          /* Stay clear of the floor's edges and the mirror's foot. */
-          if (!(d.y < 0 && p.x > x0 + 0.05 && p.x < x1 - 0.05 && p.z > z0 + 0.05 &&
-                p.z < z1 - 0.05) ||
-              bbc_accel_occluded(f.accel, o, d, 0, t * (1 - 1e-6))) {
-            inside = 0;
-            break;
-          }
-          bbc_vec3 l = v3_sub(image_light, p);
-          double r2 = v3_dot(l, l);
-          double value = albedo / PI * light->intensity[0] * (l.y / sqrt(r2)) / r2;
-          lo = fmin(lo, value);
-          hi = fmax(hi, value);
-        }
-      }
+      double lo, hi;
+      int inside =
+          floor_footprint_range(f.scene, f.accel, w, h, x, y, box, mirrored_value, &ml, &lo, &hi);
       if (!inside) continue;
       checked++;
       double got = image->rgb[3 * ((size_t)y * w + x)];

@@ -15,6 +15,7 @@
 
 #include "bbc/bbc.h"
 #include "caustics_internal.h"
+#include "floor_footprint.h"
 #include "harness.h"
 #include "vec_internal.h"
 
@@ -299,6 +300,19 @@ static double corner_irradiance(bbc_vec3 light, double intensity, bbc_vec3 p) {
   return intensity * (l.y / sqrt(r2)) / r2;
 }
 
+/* The floor's radiance in the corner: albedo / pi times the double image's irradiance
+ * (negative where corner_irradiance says so). */
+typedef struct corner_light {
+  bbc_vec3 position;
+  double intensity, albedo_over_pi;
+} corner_light;
+
+static double corner_value(const void *user, bbc_vec3 p) {
+  const corner_light *c = user;
+  double e = corner_irradiance(c->position, c->intensity, p);
+  return e < 0 ? e : c->albedo_over_pi * e;
+}
+
 /* Both Newton variants find the unique solution of a flat-mirror pair: the caustic-only
  * render is the analytic double image per pixel, in every order of the corner, and zero
  * where no double reflection reaches; with the precompute's RR bounds too (they must
@@ -317,6 +331,8 @@ TEST(rr_corner_is_the_double_image) {
   for (uint32_t m = 0; m < f.scene->mesh_count; m++)
     if (f.scene->meshes[m].role == BBC_ROLE_RECEIVER)
       albedo = f.scene->materials[f.scene->meshes[m].material].base_color[0];
+  const corner_light corner = {light->position, light->intensity[0], albedo / PI};
+  static const double box[4] = {0.05, 3.95, 0.05, 3.95};
   static const char *const names[3] = {"newton-det", "newton-stoch",
                                        "newton-stoch, precomputed cache"};
   for (int variant = 0; variant < 3; variant++) {
@@ -328,22 +344,9 @@ TEST(rr_corner_is_the_double_image) {
     int lit = 0, dark = 0, bad = 0;
     for (uint32_t y = 0; y < h; y++) {
       for (uint32_t x = 0; x < w; x++) {
-        double lo = 1e30, hi = -1e30;
-        int usable = 1;
-        for (int j = 0; j <= 6 && usable; j++) {
-          for (int i = 0; i <= 6 && usable; i++) {
-            bbc_vec3 o, d;
-            bbc_camera_ray(&f.scene->camera, w, h, x + i / 6.0, y + j / 6.0, &o, &d);
-            double t = -o.y / d.y;
-            bbc_vec3 p = v3_madd(o, d, t);
-            double e = corner_irradiance(light->position, light->intensity[0], p);
-            if (!(d.y < 0 && p.x > 0.05 && p.x < 3.95 && p.z > 0.05 && p.z < 3.95) || e < 0 ||
-                bbc_accel_occluded(f.accel, o, d, 0, t * (1 - 1e-6)))
-              usable = 0;
-            lo = fmin(lo, albedo / PI * e);
-            hi = fmax(hi, albedo / PI * e);
-          }
-        }
+        double lo, hi;
+        int usable = floor_footprint_range(f.scene, f.accel, w, h, x, y, box, corner_value,
+                                           &corner, &lo, &hi);
         if (!usable || (lo == 0) != (hi == 0)) continue;
         double got = image->rgb[3 * ((size_t)y * w + x)];
         hi == 0 ? dark++ : lit++;
