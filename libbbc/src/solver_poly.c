@@ -43,6 +43,9 @@
  * the u range are the candidates, ranked by |A(u, v*)| (a common root makes A vanish
  * too).
  *
+ * Flat mirrors (three equal vertex normals) skip all this: their paths have a closed
+ * form (solve_flat_mirror).
+ *
  * Degenerate systems (C or A vanishing identically, e.g. light and x_k on one normal
  * line of a flat mirror, or a resultant that vanishes at every node) fall back to Newton
  * from four seeds. Everything here is numerical; the tests measure how often it misses
@@ -638,6 +641,51 @@ static void try_candidate(solve_state *st, double u, double v) {
   if (st->count < BBC_SOLVER_MAX_SOLUTIONS) st->found[st->count++] = s;
 }
 
+/* A mirror whose three vertex normals are equal reflects with one unit normal n
+ * everywhere (the normalised interpolation of equal vectors is constant), so its paths
+ * have a closed form and need no polynomial. Reflection about n is H = I - 2 n n^T; with
+ * a = x1 - x0, w = x_k - x0 and the reflected ray reaching x_k = x1 + t H a (t > 0),
+ * w = (I + t H) a, whose parts across and along n give a = w_p / (1 + t) + w_n n / (1 - t).
+ * x1 lies on T1's plane (normal g): (x0 + a - p0) . g = 0, that is
+ *   c t^2 + (B - A) t + (A + B - c) = 0,  c = (p0 - x0) . g, A = w_p . g, B = w_n (n . g).
+ * When n is T1's geometric normal, A = 0 and the roots are t = -1 and t = 1 - B / c: x1 is
+ * where the segment from the mirrored light to x_k crosses the mirror's plane. Each root
+ * with t > 0 is verified by the exact trace (bbc_solver_verify), as the polynomial
+ * solver's candidates are. Returns 0 when the normals differ or the light lies in T1's
+ * plane (then the general solver runs). */
+static int solve_flat_mirror(solve_state *st) {
+  const bbc_specular_triangle *t = &st->g->specular[0];
+  for (int i = 1; i < 3; i++)
+    if (t->refract || t->n[i].x != t->n[0].x || t->n[i].y != t->n[0].y || t->n[i].z != t->n[0].z)
+      return 0;
+  bbc_vec3 n = v3_normalize(t->n[0]);
+  bbc_vec3 g = v3_cross(v3_sub(t->p[1], t->p[0]), v3_sub(t->p[2], t->p[0]));
+  bbc_vec3 x0 = st->g->light, w = v3_sub(st->xk, x0);
+  double wn = v3_dot(w, n);
+  bbc_vec3 wp = v3_madd(w, n, -wn);
+  double c = v3_dot(v3_sub(t->p[0], x0), g), A = v3_dot(wp, g), B = wn * v3_dot(n, g);
+  if (!(v3_length(n) > 0) || !(c != 0) || !isfinite(c)) return 0;
+  double b = B - A, k = A + B - c, disc = b * b - 4 * c * k;
+  if (disc < 0) return 1;
+  double q = -0.5 * (b + copysign(sqrt(disc), b));
+  double roots[2] = {q / c, q != 0 ? k / q : NAN};
+  for (int r = 0; r < 2; r++) {
+    double tr = roots[r];
+    if (!(tr > 0) || !isfinite(tr) || tr == 1 || (r == 1 && tr == roots[0])) continue;
+    bbc_vec3 x1 = v3_add(x0, v3_madd(v3_scale(wp, 1.0 / (1.0 + tr)), n, wn / (1.0 - tr)));
+    double uv[2];
+    st->stats.candidates++;
+    bbc_solution s;
+    if (!bbc_triangle_barycentrics(t->p, x1, uv) ||
+        !bbc_solver_verify(st->g, st->xk, uv[0], uv[1], st->options, &s)) {
+      st->stats.rejected_inadmissible++;
+      continue;
+    }
+    if (st->count < BBC_SOLVER_MAX_SOLUTIONS) st->found[st->count++] = s;
+  }
+  return 1;
+}
+
 /* Back-substitution at one root v* of the resultant: the real roots u of the
  * lower-degree polynomial in the u range, ranked by how nearly the other vanishes. */
 static void back_substitute(solve_state *st, const bpoly *c, const bpoly *a, double v) {
@@ -765,23 +813,10 @@ static void add_stats(bbc_solver_stats *to, const bbc_solver_stats *from) {
   to->solutions += from->solutions;
 }
 
-bbc_result bbc_solver_single(const bbc_path_geometry *g, bbc_vec3 xk,
-                             const bbc_solver_options *options, bbc_solution *out, size_t capacity,
-                             size_t *count) {
-  if (count) *count = 0;
-  if (!g || !count || (!out && capacity > 0) || g->length != 1 || !isfinite(xk.x) ||
-      !isfinite(xk.y) || !isfinite(xk.z))
-    return BBC_ERR_INVALID_ARGUMENT;
-
-  solve_state st;
-  memset(&st.stats, 0, sizeof st.stats);
-  st.g = g;
-  st.xk = xk;
-  st.options = options;
-  st.count = 0;
-  st.swapped = 0;
-  st.stats.solves = 1;
-
+/* The general case: the constraint polynomials and their resultant (top of the file). */
+static void solve_polynomials(solve_state *st) {
+  const bbc_path_geometry *g = st->g;
+  const bbc_vec3 xk = st->xk;
   const bbc_specular_triangle *t = &g->specular[0];
   bbc_vec3 e1 = v3_sub(t->p[1], t->p[0]), e2 = v3_sub(t->p[2], t->p[0]);
   /* The polynomial vectors of Eq. 6-8 (x1 itself only through d0 and d1). */
@@ -823,7 +858,7 @@ bbc_result bbc_solver_single(const bbc_path_geometry *g, bbc_vec3 xk,
     bp_muladd(&a, &nn, &p1, 1.0);
     bp_muladd(&a, &d0n, &p2, -2.0);
     bpoly cc = c;
-    solved = solve_system(&st, &cc, &a, scale_c, N * N * L0 * (W + L1));
+    solved = solve_system(st, &cc, &a, scale_c, N * N * L0 * (W + L1));
   } else {
     /* The square form eta_i^2 |d1|^2 |d0 x n|^2 - eta_o^2 |d0|^2 |d1 x n|^2: refraction,
      * and reflection (eta_i = eta_o) where light and x_k lie on one normal line. */
@@ -871,10 +906,30 @@ bbc_result bbc_solver_single(const bbc_path_geometry *g, bbc_vec3 xk,
       bp_muladd(&a, &l1, &s0, ei * ei);
       bp_muladd(&a, &l0, &s1, -(eo * eo));
       bpoly cc = c;
-      solved &= solve_system(&st, &cc, &a, scale_c, L0 * L0 * L1 * L1 * N * N * ior * ior);
+      solved &= solve_system(st, &cc, &a, scale_c, L0 * L0 * L1 * L1 * N * N * ior * ior);
     }
   }
-  if (!solved) fallback(&st);
+  if (!solved) fallback(st);
+}
+
+bbc_result bbc_solver_single(const bbc_path_geometry *g, bbc_vec3 xk,
+                             const bbc_solver_options *options, bbc_solution *out, size_t capacity,
+                             size_t *count) {
+  if (count) *count = 0;
+  if (!g || !count || (!out && capacity > 0) || g->length != 1 || !isfinite(xk.x) ||
+      !isfinite(xk.y) || !isfinite(xk.z))
+    return BBC_ERR_INVALID_ARGUMENT;
+
+  solve_state st;
+  memset(&st.stats, 0, sizeof st.stats);
+  st.g = g;
+  st.xk = xk;
+  st.options = options;
+  st.count = 0;
+  st.swapped = 0;
+  st.stats.solves = 1;
+
+  if ((options && options->no_closed_form) || !solve_flat_mirror(&st)) solve_polynomials(&st);
 
   /* Sorted by u1 so the output does not depend on the order roots were found in. */
   for (int i = 1; i < st.count; i++) {

@@ -347,6 +347,92 @@ TEST(round_trip_random_refraction) {
   random_round_trips(1, harness_scale(20000, 500000));
 }
 
+/* Mirrors with three equal vertex normals are solved in closed form; the polynomial
+ * solver (no_closed_form) must find the same paths on random configurations: triangles
+ * of 1e-3 to 1 across, the one normal the face's or tilted up to about 30 degrees off it,
+ * lights anywhere, and x_k both where a traced path lands (a solution exists) and at
+ * random (mostly none). Solutions closer than 1e-7 to T1's edges may be found by one
+ * solver and not the other (the polynomial one polishes by clamped Newton) and are not
+ * compared. */
+static int interior_count(const bbc_solution *s, size_t n) {
+  int k = 0;
+  for (size_t i = 0; i < n; i++) k += edge_distance(s[i].u1) > 1e-7;
+  return k;
+}
+
+TEST(flat_mirror_closed_form_agrees_with_poly) {
+  const long samples = harness_scale(20000, 500000);
+  long compared = 0, with_paths = 0, two = 0, mismatched = 0;
+  bbc_solver_options poly;
+  memset(&poly, 0, sizeof poly);
+  poly.no_closed_form = 1;
+  for (long i = 0; i < samples; i++) {
+    bbc_path_geometry g;
+    memset(&g, 0, sizeof g);
+    g.length = 1;
+    g.intensity = 1;
+    bbc_specular_triangle *t = &g.specular[0];
+    double size = pow(10.0, -3 + 3 * rnd());
+    for (int j = 0; j < 3; j++) t->p[j] = rnd_vec(size);
+    bbc_vec3 ng = v3_normalize(v3_cross(v3_sub(t->p[1], t->p[0]), v3_sub(t->p[2], t->p[0])));
+    bbc_vec3 n = i % 2 ? ng : v3_normalize(v3_add(ng, rnd_vec(0.3)));
+    for (int j = 0; j < 3; j++) t->n[j] = n;
+    g.light = rnd_vec(3);
+    bbc_vec3 rn = v3_normalize(rnd_vec(1)), rp = rnd_vec(2), a, b;
+    v3_basis(rn, &a, &b);
+    g.receiver[0] = v3_add(rp, v3_scale(a, -50));
+    g.receiver[1] = v3_add(rp, v3_add(v3_scale(a, 50), v3_scale(b, -50)));
+    g.receiver[2] = v3_add(rp, v3_scale(b, 50));
+    bbc_vec3 xk = v3_add(rp, v3_add(v3_scale(a, 4 * rnd() - 2), v3_scale(b, 4 * rnd() - 2)));
+    if (i % 4 < 2) {
+      double u, v;
+      rnd_bary(&u, &v);
+      bbc_specular_path p;
+      REQUIRE(bbc_specular_path_trace(&g, u, v, &p) == BBC_OK);
+      if (!p.complete || (p.flags & BBC_PATH_REJECT)) continue;
+      xk = p.xk;
+    }
+    bbc_solution s1[BBC_SOLVER_MAX_SOLUTIONS], s2[BBC_SOLVER_MAX_SOLUTIONS];
+    size_t n1, n2;
+    REQUIRE(bbc_solver_single(&g, xk, NULL, s1, BBC_SOLVER_MAX_SOLUTIONS, &n1) == BBC_OK);
+    REQUIRE(bbc_solver_single(&g, xk, &poly, s2, BBC_SOLVER_MAX_SOLUTIONS, &n2) == BBC_OK);
+    compared++;
+    with_paths += n1 > 0;
+    two += n1 > 1;
+    int bad = interior_count(s1, n1) != interior_count(s2, n2);
+    for (size_t k = 0; k < n1 && !bad; k++) {
+      if (edge_distance(s1[k].u1) <= 1e-7) continue;
+      int same = 0;
+      /* The same reflection point up to 1e-6 of the path's length, the same irradiance
+       * up to 1e-6 (both land on x_k: checked below). Grazing and near-fold cases are
+       * ill-conditioned: there the polynomial solver's polish stops where x_k is missed
+       * by ~1e-11 and u1 is off by up to 1e-4 of a small triangle, while the closed form
+       * lands within 1e-14 (seen at BBC_TEST_FULL=1). */
+      double scale = v3_length(v3_sub(s1[k].x1, g.light)) + v3_length(v3_sub(xk, s1[k].x1));
+      for (size_t m = 0; m < n2; m++)
+        same |= v3_length(v3_sub(s1[k].x1, s2[m].x1)) <= 1e-6 * scale &&
+                fabs(s1[k].irradiance - s2[m].irradiance) <= 1e-6 * s2[m].irradiance;
+      bad = !same;
+    }
+    if (bad && mismatched++ < 5) {
+      fprintf(stderr, "  mismatch: size %.3g, %zu closed-form vs %zu polynomial solutions\n",
+              size, n1, n2);
+      for (size_t k = 0; k < n1 + n2; k++) {
+        const bbc_solution *q = k < n1 ? &s1[k] : &s2[k - n1];
+        fprintf(stderr, "    %s (%.12f, %.12f) E %.9g, misses x_k by %.3g\n",
+                k < n1 ? "closed form" : "polynomial ", q->u1[0], q->u1[1], q->irradiance,
+                v3_length(v3_sub(q->path.xk, xk)));
+      }
+    }
+    CHECK_INT(check_solutions_trace_back(&g, xk, s1, n1), 0);
+    CHECK_INT(check_solutions_trace_back(&g, xk, s2, n2), 0);
+  }
+  fprintf(stderr, "flat mirrors: %ld compared, %ld with paths, %ld with two, %ld mismatched\n",
+          compared, with_paths, two, mismatched);
+  CHECK(compared > samples / 2 && with_paths > samples / 10 && two > 0);
+  CHECK_INT(mismatched, 0);
+}
+
 /* ------------------------------------------------------------------------------------ */
 
 TEST(no_path_returns_zero) {
@@ -402,12 +488,17 @@ TEST(degenerate_normal_line) {
   bbc_solver_options opts;
   memset(&opts, 0, sizeof opts);
   opts.stats = &stats;
-  REQUIRE(bbc_solver_single(&g, xk, &opts, sol, BBC_SOLVER_MAX_SOLUTIONS, &n) == BBC_OK);
-  CHECK_INT(stats.fallbacks, 1);
-  CHECK_INT(n, 1);
-  if (n == 1) {
-    CHECK_NEAR(sol[0].x1.y, 1.0, 1e-9);
-    CHECK_NEAR(sol[0].x1.z, 0.2, 1e-9);
+  /* The polynomial solver falls back to Newton; the closed form needs no fallback. */
+  for (int closed = 0; closed < 2; closed++) {
+    opts.no_closed_form = !closed;
+    memset(&stats, 0, sizeof stats);
+    REQUIRE(bbc_solver_single(&g, xk, &opts, sol, BBC_SOLVER_MAX_SOLUTIONS, &n) == BBC_OK);
+    CHECK_INT(stats.fallbacks, !closed);
+    CHECK_INT(n, 1);
+    if (n == 1) {
+      CHECK_NEAR(sol[0].x1.y, 1.0, 1e-9);
+      CHECK_NEAR(sol[0].x1.z, 0.2, 1e-9);
+    }
   }
 }
 

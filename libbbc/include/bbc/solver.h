@@ -8,7 +8,9 @@
  *    polynomial whose roots on [0, 1] are isolated in the Bernstein basis; the other
  *    coordinate follows by back-substitution; a few Newton steps on the exact constraint
  *    polish each root; spurious roots are rejected. This finds every solution up to the
- *    numerical limits discussed in solver_poly.c.
+ *    numerical limits discussed in solver_poly.c. A mirror whose three vertex normals
+ *    are equal (one normal everywhere) is solved in closed form instead: reflection is
+ *    then an affine map, and x1 a root of a quadratic.
  *  - Any chain, in particular double scattering (RR, RT, TR, TT): Newton's method with
  *    u1 as the only unknown, later vertices traced, and the half-vector constraint at the
  *    last specular vertex as the residual (see solver_newton.c for why this
@@ -78,6 +80,9 @@ typedef struct bbc_solver_options {
   int max_iterations;        /* Newton iterations per start (also when polishing the
                                 polynomial solver's roots); 0 = 30 */
   bbc_solver_stats *stats;   /* optional counters; not synchronised */
+  int no_closed_form;        /* bbc_solver_single: solve a mirror with three equal vertex
+                                normals by the polynomials too, not in closed form (for
+                                comparisons) */
 } bbc_solver_options;
 
 /* Traces the exact path through u1 = (u, v) and decides whether it is an admissible
