@@ -27,8 +27,9 @@ static const char usage[] =
     "       bbc-inspect dump CACHE.bbc --cell X,Y [--receiver R]\n"
     "       bbc-inspect heatmap CACHE.bbc -o OUT.exr [--receiver R] [--log10]\n"
     "       bbc-inspect check-bounds SCENE.gltf CACHE.bbc [--samples N] [--json FILE]\n"
-    "                   [--threads N] [--progress|--no-progress]\n"
+    "                   [--threads N] [--progress|--no-progress] [--light-units U]\n"
     "       bbc-inspect solutions SCENE.gltf CACHE.bbc [--samples N] [--threads N]\n"
+    "                   [--light-units U]\n"
     "       bbc-inspect diff A.bbc B.bbc\n"
     "       bbc-inspect merge OUT.bbc SHARD.bbc... [--threads N] [--progress|--no-progress]\n"
     "       bbc-inspect -h|--help | --version\n";
@@ -71,6 +72,7 @@ static const char help[] =
     "      --threads N        threads (default: all cores); the output does not depend on it\n"
     "      --progress, --no-progress  force the progress bar on stderr on or off (default:\n"
     "                       on when stderr is a terminal)\n"
+    "      --light-units U    photometric or radiometric, as for bbc-precompute\n"
     "  solutions SCENE.gltf CACHE.bbc\n"
     "                       counts the solutions per tuple (the paper's Fig. 8): N sampled\n"
     "                       shading points per receiver triangle, each solved with every\n"
@@ -79,6 +81,7 @@ static const char help[] =
     "                       and the share with more than the cache's m\n"
     "      --samples N        shading points per receiver triangle (default 256)\n"
     "      --threads N        threads (default: all cores); the output does not depend on it\n"
+    "      --light-units U    photometric or radiometric, as for bbc-precompute\n"
     "  diff A.bbc B.bbc     what differs between two caches: parameters, fingerprints,\n"
     "                       tuples (count, first difference), receivers and grids, and cell\n"
     "                       lists (count of differing cells, the first with both lists);\n"
@@ -348,8 +351,8 @@ static int cmd_heatmap(cli_args *a, const char *path) {
 
 /* ------------------------------------------------------------------ check-bounds */
 
-static bbc_scene *load_scene(const char *path) {
-  bbc_scene_options o = {cli_print_message, cli_print_warning, NULL};
+static bbc_scene *load_scene(const char *path, bbc_light_units light_units) {
+  bbc_scene_options o = {cli_print_message, cli_print_warning, NULL, light_units};
   bbc_scene *s = NULL;
   if (bbc_scene_load(&s, path, &o) != BBC_OK) exit(1); /* the callback printed the line */
   return s;
@@ -407,6 +410,7 @@ static void write_validation_json(const char *path, const bbc_validation *acc) {
 static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cache_path) {
   const char *samples_text = NULL, *json = NULL, *threads_text = NULL;
   int progress = -1;
+  bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
   while (a->i < a->argc) {
     const char *v;
     if (cli_option(a, "--samples", &v))
@@ -419,6 +423,8 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
       progress = 1;
     else if (cli_flag(a, "--no-progress"))
       progress = 0;
+    else if (cli_option(a, "--light-units", &v))
+      light_units = cli_parse_light_units(a, "--light-units", v);
     else
       cli_usage_error(usage, "unknown option '%s'", a->argv[a->i]);
   }
@@ -426,7 +432,7 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
       samples_text ? (uint32_t)cli_parse_int(a, "--samples", samples_text, 1, UINT32_MAX) : 100;
   set_threads(a, threads_text);
 
-  bbc_scene *scene = load_scene(scene_path);
+  bbc_scene *scene = load_scene(scene_path, light_units);
   bbc_cache *c = open_cache_for(cache_path, scene);
   bbc_cache_info in;
   bbc_cache_get_info(c, &in);
@@ -540,12 +546,15 @@ static void sample_point(uint32_t t, uint32_t i, double b[2]) {
 
 static int cmd_solutions(cli_args *a, const char *scene_path, const char *cache_path) {
   const char *samples_text = NULL, *threads_text = NULL;
+  bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
   while (a->i < a->argc) {
     const char *v;
     if (cli_option(a, "--samples", &v))
       samples_text = v;
     else if (cli_option(a, "--threads", &v))
       threads_text = v;
+    else if (cli_option(a, "--light-units", &v))
+      light_units = cli_parse_light_units(a, "--light-units", v);
     else
       cli_usage_error(usage, "unknown option '%s'", a->argv[a->i]);
   }
@@ -553,7 +562,7 @@ static int cmd_solutions(cli_args *a, const char *scene_path, const char *cache_
       samples_text ? (uint32_t)cli_parse_int(a, "--samples", samples_text, 1, UINT32_MAX) : 256;
   set_threads(a, threads_text);
 
-  bbc_scene *scene = load_scene(scene_path);
+  bbc_scene *scene = load_scene(scene_path, light_units);
   bbc_cache *c = open_cache_for(cache_path, scene);
   bbc_cache_info in;
   bbc_cache_get_info(c, &in);

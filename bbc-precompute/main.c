@@ -48,6 +48,11 @@ static const char help[] =
     "  --jacobian FORM       determinant (default) or quotient: the form of the\n"
     "                        irradiance Jacobian\n"
     "\n"
+    "Scene:\n"
+    "  --light-units U       photometric or radiometric: how light intensities are read\n"
+    "                        (default: the file's asset.extras.bbc.light_units, else\n"
+    "                        photometric, as glTF says: candela and lux, / 683 lm/W)\n"
+    "\n"
     "Execution:\n"
     "  --threads N           worker threads (default: every core); the cache is\n"
     "                        byte-identical for any thread count\n"
@@ -119,6 +124,7 @@ int main(int argc, char **argv) {
   memset(&options, 0, sizeof options);
   bbc_precompute_params_default(&options.params);
   int progress = -1, stats = 0;
+  bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
 
   while (a.i < argc) {
     const char *arg = argv[a.i];
@@ -160,6 +166,8 @@ int main(int argc, char **argv) {
         options.jacobian = BBC_JACOBIAN_QUOTIENT;
       else
         cli_usage_error(usage, "--jacobian: '%s' is neither determinant nor quotient", value);
+    } else if (cli_option(&a, "--light-units", &value)) {
+      light_units = cli_parse_light_units(&a, "--light-units", value);
     } else if (cli_option(&a, "--threads", &value)) {
       options.threads = (int)cli_parse_int(&a, "--threads", value, 1, 1024);
     } else if (cli_option(&a, "--shard", &value)) {
@@ -183,7 +191,7 @@ int main(int argc, char **argv) {
   cli_catch_interrupts();
 
   double start = cli_now();
-  bbc_scene_options scene_options = {cli_print_message, cli_print_warning, NULL};
+  bbc_scene_options scene_options = {cli_print_message, cli_print_warning, NULL, light_units};
   bbc_scene *scene = NULL;
   if (bbc_scene_load(&scene, scene_path, &scene_options) != BBC_OK) return 1;
 

@@ -27,6 +27,11 @@ static const char help[] =
     "                        the other follows the camera's aspect ratio)\n"
     "  --height N            image height in pixels (default: extras.bbc.height)\n"
     "\n"
+    "Scene:\n"
+    "  --light-units U       photometric or radiometric: how light intensities are read\n"
+    "                        (default: the file's asset.extras.bbc.light_units, else\n"
+    "                        photometric, as glTF says: candela and lux, / 683 lm/W)\n"
+    "\n"
     "Caustics (point lights through mirrors and glass, from a bbc-precompute cache):\n"
     "  --cache FILE          the .bbc cache of this scene; refused if it was computed\n"
     "                        for another scene or is a shard (bbc-precompute --shard)\n"
@@ -80,9 +85,9 @@ static const char help[] =
     "  --version             print versions and exit\n"
     "  -h, --help            print this help and exit\n"
     "\n"
-    "Units: point lights give KHR_lights_punctual intensity x color as radiant intensity\n"
-    "(W/sr); emissive triangles give emissiveFactor x emissive_strength as radiance. The\n"
-    "EXR holds the mean radiance per pixel (box filter).\n"
+    "Units: point lights give KHR_lights_punctual intensity x color in candela, divided\n"
+    "by 683 lm/W (or in W/sr with light units radiometric); emissive triangles give\n"
+    "emissiveFactor x emissive_strength as radiance (W/sr/m^2). The EXR holds the mean radiance per pixel (box filter).\n"
     "Interrupting (SIGINT, SIGTERM) stops after the current pass.\n"
     "Exit status: 0 on success, 1 on a runtime failure (bad file, I/O), 2 on bad usage,\n"
     "130 when interrupted (nothing is written, or with --write-partial the partial image).\n";
@@ -160,6 +165,7 @@ int main(int argc, char **argv) {
   double exposure = 0;
   long long width = 0, height = 0;
   int progress = -1, stats = 0, write_partial = 0;
+  bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
 
   while (a.i < argc) {
     const char *arg = argv[a.i];
@@ -180,6 +186,8 @@ int main(int argc, char **argv) {
       width = cli_parse_int(&a, "--width", value, 1, 16384);
     } else if (cli_option(&a, "--height", &value)) {
       height = cli_parse_int(&a, "--height", value, 1, 16384);
+    } else if (cli_option(&a, "--light-units", &value)) {
+      light_units = cli_parse_light_units(&a, "--light-units", value);
     } else if (cli_option(&a, "--method", &value)) {
       static const char *names[] = {"pt", "bbc", "enumerate", "uniform", "one-sample"};
       int found = -1;
@@ -273,7 +281,7 @@ int main(int argc, char **argv) {
 
   cli_catch_interrupts();
 
-  bbc_scene_options scene_options = {cli_print_message, cli_print_warning, NULL};
+  bbc_scene_options scene_options = {cli_print_message, cli_print_warning, NULL, light_units};
   bbc_scene *scene = NULL;
   if (bbc_scene_load(&scene, scene_path, &scene_options) != BBC_OK) return 1;
 

@@ -108,6 +108,12 @@ uint32_t cli_parse_chains(const cli_args *a, const char *name, const char *text)
   return mask;
 }
 
+bbc_light_units cli_parse_light_units(const cli_args *a, const char *name, const char *text) {
+  if (strcmp(text, "photometric") == 0) return BBC_LIGHT_UNITS_PHOTOMETRIC;
+  if (strcmp(text, "radiometric") == 0) return BBC_LIGHT_UNITS_RADIOMETRIC;
+  cli_usage_error(a->usage, "%s: unknown units '%s' (photometric, radiometric)", name, text);
+}
+
 volatile int cli_interrupted = 0;
 
 static void on_interrupt(int sig) {

@@ -7,6 +7,7 @@
 #include <stdint.h>
 
 #include "bbc/common.h"
+#include "bbc/scene.h"
 
 /* The tool's name, used as the prefix of every message. */
 extern const char *cli_tool;
@@ -46,6 +47,10 @@ long long cli_parse_int(const cli_args *a, const char *name, const char *text, l
 /* A chain-type list such as "R,T" as a BBC_CHAIN_BIT mask; a usage error naming the
  * option for an unknown type or an empty list. */
 uint32_t cli_parse_chains(const cli_args *a, const char *name, const char *text);
+
+/* --light-units photometric|radiometric as a bbc_light_units (scene.h); a usage error
+ * for anything else. */
+bbc_light_units cli_parse_light_units(const cli_args *a, const char *name, const char *text);
 
 /* Set once SIGINT or SIGTERM arrived, after cli_catch_interrupts. Long operations poll
  * it (through their progress callbacks) and stop; the tool then exits with 130. */

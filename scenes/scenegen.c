@@ -7,6 +7,7 @@
  * Conventions every scene follows (the scene loader relies on them):
  *   - y is up; all geometry is written directly in world space, only the light and
  *     the camera nodes carry a transform.
+ *   - asset.extras.bbc.light_units "radiometric": the light intensity is in W/sr.
  *   - Node extras {"bbc": {"role": "caster" | "receiver" | "none"}}.
  *   - Materials: diffuse = baseColor 0.8, metallic 0, roughness 1; mirror = baseColor
  *     1, metallic 1, roughness 0; glass/water = metallic 0, roughness 0 with
@@ -1000,7 +1001,8 @@ static void build_gltf(const scene *s, const char *uri, bytes *json, bytes *bin)
   int point_light = o->area_side <= 0;
   int transmissive = material_index[MAT_GLASS] >= 0 || material_index[MAT_WATER] >= 0;
 
-  bytes_printf(json, "{\"asset\":{\"version\":\"2.0\",\"generator\":\"" TOOL "\"}");
+  bytes_printf(json, "{\"asset\":{\"version\":\"2.0\",\"generator\":\"" TOOL
+                     "\",\"extras\":{\"bbc\":{\"light_units\":\"radiometric\"}}}");
   if (point_light || transmissive || material_index[MAT_EMITTER] >= 0) {
     const char *sep = "";
     bytes_printf(json, ",\"extensionsUsed\":[");

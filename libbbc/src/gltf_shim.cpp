@@ -225,6 +225,8 @@ class reader {
 
   void run() {
     check_required_extensions();
+    if (const tinygltf::Value *bbc = bbc_extras(model_.asset.extras))
+      out_.view.light_units = string_key(*bbc, "light_units");
     for (size_t i = 0; i < model_.materials.size(); i++) read_material(i);
 
     if (model_.scenes.empty()) fail(BBC_ERR_SCENE, "the file has no scene");
@@ -266,6 +268,14 @@ class reader {
         fail(BBC_ERR_SCENE, "the file requires extension %s, which bbc does not support",
              name.c_str());
     }
+  }
+
+  // A string-valued key of an extras.bbc object: NULL when absent, "<not a string>"
+  // when present with another JSON type.
+  const char *string_key(const tinygltf::Value &bbc, const char *key) {
+    if (!bbc.Has(key)) return nullptr;
+    const tinygltf::Value &v = bbc.Get(key);
+    return v.IsString() ? out_.keep(v.Get<std::string>()) : "<not a string>";
   }
 
   static std::string label(const char *kind, size_t index, const std::string &name) {
@@ -389,11 +399,7 @@ class reader {
       if (size_t(n.mesh) >= model_.meshes.size())
         fail(BBC_ERR_GLTF, "node %zu uses mesh %d, but the file has %zu meshes", index, n.mesh,
              model_.meshes.size());
-      const char *role = nullptr;
-      if (bbc && bbc->Has("role")) {
-        const tinygltf::Value &r = bbc->Get("role");
-        role = r.IsString() ? out_.keep(r.Get<std::string>()) : "<not a string>";
-      }
+      const char *role = bbc ? string_key(*bbc, "role") : nullptr;
       const tinygltf::Mesh &mesh = model_.meshes[size_t(n.mesh)];
       for (size_t p = 0; p < mesh.primitives.size(); p++) {
         bbc__gltf_primitive g = primitive(n.mesh, int(p));

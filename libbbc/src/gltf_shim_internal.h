@@ -89,6 +89,8 @@ typedef struct bbc__gltf_camera {
  * the view and stays valid until bbc__gltf_free. It is immutable, so any number of
  * threads may read it at once. */
 typedef struct bbc__gltf_data {
+  const char *light_units; /* asset.extras.bbc.light_units; NULL when absent, and
+                              "<not a string>" when present with another JSON type */
   uint32_t primitive_count;
   bbc__gltf_primitive *primitives; /* in node order, then primitive order */
   uint32_t material_count;

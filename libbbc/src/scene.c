@@ -26,6 +26,7 @@ typedef struct loader {
   const char *path; /* what messages call the file */
   bbc_message_fn error_fn, warning_fn;
   void *user;
+  bbc_light_units light_units; /* the caller's override, or BBC_LIGHT_UNITS_FILE */
 } loader;
 
 static void send(bbc_message_fn fn, void *user, bbc_result code, const char *path, const char *fmt,
@@ -404,7 +405,29 @@ static bbc_result load_geometry(const loader *ld, const bbc__gltf_data *g, bbc_s
   return BBC_OK;
 }
 
+/* The units of the file's light intensities: the caller's override, else the asset's
+ * extras.bbc.light_units, else photometric as the glTF specification says. */
+static bbc_result light_units(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
+  if (ld->light_units != BBC_LIGHT_UNITS_FILE && ld->light_units != BBC_LIGHT_UNITS_PHOTOMETRIC &&
+      ld->light_units != BBC_LIGHT_UNITS_RADIOMETRIC)
+    return fail(ld, BBC_ERR_INVALID_ARGUMENT, "light_units option %d is not a bbc_light_units",
+                (int)ld->light_units);
+  if (ld->light_units != BBC_LIGHT_UNITS_FILE)
+    s->light_units = ld->light_units;
+  else if (!g->light_units || strcmp(g->light_units, "photometric") == 0)
+    s->light_units = BBC_LIGHT_UNITS_PHOTOMETRIC;
+  else if (strcmp(g->light_units, "radiometric") == 0)
+    s->light_units = BBC_LIGHT_UNITS_RADIOMETRIC;
+  else
+    return fail(ld, BBC_ERR_SCENE,
+                "asset.extras.bbc.light_units \"%s\" is not \"photometric\" or \"radiometric\"",
+                g->light_units);
+  return BBC_OK;
+}
+
 static bbc_result load_lights(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
+  bbc_result r = light_units(ld, g, s);
+  if (r != BBC_OK) return r;
   s->point_lights = alloc(g->light_count, sizeof *s->point_lights);
   if (!s->point_lights) return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
   uint32_t ignored = 0;
@@ -420,7 +443,8 @@ static bbc_result load_lights(const loader *ld, const bbc__gltf_data *g, bbc_sce
     }
     bbc_point_light *out = &s->point_lights[s->point_light_count++];
     double power[3];
-    for (int k = 0; k < 3; k++) power[k] = l->intensity * l->color[k];
+    double intensity = bbc_light_radiometric(l->intensity, s->light_units);
+    for (int k = 0; k < 3; k++) power[k] = intensity * l->color[k];
     if (!finite3(l->position))
       return fail(ld, BBC_ERR_SCENE, "light \"%s\" (node %u) has a non-finite position", l->name,
                   l->node_index);
@@ -553,11 +577,12 @@ static bbc_result build(bbc_scene **out, const loader *ld, const bbc__gltf_data 
 }
 
 static loader make_loader(const char *path, const bbc_scene_options *options) {
-  loader ld = {path, NULL, NULL, NULL};
+  loader ld = {path, NULL, NULL, NULL, BBC_LIGHT_UNITS_FILE};
   if (options) {
     ld.error_fn = options->error_fn;
     ld.warning_fn = options->warning_fn;
     ld.user = options->user;
+    ld.light_units = options->light_units;
   }
   return ld;
 }

@@ -81,6 +81,25 @@ test_equals_form_and_thread_independence() {
   cmp -s "$TMP/a.exr" "$TMP/b.exr" || fail "images differ between 1 and 2 threads"
 }
 
+# --light-units reaches the scene: the generated scenes are radiometric, so reading them
+# as photometric changes the light and the cache of the file's units is refused.
+test_light_units_override() {
+  scene="$BBC_TEST_SCENES/flat-mirror.gltf"
+  expect_status 2 "$RENDER" "$scene" -o "$TMP/x.exr" --light-units watts
+  grep -q "^bbc-render: --light-units: unknown units 'watts'" "$TMP/err" || fail "$(cat "$TMP/err")"
+  expect_status 2 "$PRECOMPUTE" "$scene" -o "$TMP/x.bbc" --light-units=lux
+  expect_status 0 "$PRECOMPUTE" "$scene" -o "$TMP/m.bbc" --max-level 2 --resolution 8 --no-progress
+  expect_status 0 "$RENDER" "$scene" -o "$TMP/a.exr" --cache "$TMP/m.bbc" --spp 1 --width 8 \
+    --light-units radiometric
+  expect_status 1 "$RENDER" "$scene" -o "$TMP/b.exr" --cache "$TMP/m.bbc" --spp 1 --width 8 \
+    --light-units photometric
+  grep -q "light" "$TMP/err" || fail "the refusal does not name the lights: $(cat "$TMP/err")"
+  [ -e "$TMP/b.exr" ] && fail "an output was written"
+  expect_status 0 "$INSPECT" check-bounds "$scene" "$TMP/m.bbc" --samples 1 --light-units radiometric
+  expect_status 1 "$INSPECT" check-bounds "$scene" "$TMP/m.bbc" --samples 1 --light-units photometric
+  return 0
+}
+
 test_placeholder_tools_document_themselves() {
   expect_status 0 "$PRECOMPUTE" --help
   grep -q "usage" "$TMP/out" || fail "bbc-precompute --help"

@@ -152,6 +152,8 @@ check_kind() {
   expect_status 0 "$1"
   expect_files "$tmp/$1.gltf" "$tmp/$1.bin"
   grep -q "\"kind\":\"$1\"" "$tmp/$1.gltf" || fail "$1: the scene extras lack the kind"
+  grep -q '"asset":{[^}]*"extras":{"bbc":{"light_units":"radiometric"}}' "$tmp/$1.gltf" ||
+    fail "$1: the asset does not say its lights are radiometric"
   grep -q "\"uri\":\"$1.bin\"" "$tmp/$1.gltf" || fail "$1: the buffer uri is not $1.bin"
   want=$(wc -c <"$tmp/$1.bin" | tr -d ' ')
   got=$(buffer_length "$tmp/$1.gltf")

@@ -49,7 +49,7 @@ int main(int argc, char **argv) {
     return n == 0 || bad;
   }
   if ((argc == 4 || argc == 5) && strcmp(argv[1], "synthetic") == 0) {
-    bbc_scene_options so = {print_error, NULL, NULL};
+    bbc_scene_options so = {print_error, NULL, NULL, BBC_LIGHT_UNITS_FILE};
     bbc_scene *scene = NULL;
     if (bbc_scene_load(&scene, argv[2], &so) != BBC_OK) return 1;
     uint32_t res = argc == 5 ? (uint32_t)atoi(argv[4]) : 64;

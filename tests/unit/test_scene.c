@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "bbc/scene.h"
+#include "blender_style.h"
 #include "gltf_shim_internal.h"
 #include "harness.h"
 
@@ -44,7 +45,7 @@ static void on_warning(void *user, bbc_result code, const char *message) {
 
 static bbc_scene *load(const char *path, messages *m, bbc_result *result) {
   memset(m, 0, sizeof *m);
-  bbc_scene_options options = {on_error, on_warning, m};
+  bbc_scene_options options = {on_error, on_warning, m, BBC_LIGHT_UNITS_FILE};
   bbc_scene *scene = (bbc_scene *)1; /* must be overwritten, also on failure */
   *result = bbc_scene_load(&scene, path, &options);
   if (*result != BBC_OK && scene != NULL) harness_fail(__FILE__, __LINE__, "*out not NULL");
@@ -459,7 +460,7 @@ TEST(glb_from_memory) {
   char *bytes = read_file(SOURCE_PATH("tests/corpus/valid/small.glb"), &size);
   REQUIRE(bytes != NULL);
   messages m = {0};
-  bbc_scene_options options = {on_error, on_warning, &m};
+  bbc_scene_options options = {on_error, on_warning, &m, BBC_LIGHT_UNITS_FILE};
   bbc_scene *s = NULL;
   bbc_result r = bbc__scene_load_memory(&s, bytes, size, "small.glb", NULL, &options);
   CHECK_INT(r, BBC_OK);
@@ -624,6 +625,90 @@ TEST(spot_light_ignored_with_warning) {
   bbc_scene_free(s);
 }
 
+/* ------------------------------------------------------------------ Blender-style files */
+
+/* Loads a blender_style scene from memory with the given light-units override. */
+static bbc_scene *load_blender(const blender_style *b, bbc_light_units units, messages *m,
+                               bbc_result *result) {
+  char *text = blender_style_write(b);
+  memset(m, 0, sizeof *m);
+  bbc_scene_options options = {on_error, on_warning, m, units};
+  bbc_scene *s = NULL;
+  *result = bbc__scene_load_memory(&s, text, strlen(text), "blender.gltf", NULL, &options);
+  free(text);
+  return s;
+}
+
+#define BLENDER_CAMERA                                                              \
+  "[{\"name\":\"Camera\",\"type\":\"perspective\",\"perspective\":{\"aspectRatio\":1.7777777777777777," \
+  "\"yfov\":0.39959652046304894,\"zfar\":100,\"znear\":0.10000000149011612}}]"
+
+/* Blender's exporter writes a 1000 W point light as 1000 / (4 pi) * 683 candela, with
+ * color; bbc must read back 1000 / (4 pi) W/sr per unit of color. */
+TEST(light_units_candela_by_default) {
+  double cd = 1000.0 / (4.0 * PI) * 683.0;
+  char lights[256];
+  snprintf(lights, sizeof lights,
+           "[{\"name\":\"Light\",\"type\":\"point\",\"color\":[1,0.5,0.25],\"intensity\":%.17g}]",
+           cd);
+  blender_style b = {0};
+  b.lights = lights;
+  b.cameras = BLENDER_CAMERA;
+  messages m;
+  bbc_result r;
+  bbc_scene *s = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  CHECK_INT(r, BBC_OK);
+  REQUIRE(s != NULL);
+  CHECK_INT(s->light_units, BBC_LIGHT_UNITS_PHOTOMETRIC);
+  double watts_per_sr = 1000.0 / (4.0 * PI);
+  CHECK_NEAR(s->point_lights[0].intensity[0], watts_per_sr, 1e-4);
+  CHECK_NEAR(s->point_lights[0].intensity[1], 0.5 * watts_per_sr, 1e-4);
+  CHECK_NEAR(s->point_lights[0].intensity[2], 0.25 * watts_per_sr, 1e-4);
+  bbc_scene_free(s);
+
+  /* The override reads the same number as W/sr. */
+  s = load_blender(&b, BBC_LIGHT_UNITS_RADIOMETRIC, &m, &r);
+  REQUIRE(s != NULL);
+  CHECK_INT(s->light_units, BBC_LIGHT_UNITS_RADIOMETRIC);
+  CHECK_NEAR(s->point_lights[0].intensity[0], (float)cd, 0.0);
+  bbc_scene_free(s);
+}
+
+/* asset.extras.bbc.light_units "radiometric" keeps the number; the photometric
+ * override divides it again; a value of another kind is refused in one line. */
+TEST(light_units_from_the_asset) {
+  blender_style b = {0};
+  b.lights = "[{\"type\":\"point\",\"intensity\":50}]";
+  b.cameras = BLENDER_CAMERA;
+  b.asset_extras = "{\"bbc\":{\"light_units\":\"radiometric\"}}";
+  messages m;
+  bbc_result r;
+  bbc_scene *s = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(s != NULL);
+  CHECK_NEAR(s->point_lights[0].intensity[0], 50.0, 0.0);
+  bbc_scene_free(s);
+  s = load_blender(&b, BBC_LIGHT_UNITS_PHOTOMETRIC, &m, &r);
+  REQUIRE(s != NULL);
+  CHECK_NEAR(s->point_lights[0].intensity[0], (float)(50.0 / 683.0), 0.0);
+  bbc_scene_free(s);
+  b.asset_extras = "{\"bbc\":{\"light_units\":\"photometric\"}}";
+  s = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(s != NULL);
+  CHECK_NEAR(s->point_lights[0].intensity[0], (float)(50.0 / 683.0), 0.0);
+  bbc_scene_free(s);
+
+  const char *bad[2] = {"{\"bbc\":{\"light_units\":\"watts\"}}", "{\"bbc\":{\"light_units\":1}}"};
+  for (int k = 0; k < 2; k++) {
+    b.asset_extras = bad[k];
+    s = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+    CHECK(s == NULL);
+    CHECK_INT(r, BBC_ERR_SCENE);
+    CHECK_INT(m.errors, 1);
+    CHECK_STR_CONTAINS(m.error, "blender.gltf: asset.extras.bbc.light_units");
+    bbc_scene_free(s);
+  }
+}
+
 /* ------------------------------------------------------------------ failures */
 
 static bbc_result code_from_name(const char *name, int *known) {
@@ -672,7 +757,7 @@ TEST(invalid_corpus) {
     char *bytes = read_file(path, &size);
     REQUIRE(bytes != NULL);
     messages mm = {0};
-    bbc_scene_options options = {on_error, on_warning, &mm};
+    bbc_scene_options options = {on_error, on_warning, &mm, BBC_LIGHT_UNITS_FILE};
     bbc_scene *ms = NULL;
     r = bbc__scene_load_memory(&ms, bytes, size, names[i], INVALID_DIR "/", &options);
     if (r != expected)
@@ -711,7 +796,7 @@ TEST(io_directory) {
 
 TEST(null_arguments) {
   messages m = {0};
-  bbc_scene_options options = {on_error, on_warning, &m};
+  bbc_scene_options options = {on_error, on_warning, &m, BBC_LIGHT_UNITS_FILE};
   CHECK_INT(bbc_scene_load(NULL, SHARED_SCENE("plane1k.gltf"), &options), BBC_ERR_INVALID_ARGUMENT);
   bbc_scene *s = (bbc_scene *)1;
   CHECK_INT(bbc_scene_load(&s, NULL, &options), BBC_ERR_INVALID_ARGUMENT);
@@ -744,7 +829,7 @@ static void mutate_file(const char *path, const char *base_dir) {
       else
         copy[i] ^= (unsigned char)(0x5A + i); /* one corrupted byte */
       messages m = {0};
-      bbc_scene_options options = {on_error, on_warning, &m};
+      bbc_scene_options options = {on_error, on_warning, &m, BBC_LIGHT_UNITS_FILE};
       bbc_scene *s = NULL;
       bbc_result r = bbc__scene_load_memory(&s, copy, n, "mutant", base_dir, &options);
       if (r == BBC_OK) {

@@ -50,7 +50,30 @@ typedef struct bbc_mesh {
   int closed, outward;
 } bbc_mesh;
 
-/* A point light: radiant intensity (W/sr) per RGB channel, glTF intensity x color. */
+/* How KHR_lights_punctual intensities are read. The glTF specification gives point and
+ * spot lights in candela (lm/sr) and directional lights in lux (lm/m^2); bbc renders
+ * radiometric quantities (W/sr, W/m^2) and converts with BBC_LUMENS_PER_WATT. A scene
+ * whose numbers are already radiometric says so with the asset-level
+ * asset.extras.bbc.light_units: "radiometric" (or "photometric", the default). */
+typedef enum bbc_light_units {
+  BBC_LIGHT_UNITS_FILE = 0,        /* as the file says; photometric when it says nothing */
+  BBC_LIGHT_UNITS_PHOTOMETRIC = 1, /* candela and lux, whatever the file says */
+  BBC_LIGHT_UNITS_RADIOMETRIC = 2  /* W/sr and W/m^2, whatever the file says */
+} bbc_light_units;
+
+/* The luminous efficacy used to turn lumens into watts (that of 555 nm light, the SI
+ * definition of the candela; also what Blender's glTF exporter multiplies by). */
+#define BBC_LUMENS_PER_WATT 683.0
+
+/* A glTF light intensity in the given units (BBC_LIGHT_UNITS_PHOTOMETRIC or
+ * BBC_LIGHT_UNITS_RADIOMETRIC) as a radiometric one: candela to W/sr for point and
+ * spot lights, lux to W/m^2 for directional ones. The one place units are converted. */
+static inline double bbc_light_radiometric(double intensity, bbc_light_units units) {
+  return units == BBC_LIGHT_UNITS_RADIOMETRIC ? intensity : intensity / BBC_LUMENS_PER_WATT;
+}
+
+/* A point light: radiant intensity (W/sr) per RGB channel, glTF intensity x color in
+ * radiometric units (bbc_light_radiometric). */
 typedef struct bbc_point_light {
   bbc_vec3 position;
   float intensity[3];
@@ -99,12 +122,18 @@ typedef struct bbc_scene {
   double emitter_power; /* sum of area x mean radiance x pi */
 
   bbc_camera camera;
+
+  /* The units the file's KHR_lights_punctual intensities were read in (never
+   * BBC_LIGHT_UNITS_FILE); the light fields above are radiometric either way. */
+  bbc_light_units light_units;
 } bbc_scene;
+
 
 typedef struct bbc_scene_options {
   bbc_message_fn error_fn;   /* optional: details of a failure */
   bbc_message_fn warning_fn; /* optional: e.g. "material X treated as diffuse" */
   void *user;                /* passed to both callbacks */
+  bbc_light_units light_units; /* 0 (BBC_LIGHT_UNITS_FILE) unless overridden */
 } bbc_scene_options;
 
 /* Loads a .gltf or .glb file. On success *out owns the scene; on failure *out is NULL,

@@ -1,0 +1,144 @@
+/* glTF written the way Blender's exporter (3.4, default settings) writes it, for the
+ * loader tests: lights in candela with no light_units flag, cameras with aspectRatio
+ * and no image size, bbc settings as camera-data extras, and a data-URI buffer.
+ *
+ * The scene is a floor quad (y = 0, [-1,1]^2, normal +y, TEXCOORD_0) and a caster: a
+ * closed octahedron of radius 0.5 centred at (0, 1, 0) (8 triangles, shared vertices,
+ * vertex normals pointing out), or its upper half (4 triangles, an open mesh). The
+ * caller gives the JSON of everything else. */
+#ifndef BBC_TEST_BLENDER_STYLE_H
+#define BBC_TEST_BLENDER_STYLE_H
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct blender_style {
+  const char *asset_extras; /* e.g. {"bbc":{"light_units":"radiometric"}}; NULL for none */
+  const char *lights;       /* the KHR_lights_punctual lights array; NULL: none */
+  const char *materials;    /* materials array: 0 is the floor's, 1 the caster's */
+  const char *cameras;      /* cameras array; NULL: none */
+  const char *camera_node_extras; /* extras of the camera node; NULL for none */
+  int caster;                     /* 0: none, 1: closed octahedron, 2: its open upper half */
+} blender_style;
+
+typedef struct bs_text {
+  char *data;
+  size_t size, cap;
+} bs_text;
+
+static void bs_printf(bs_text *t, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void bs_printf(bs_text *t, const char *fmt, ...) {
+  va_list ap;
+  va_start(ap, fmt);
+  int n = vsnprintf(NULL, 0, fmt, ap);
+  va_end(ap);
+  if (t->size + (size_t)n + 1 > t->cap) {
+    t->cap = 2 * (t->size + (size_t)n + 1);
+    t->data = realloc(t->data, t->cap);
+  }
+  va_start(ap, fmt);
+  vsnprintf(t->data + t->size, t->cap - t->size, fmt, ap);
+  va_end(ap);
+  t->size += (size_t)n;
+}
+
+static void bs_base64(bs_text *t, const unsigned char *p, size_t n) {
+  static const char digits[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  for (size_t i = 0; i < n; i += 3) {
+    uint32_t v = (uint32_t)p[i] << 16 | (i + 1 < n ? (uint32_t)p[i + 1] << 8 : 0) |
+                 (i + 2 < n ? p[i + 2] : 0);
+    bs_printf(t, "%c%c%c%c", digits[v >> 18], digits[(v >> 12) & 63],
+              i + 1 < n ? digits[(v >> 6) & 63] : '=', i + 2 < n ? digits[v & 63] : '=');
+  }
+}
+
+/* The JSON text of the scene (malloc'd, NUL-terminated). */
+static char *blender_style_write(const blender_style *b) {
+  /* Buffer: floor positions, normals, uvs, indices; then the caster's. */
+  static const float floor_p[4][3] = {{-1, 0, -1}, {1, 0, -1}, {1, 0, 1}, {-1, 0, 1}};
+  static const float floor_uv[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  static const uint16_t floor_i[6] = {0, 2, 1, 0, 3, 2};
+  static const float oct[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  /* Counter-clockwise seen from outside: upper four, then lower four. */
+  static const uint16_t oct_i[24] = {0, 2, 4, 4, 2, 1, 1, 2, 5, 5, 2, 0,
+                                     0, 4, 3, 4, 1, 3, 1, 5, 3, 5, 0, 3};
+  unsigned char buf[4096];
+  size_t at = 0;
+  size_t floor_at[4], caster_at[3];
+#define BS_PUT(ptr, bytes) (memcpy(buf + at, ptr, bytes), at += (bytes))
+  floor_at[0] = at, BS_PUT(floor_p, sizeof floor_p);
+  float floor_n[4][3] = {{0, 1, 0}, {0, 1, 0}, {0, 1, 0}, {0, 1, 0}};
+  floor_at[1] = at, BS_PUT(floor_n, sizeof floor_n);
+  floor_at[2] = at, BS_PUT(floor_uv, sizeof floor_uv);
+  floor_at[3] = at, BS_PUT(floor_i, sizeof floor_i);
+  at = (at + 3) & ~(size_t)3;
+  float cp[6][3], cn[6][3];
+  for (int v = 0; v < 6; v++)
+    for (int c = 0; c < 3; c++) {
+      cp[v][c] = 0.5f * oct[v][c] + (c == 1 ? 1.0f : 0.0f);
+      cn[v][c] = oct[v][c];
+    }
+  caster_at[0] = at, BS_PUT(cp, sizeof cp);
+  caster_at[1] = at, BS_PUT(cn, sizeof cn);
+  caster_at[2] = at, BS_PUT(oct_i, sizeof oct_i);
+#undef BS_PUT
+  int caster_triangles = b->caster == 2 ? 4 : 8;
+
+  bs_text t = {0};
+  bs_printf(&t, "{\"asset\":{\"generator\":\"Khronos glTF Blender I/O v3.4.50\",\"version\":\"2.0\"");
+  if (b->asset_extras) bs_printf(&t, ",\"extras\":%s", b->asset_extras);
+  bs_printf(&t, "},\"extensionsUsed\":[\"KHR_lights_punctual\",\"KHR_materials_transmission\"],");
+  if (b->lights) bs_printf(&t, "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":%s}},", b->lights);
+  bs_printf(&t, "\"scene\":0,\"scenes\":[{\"name\":\"Scene\",\"nodes\":[0,1,2,3]}],\"nodes\":[");
+  bs_printf(&t, "{\"name\":\"Plane\",\"mesh\":0},");
+  if (b->caster)
+    bs_printf(&t, "{\"name\":\"Ico\",\"mesh\":1},");
+  else
+    bs_printf(&t, "{\"name\":\"Empty\"},");
+  if (b->lights)
+    bs_printf(&t, "{\"name\":\"Light\",\"translation\":[0,3,0],"
+                  "\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},");
+  else
+    bs_printf(&t, "{\"name\":\"NoLight\"},");
+  bs_printf(&t, "{\"name\":\"Camera\",\"translation\":[0,1,4]%s%s%s}]", b->cameras ? ",\"camera\":0" : "",
+            b->camera_node_extras ? ",\"extras\":" : "",
+            b->camera_node_extras ? b->camera_node_extras : "");
+  if (b->cameras) bs_printf(&t, ",\"cameras\":%s", b->cameras);
+  bs_printf(&t, ",\"materials\":%s", b->materials ? b->materials
+                                                  : "[{\"name\":\"Floor\",\"pbrMetallicRoughness\":"
+                                                    "{\"metallicFactor\":0,\"roughnessFactor\":1}}]");
+  bs_printf(&t, ",\"meshes\":[{\"name\":\"Plane\",\"primitives\":[{\"attributes\":{\"POSITION\":0,"
+                "\"NORMAL\":1,\"TEXCOORD_0\":2},\"indices\":3,\"material\":0}]}");
+  if (b->caster)
+    bs_printf(&t, ",{\"name\":\"Ico\",\"primitives\":[{\"attributes\":{\"POSITION\":4,\"NORMAL\":5},"
+                  "\"indices\":6,\"material\":1}]}");
+  bs_printf(&t, "],\"accessors\":["
+                "{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\","
+                "\"min\":[-1,0,-1],\"max\":[1,0,1]},"
+                "{\"bufferView\":1,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"},"
+                "{\"bufferView\":2,\"componentType\":5126,\"count\":4,\"type\":\"VEC2\"},"
+                "{\"bufferView\":3,\"componentType\":5123,\"count\":6,\"type\":\"SCALAR\"},"
+                "{\"bufferView\":4,\"componentType\":5126,\"count\":6,\"type\":\"VEC3\","
+                "\"min\":[-0.5,0.5,-0.5],\"max\":[0.5,1.5,0.5]},"
+                "{\"bufferView\":5,\"componentType\":5126,\"count\":6,\"type\":\"VEC3\"},"
+                "{\"bufferView\":6,\"componentType\":5123,\"count\":%d,\"type\":\"SCALAR\"}],",
+            3 * caster_triangles);
+  size_t views[7][2] = {{floor_at[0], 48}, {floor_at[1], 48},    {floor_at[2], 32},
+                        {floor_at[3], 12}, {caster_at[0], 72},  {caster_at[1], 72},
+                        {caster_at[2], 6 * (size_t)caster_triangles}};
+  bs_printf(&t, "\"bufferViews\":[");
+  for (int v = 0; v < 7; v++)
+    bs_printf(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", v ? "," : "",
+              views[v][0], views[v][1]);
+  bs_printf(&t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,",
+            at);
+  bs_base64(&t, buf, at);
+  bs_printf(&t, "\"}]}");
+  return t.data;
+}
+
+#endif
