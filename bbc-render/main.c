@@ -1,5 +1,6 @@
 /* bbc-render: renders a glTF scene to OpenEXR. */
 #define _POSIX_C_SOURCE 200809L
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -34,7 +35,12 @@ static const char help[] =
     "\n"
     "Caustics (point lights through mirrors and glass, from a bbc-precompute cache):\n"
     "  --cache FILE          the .bbc cache of this scene; refused if it was computed\n"
-    "                        for another scene or is a shard (bbc-precompute --shard)\n"
+    "                        for another scene or is a shard (bbc-precompute --shard);\n"
+    "                        every chunk is checked (checksums, decoding, cell lists)\n"
+    "                        before the first pixel, and a damaged cache is refused\n"
+    "                        with exit status 1 and nothing written\n"
+    "  --no-verify           check each chunk only when a lookup first needs it (a\n"
+    "                        damaged one still stops the render, writing nothing)\n"
     "  --method NAME         bbc: sample tuples by their irradiance bounds (default with\n"
     "                        --cache); enumerate: every tuple covering the point (the\n"
     "                        deterministic reference); uniform: as many tuples on average\n"
@@ -91,6 +97,13 @@ static const char help[] =
     "Interrupting (SIGINT, SIGTERM) stops after the current pass.\n"
     "Exit status: 0 on success, 1 on a runtime failure (bad file, I/O), 2 on bad usage,\n"
     "130 when interrupted (nothing is written, or with --write-partial the partial image).\n";
+
+/* The cache's messages: lookups on several threads may meet damaged chunks at once, and
+ * the first line says it all. */
+static void print_first_message(void *user, bbc_result code, const char *message) {
+  static atomic_flag said = ATOMIC_FLAG_INIT;
+  if (!atomic_flag_test_and_set(&said)) cli_print_message(user, code, message);
+}
 
 /* Set by SIGINT and SIGTERM; the progress callback then cancels the render after the
  * current pass, as in bbc-precompute. */
@@ -164,7 +177,7 @@ int main(int argc, char **argv) {
   memset(&options, 0, sizeof options);
   double exposure = 0;
   long long width = 0, height = 0;
-  int progress = -1, stats = 0, write_partial = 0;
+  int progress = -1, stats = 0, write_partial = 0, verify = 1;
   bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
 
   while (a.i < argc) {
@@ -201,6 +214,8 @@ int main(int argc, char **argv) {
       method_given = 1;
     } else if (cli_option(&a, "--cache", &value)) {
       cache_path = value;
+    } else if (cli_flag(&a, "--no-verify")) {
+      verify = 0;
     } else if (cli_option(&a, "--gamma", &value)) {
       options.gamma_mode = BBC_GAMMA_FIXED;
       options.gamma_value = cli_parse_double(&a, "--gamma", value, 1e-300, 1e300);
@@ -300,8 +315,9 @@ int main(int argc, char **argv) {
   if (cache_path && options.method != BBC_METHOD_PT) {
     bbc_cache_options cache_options;
     memset(&cache_options, 0, sizeof cache_options);
-    cache_options.error_fn = cli_print_message;
+    cache_options.error_fn = print_first_message;
     if (bbc_cache_open(&cache, cache_path, &cache_options) != BBC_OK) goto done;
+    if (verify && bbc_cache_validate(cache, print_first_message, NULL) != BBC_OK) goto done;
     /* The cache reports what differs through its error callback, in one line. */
     if (bbc_cache_check_scene(cache, scene) != BBC_OK) goto done;
     /* A shard holds only some of the tuples: its caustics would be missing the rest. */
@@ -344,6 +360,9 @@ int main(int argc, char **argv) {
   bbc_result r = cli_interrupted ? BBC_ERR_CANCELLED
                                  : bbc_render(scene, accel, &options, image, &render_stats);
   cli_progress_end(&state.bar);
+  /* A damaged chunk (already reported in one line by the cache) ends the render with
+   * nothing written, even with --write-partial. */
+  if (r == BBC_ERR_CHECKSUM || r == BBC_ERR_CORRUPT) goto done;
   if (r == BBC_ERR_CANCELLED || cli_interrupted) {
     /* Only the passes completed before the signal are in the image; write them only
      * when asked, and never an image of no pass at all. */

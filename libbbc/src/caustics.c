@@ -251,11 +251,13 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
                                 bbc_vec3 ng, uint32_t triangle, double b1, double b2,
                                 int max_vertices, bbc_rng *rng) {
   bbc_vec3 sum = v3(0, 0, 0);
-  if (max_vertices < 1) return sum;
+  if (max_vertices < 1 || t->damage != BBC_OK) return sum;
   double t0 = omp_get_wtime();
   const bbc_cache_entry *entries = NULL;
   uint32_t n = 0;
-  if (bbc_cache_lookup(t->cursor, triangle, b1, b2, &entries, &n) != BBC_OK || n == 0) {
+  bbc_result looked = bbc_cache_lookup(t->cursor, triangle, b1, b2, &entries, &n);
+  if (looked != BBC_OK || n == 0) {
+    t->damage = looked;
     t->decoding_seconds += omp_get_wtime() - t0;
     return sum;
   }

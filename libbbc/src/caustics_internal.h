@@ -43,6 +43,10 @@ typedef struct bbc__caustics_thread {
    * reciprocal-probability estimates, the sum of their K and those stopped at the cap. */
   uint64_t newton_solves, newton_converged, newton_estimates, newton_trials, newton_cap_hits;
   double sampling_seconds, decoding_seconds, solving_seconds;
+  /* The first failed lookup (a damaged chunk: BBC_ERR_CHECKSUM or BBC_ERR_CORRUPT), or
+   * BBC_OK. Once set, this thread looks nothing up any more and the render stops: no
+   * image is made from a damaged cache (format-spec Sec. 9, R-REN-1). */
+  bbc_result damage;
 } bbc__caustics_thread;
 
 bbc_result bbc__caustics_thread_init(bbc__caustics_thread *t, const bbc_cache *cache);

@@ -344,6 +344,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
   uint32_t done = 0, pass = 1;
   double busy = 0; /* thread-seconds of rendering */
   double start = omp_get_wtime();
+  int damaged = 0; /* set once a thread's lookup met a damaged chunk */
   while (done < planned) {
     uint32_t first = done, last = done + (pass < planned - done ? pass : planned - done);
     double pass_start = omp_get_wtime();
@@ -351,6 +352,10 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(+ : pass_rays)
     for (uint32_t y = 0; y < height; y++) {
       bbc__caustics_thread *ct = &thread_state[omp_get_thread_num()];
+      int stop;
+#pragma omp atomic read
+      stop = damaged;
+      if (stop) continue;
       for (uint32_t x = 0; x < width; x++) {
         size_t pixel = (size_t)y * width + x;
         double *acc = sum + 3 * pixel;
@@ -369,8 +374,16 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
           }
         }
       }
+      if (ct->damage != BBC_OK) {
+#pragma omp atomic write
+        damaged = 1;
+      }
     }
     rays += pass_rays;
+    if (damaged) {
+      for (int i = 0; i < threads && result == BBC_OK; i++) result = thread_state[i].damage;
+      break;
+    }
     done = last;
     double now = omp_get_wtime();
     double per_spp = (now - pass_start) / (last - first);
@@ -392,7 +405,8 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     pass = next < 1 ? 1 : next > 1e6 ? 1000000 : (uint32_t)next;
   }
 
-  double scale = done ? 1.0 / done : 0.0;
+  /* Nothing of a damaged cache reaches the image. */
+  double scale = done && !damaged ? 1.0 / done : 0.0;
   for (size_t i = 0; i < pixels * 3; i++) image->rgb[i] = (float)(sum[i] * scale);
   free(sum);
   if (stats) {

@@ -121,7 +121,11 @@ typedef struct bbc_render_stats {
  * filter). accel must have been built for scene. stats may be NULL. Deterministic:
  * with an spp budget the image is bit-identical for any thread count. Returns
  * BBC_ERR_CANCELLED if the progress callback asks to stop; the image then holds the
- * mean of the completed passes. */
+ * mean of the completed passes. A lookup that meets a damaged chunk of the cache stops
+ * the render at the end of the current pass with that lookup's result (BBC_ERR_CHECKSUM
+ * or BBC_ERR_CORRUPT, reported once per thread at most through the cache's error
+ * callback) and an all-zero image: no image is made from damaged data. To refuse a
+ * damaged cache before the first pixel, call bbc_cache_validate first. */
 BBC_API bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
                               const bbc_render_options *options, bbc_image *image,
                               bbc_render_stats *stats);
