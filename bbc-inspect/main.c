@@ -106,7 +106,7 @@ static const char help[] =
     "usage, 130 when merge is interrupted (OUT.bbc is then not written).\n";
 
 static bbc_cache *open_cache(const char *path) {
-  bbc_cache_options o = {cli_print_message, NULL};
+  bbc_cache_options o = {cli_print_first_message, NULL};
   bbc_cache *c = NULL;
   if (bbc_cache_open(&c, path, &o) != BBC_OK) exit(1); /* the callback printed the line */
   return c;
@@ -490,6 +490,8 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
     bbc_cache_cursor_free(cur);
   }
   cli_progress_end(&bar);
+  /* A damaged chunk was reported by the cache, in one line. */
+  if (error == BBC_ERR_CHECKSUM || error == BBC_ERR_CORRUPT) exit(1);
   if (error != BBC_OK) cli_fail("%s: %s", cache_path, bbc_result_string(error));
 
   bbc_validation total[BBC_CHAIN_COUNT];
@@ -629,6 +631,8 @@ static int cmd_solutions(cli_args *a, const char *scene_path, const char *cache_
     }
     bbc_cache_cursor_free(cur);
   }
+  /* A damaged chunk was reported by the cache, in one line. */
+  if (error == BBC_ERR_CHECKSUM || error == BBC_ERR_CORRUPT) exit(1);
   if (error != BBC_OK) cli_fail("%s: %s", cache_path, bbc_result_string(error));
   hist[0] = h0, hist[1] = h1, hist[2] = h2, hist[3] = h3, hist[4] = h4;
   uint64_t pairs = h0 + h1 + h2 + h3 + h4;

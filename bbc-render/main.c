@@ -1,6 +1,5 @@
 /* bbc-render: renders a glTF scene to OpenEXR. */
 #define _POSIX_C_SOURCE 200809L
-#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -97,13 +96,6 @@ static const char help[] =
     "Interrupting (SIGINT, SIGTERM) stops after the current pass.\n"
     "Exit status: 0 on success, 1 on a runtime failure (bad file, I/O), 2 on bad usage,\n"
     "130 when interrupted (nothing is written, or with --write-partial the partial image).\n";
-
-/* The cache's messages: lookups on several threads may meet damaged chunks at once, and
- * the first line says it all. */
-static void print_first_message(void *user, bbc_result code, const char *message) {
-  static atomic_flag said = ATOMIC_FLAG_INIT;
-  if (!atomic_flag_test_and_set(&said)) cli_print_message(user, code, message);
-}
 
 /* Set by SIGINT and SIGTERM; the progress callback then cancels the render after the
  * current pass, as in bbc-precompute. */
@@ -315,9 +307,9 @@ int main(int argc, char **argv) {
   if (cache_path && options.method != BBC_METHOD_PT) {
     bbc_cache_options cache_options;
     memset(&cache_options, 0, sizeof cache_options);
-    cache_options.error_fn = print_first_message;
+    cache_options.error_fn = cli_print_first_message;
     if (bbc_cache_open(&cache, cache_path, &cache_options) != BBC_OK) goto done;
-    if (verify && bbc_cache_validate(cache, print_first_message, NULL) != BBC_OK) goto done;
+    if (verify && bbc_cache_validate(cache, cli_print_first_message, NULL) != BBC_OK) goto done;
     /* The cache reports what differs through its error callback, in one line. */
     if (bbc_cache_check_scene(cache, scene) != BBC_OK) goto done;
     /* A shard holds only some of the tuples: its caustics would be missing the rest. */

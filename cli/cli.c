@@ -6,6 +6,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -38,6 +39,11 @@ void cli_print_message(void *user, bbc_result code, const char *message) {
   (void)user;
   (void)code;
   fprintf(stderr, "%s: %s\n", cli_tool, message);
+}
+
+void cli_print_first_message(void *user, bbc_result code, const char *message) {
+  static atomic_flag said = ATOMIC_FLAG_INIT;
+  if (!atomic_flag_test_and_set(&said)) cli_print_message(user, code, message);
 }
 
 void cli_print_warning(void *user, bbc_result code, const char *message) {

@@ -20,6 +20,9 @@ _Noreturn void cli_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2
 
 /* A message callback for libbbc that prints "tool: <message>" to stderr. */
 void cli_print_message(void *user, bbc_result code, const char *message);
+/* The same, but only for the first message of the process: a cache's error callback,
+ * since the first damaged chunk ends every tool (threads may meet several at once). */
+void cli_print_first_message(void *user, bbc_result code, const char *message);
 /* The same for warnings: "tool: warning: <message>". */
 void cli_print_warning(void *user, bbc_result code, const char *message);
 

@@ -5,6 +5,7 @@
 # Each test_<name> function is one ctest entry.
 set -u
 RENDER="$BBC_BIN/bbc-render/bbc-render"
+INSPECT="$BBC_BIN/bbc-inspect/bbc-inspect"
 PRECOMPUTE="$BBC_BIN/bbc-precompute/bbc-precompute"
 SCENE="$BBC_TEST_SCENES/flat-mirror.gltf"
 . "$BBC_SOURCE_DIR/tests/cli/lib.sh"
@@ -74,6 +75,24 @@ test_every_chunk_is_verified_first() {
   [ -e "$TMP/out.exr" ] && fail "an image was written"
   [ "$(wc -l < "$TMP/err")" -eq 1 ] || fail "not one line: $(cat "$TMP/err")"
   grep -q "checksum mismatch (R-" "$TMP/err" || fail "message: $(cat "$TMP/err")"
+}
+
+# Every bbc-inspect command that reads the cell lists (validate lists every problem, one
+# line each, and is tested in test_inspect.sh).
+test_inspect_commands_refuse_a_damaged_chunk() {
+  make_cache
+  damage "$TMP/c.bbc" "$TMP/d.bbc" middle
+  for cmd in "dump $TMP/d.bbc --cell 3,3" "heatmap $TMP/d.bbc -o $TMP/out.exr" \
+             "check-bounds $SCENE $TMP/d.bbc --samples 5" "solutions $SCENE $TMP/d.bbc" \
+             "diff $TMP/c.bbc $TMP/d.bbc"; do
+    # shellcheck disable=SC2086
+    expect_status 1 "$INSPECT" $cmd
+    [ "$(wc -l < "$TMP/err")" -eq 1 ] || fail "$cmd: not one line: $(cat "$TMP/err")"
+    grep -q "d.bbc: CDAT at byte [0-9]*: chunk 0 checksum mismatch" "$TMP/err" ||
+      fail "$cmd: message: $(cat "$TMP/err")"
+    [ -e "$TMP/out.exr" ] && fail "$cmd: wrote an image"
+  done
+  return 0
 }
 
 "test_$1"

@@ -11,7 +11,8 @@ SCENE="$BBC_TEST_SCENES/glass-sphere.gltf"
 test_help_documents_every_flag() {
   expect_status 0 "$RENDER" --help
   for flag in --output --png --exposure --width --height --method --max-depth --no-fresnel \
-              --spp --time --threads --seed --progress --no-progress --stats --version --help; do
+              --spp --time --threads --seed --progress --no-progress --stats --version --help \
+              --no-verify; do
     grep -q -- "$flag" "$TMP/out" || fail "--help does not mention $flag"
   done
   [ -s "$TMP/err" ] && fail "--help wrote to stderr"
