@@ -536,6 +536,9 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
   if (result != BBC_OK || hi_u <= lo_u) return result;
   root->status = BBC_PIECE_KEPT;
   root->u_lo = lo_u, root->u_hi = hi_u, root->v_lo = lo_v, root->v_hi = hi_v;
+  /* What the subdivision inherits at the root: nothing is known yet. */
+  root->uk_lo = root->vk_lo = 0, root->uk_hi = root->vk_hi = 1;
+  root->e_lo = 0, root->e_hi = INFINITY;
   /* Levels count halvings of T1's unit box: the box's longer side is 2^-level. */
   double span = fmax(hi_u - lo_u, hi_v - lo_v);
   while (root->level < DOMAIN_INIT_LEVELS && span <= ldexp(1.0, -(root->level + 1))) root->level++;
@@ -569,6 +572,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
   while (result == BBC_OK && head < count) {
     bbc_piece piece = b->queue[head++];
     if (head == count) head = count = 0;
+    const bbc_piece inherited = piece;
     double t0 = cpu_seconds();
     piece_forms pf;
     verdict v = VERDICT_PARTIAL;
@@ -588,12 +592,24 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       if (fn && fn(user, &piece)) result = BBC_ERR_CANCELLED;
       continue;
     }
-    int can_split = piece.level < max_level;
+    /* The parent's position bound holds every path of the piece too. */
+    piece.uk_lo = fmax(piece.uk_lo, inherited.uk_lo), piece.uk_hi = fmin(piece.uk_hi, inherited.uk_hi);
+    piece.vk_lo = fmax(piece.vk_lo, inherited.vk_lo), piece.vk_hi = fmin(piece.vk_hi, inherited.vk_hi);
+    if (piece.uk_lo > piece.uk_hi || piece.vk_lo > piece.vk_hi) {
+      /* Two bounds of the same paths that do not meet: the piece holds none. */
+      piece.status = BBC_PIECE_DISCARDED;
+      local.discarded_pieces++;
+      if (fn && fn(user, &piece)) result = BBC_ERR_CANCELLED;
+      continue;
+    }
+    /* The inherited irradiance bound (the parent's) is valid for the piece as it is. */
+    bbc_piece_need need = prm.need ? prm.need(prm.need_user, &piece) : BBC_NEED_SPLIT;
+    int can_split = piece.level < max_level && need == BBC_NEED_SPLIT;
     double area = (piece.uk_hi - piece.uk_lo) * (piece.vk_hi - piece.vk_lo);
     int split = 0;
-    piece.e_lo = 0;
-    piece.e_hi = INFINITY;
-    if (can_split && v == VERDICT_PARTIAL) {
+    if (need == BBC_NEED_NONE) {
+      split = 0;
+    } else if (can_split && v == VERDICT_PARTIAL && area >= sigma) {
       split = 1;
     } else if (!prm.positions_only) {
       /* Reflection has no remainder variables: its position forms serve as they are. */
@@ -605,12 +621,17 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
         irr = &irr_forms;
       }
       const double uk_box[4] = {piece.uk_lo, piece.uk_hi, piece.vk_lo, piece.vk_hi};
+      double e_lo = 0, e_hi = INFINITY;
       if (result == BBC_OK)
         result = irradiance_bound(&b->arena, &space, g, irr, box, uk_box, s_axis, t_axis,
-                                  prm.jacobian, alpha, &piece.e_lo, &piece.e_hi);
+                                  prm.jacobian, alpha, &e_lo, &e_hi);
       local.irradiance_pieces++;
       local.irradiance_seconds += cpu_seconds() - t1;
       if (result != BBC_OK) break;
+      /* Both the piece's own bound and the inherited one hold: keep the tighter ends. */
+      piece.e_lo = fmax(piece.e_lo, e_lo);
+      piece.e_hi = fmin(piece.e_hi, e_hi);
+      if (can_split && prm.need) can_split = prm.need(prm.need_user, &piece) == BBC_NEED_SPLIT;
       split = can_split && area >= sigma && !(piece.e_hi < alpha * piece.e_lo);
     } else {
       split = can_split && area >= sigma;
@@ -618,8 +639,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
 
     if (split) {
       double um = 0.5 * (piece.u_lo + piece.u_hi), vm = 0.5 * (piece.v_lo + piece.v_hi);
-      bbc_piece child;
-      memset(&child, 0, sizeof child);
+      bbc_piece child = piece; /* inherits the position and irradiance bounds */
       child.level = piece.level + 1;
       const double us[3] = {piece.u_lo, um, piece.u_hi}, vs[3] = {piece.v_lo, vm, piece.v_hi};
       for (int j = 0; j < 2 && result == BBC_OK; j++) {

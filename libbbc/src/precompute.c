@@ -21,9 +21,104 @@ typedef struct piece_list {
   int failed;
 } piece_list;
 
+/* A per-thread raster of one tuple's bounds over the cells of its receiver triangle,
+ * kept up to date while the tuple is bounded, so that the subdivision can stop where a
+ * piece changes nothing recorded (bbc_piece_need_fn). Cells hold the largest E_hi per
+ * unit intensity of the kept pieces reaching them, 0 where none does; only the touched
+ * rectangle is cleared after the tuple. */
+typedef struct coverage {
+  double *cells;
+  size_t capacity;
+  uint32_t x0, y0, w, h; /* the receiver triangle's cell rectangle */
+  uint32_t tx0, ty0, tx1, ty1;
+  int touched;
+} coverage;
+
+typedef struct tuple_sink {
+  piece_list *pieces;
+  coverage *cover;
+  const bbc_grid *grid;
+  uint32_t receiver;
+} tuple_sink;
+
+static bbc_result coverage_begin(coverage *c, const bbc_grid *grid, uint32_t receiver) {
+  bbc_cell_range t;
+  c->touched = 0;
+  c->w = c->h = 0;
+  if (!bbc_grid_splat_range(grid, receiver, 0, 1, 0, 1, &t)) return BBC_OK;
+  size_t w = (size_t)t.x1 - t.x0 + 1, h = (size_t)t.y1 - t.y0 + 1;
+  if (w * h > c->capacity) {
+    free(c->cells);
+    c->cells = calloc(w * h, sizeof *c->cells);
+    c->capacity = c->cells ? w * h : 0;
+    if (!c->cells) return BBC_ERR_OUT_OF_MEMORY;
+  }
+  c->x0 = t.x0, c->y0 = t.y0, c->w = (uint32_t)w, c->h = (uint32_t)h;
+  return BBC_OK;
+}
+
+static void coverage_end(coverage *c) {
+  if (!c->touched) return;
+  for (uint32_t y = c->ty0; y <= c->ty1; y++)
+    memset(c->cells + (size_t)(y - c->y0) * c->w + (c->tx0 - c->x0), 0,
+           ((size_t)c->tx1 - c->tx0 + 1) * sizeof *c->cells);
+  c->touched = 0;
+}
+
+/* The piece's cells inside the triangle's rectangle; 0 when it reaches none. */
+static int coverage_range(const tuple_sink *s, const bbc_piece *p, bbc_cell_range *r) {
+  const coverage *c = s->cover;
+  if (c->w == 0 ||
+      !bbc_grid_splat_range(s->grid, s->receiver, p->uk_lo, p->uk_hi, p->vk_lo, p->vk_hi, r))
+    return 0;
+  /* Splats of the triangle's points stay in its rectangle; clamp for safety. */
+  if (r->x0 < c->x0) r->x0 = c->x0;
+  if (r->y0 < c->y0) r->y0 = c->y0;
+  if (r->x1 > c->x0 + c->w - 1) r->x1 = c->x0 + c->w - 1;
+  if (r->y1 > c->y0 + c->h - 1) r->y1 = c->y0 + c->h - 1;
+  return r->x0 <= r->x1 && r->y0 <= r->y1;
+}
+
+static bbc_piece_need piece_need(void *user, const bbc_piece *piece) {
+  const tuple_sink *s = user;
+  const coverage *c = s->cover;
+  bbc_cell_range r;
+  if (!coverage_range(s, piece, &r)) return BBC_NEED_NONE; /* it reaches no cell */
+  int dominated = 1;
+  for (uint32_t y = r.y0; y <= r.y1 && dominated; y++) {
+    const double *row = c->cells + (size_t)(y - c->y0) * c->w - c->x0;
+    for (uint32_t x = r.x0; x <= r.x1; x++)
+      if (!(row[x] > 0 && row[x] >= piece->e_hi)) {
+        dominated = 0;
+        break;
+      }
+  }
+  if (dominated) return BBC_NEED_NONE;
+  return r.x0 == r.x1 && r.y0 == r.y1 ? BBC_NEED_KEEP : BBC_NEED_SPLIT;
+}
+
 static int keep_piece(void *user, const bbc_piece *piece) {
-  piece_list *l = user;
+  tuple_sink *s = user;
+  piece_list *l = s->pieces;
   if (piece->status != BBC_PIECE_KEPT) return 0;
+  coverage *c = s->cover;
+  bbc_cell_range r;
+  if (coverage_range(s, piece, &r)) {
+    for (uint32_t y = r.y0; y <= r.y1; y++) {
+      double *row = c->cells + (size_t)(y - c->y0) * c->w - c->x0;
+      for (uint32_t x = r.x0; x <= r.x1; x++)
+        if (!(row[x] >= piece->e_hi)) row[x] = piece->e_hi;
+    }
+    if (!c->touched) {
+      c->tx0 = r.x0, c->ty0 = r.y0, c->tx1 = r.x1, c->ty1 = r.y1;
+      c->touched = 1;
+    } else {
+      if (r.x0 < c->tx0) c->tx0 = r.x0;
+      if (r.y0 < c->ty0) c->ty0 = r.y0;
+      if (r.x1 > c->tx1) c->tx1 = r.x1;
+      if (r.y1 > c->ty1) c->ty1 = r.y1;
+    }
+  }
   if (l->count == l->capacity) {
     size_t capacity = l->capacity ? 2 * l->capacity : 16;
     bbc_piece *items = realloc(l->items, capacity * sizeof *items);
@@ -149,9 +244,10 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   piece_list *pieces = calloc(BATCH_TUPLES, sizeof *pieces);
   uint32_t *ids = calloc(BATCH_TUPLES, sizeof *ids);
   raster *rasters = calloc((size_t)threads, sizeof *rasters);
+  coverage *covers = calloc((size_t)threads, sizeof *covers);
   const bbc_grid *grid = bbc_cache_builder_grid(builder);
   bbc_bound_stats *thread_stats = calloc((size_t)threads, sizeof *thread_stats);
-  if (result == BBC_OK && (!bounders || !pieces || !ids || !rasters || !thread_stats))
+  if (result == BBC_OK && (!bounders || !pieces || !ids || !rasters || !covers || !thread_stats))
     result = BBC_ERR_OUT_OF_MEMORY;
   for (int i = 0; i < threads && result == BBC_OK; i++) result = bbc_bounder_create(&bounders[i]);
 
@@ -164,12 +260,19 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       int id = omp_get_thread_num();
       bbc_tuple_geometry g;
       pieces[i].count = 0;
-      if (bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) != BBC_OK ||
-          bbc_bound_tuple(bounders[id], &g, g.length == 2 ? &bound2 : &bound, keep_piece, &pieces[i],
-                          &thread_stats[id]) !=
-              BBC_OK ||
-          pieces[i].failed)
-        failed = 1;
+      tuple_sink sink = {&pieces[i], &covers[id], grid, tuples[first + i].receiver};
+      int ok = bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) == BBC_OK &&
+               coverage_begin(&covers[id], grid, sink.receiver) == BBC_OK;
+      if (ok) {
+        bbc_bound_params prm = g.length == 2 ? bound2 : bound;
+        prm.need = piece_need;
+        prm.need_user = &sink;
+        ok = bbc_bound_tuple(bounders[id], &g, &prm, keep_piece, &sink, &thread_stats[id]) ==
+                 BBC_OK &&
+             !pieces[i].failed;
+      }
+      coverage_end(&covers[id]);
+      if (!ok) failed = 1;
     }
     double b1 = omp_get_wtime();
     st.bounding_seconds += b1 - b0;
@@ -222,6 +325,8 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   free(ids);
   for (int i = 0; rasters && i < threads; i++) free(rasters[i].cells);
   free(rasters);
+  for (int i = 0; covers && i < threads; i++) free(covers[i].cells);
+  free(covers);
   free(thread_stats);
   free(tuples);
   free(candidate);

@@ -13,6 +13,7 @@
 #include "bbc/precompute.h"
 #include "chain_internal.h"
 #include "media_internal.h"
+#include "orient_internal.h"
 #include "vec_internal.h"
 
 /* T2 is searched with the beams of the boxes of a BEAM_SPLIT x BEAM_SPLIT grid over T1's
@@ -242,6 +243,19 @@ static int second_beam(const bbc_tuple_geometry *g, const bbc_ivec3 *d1, bbc_ive
   return 1;
 }
 
+/* Whether T1 lies in T2's plane (exactly, on the float data). A segment from a point
+ * of that plane to another one lies in the plane, so it meets T2 edge-on or not at all:
+ * no path goes from T1 to T2, whatever the shading normals. */
+static int coplanar(const bbc_scene *scene, uint32_t t1, uint32_t t2) {
+  const float *q[3];
+  for (int k = 0; k < 3; k++) q[k] = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t2 + k];
+  for (int k = 0; k < 3; k++) {
+    const float *p = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t1 + k];
+    if (bbc__orient3d(q[0], q[1], q[2], p) != 0) return 0;
+  }
+  return 1;
+}
+
 /* The medium rule (media_internal.h) for T2, over every x1 of T1: 1 when light in
  * `medium` may refract at dielectric T2 coming from some point of T1. A side is
  * possible when some vertex of T1 lies strictly on it (light from a point in T2's plane
@@ -344,7 +358,7 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
       for (uint32_t j = 0; j < n2 && result == BBC_OK; j++) {
         const uint32_t t2 = found2[j];
         int second = scattering_of(scene, t2);
-        if (t2 == t || second < 0 || !(chains & after[second])) continue;
+        if (t2 == t || second < 0 || !(chains & after[second]) || coplanar(scene, t, t2)) continue;
         if (second == 1 && !second_refraction_possible(scene, medium, t, t2)) continue;
         bbc_tuple pair = tuple;
         pair.chain = (uint32_t)(first ? (second ? BBC_CHAIN_TT : BBC_CHAIN_TR)

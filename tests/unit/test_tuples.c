@@ -21,6 +21,7 @@
 #include "bbc/precompute.h"
 #include "harness.h"
 #include "media_internal.h"
+#include "orient_internal.h"
 #include "rng_internal.h"
 #include "vec_internal.h"
 
@@ -274,4 +275,82 @@ TEST(glass_slab_closed) {
   static const long min[BBC_CHAIN_COUNT] = {0, 0, 0, 0, 0, 10000};
   check_scene(TEST_SCENE("glass-slab.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
               min);
+}
+
+/* The exact orientation against 128-bit integer determinants: integer coordinates below
+ * 2^21 in magnitude (exact floats, times a power of two), exactly coplanar quadruples
+ * (d = a + i (b - a) + j (c - a)) and the same with d moved by one unit. Doubles alone
+ * get some of these wrong (counted, as the control). */
+static int orient_int(const long long p[4][3]) {
+  __int128 u[3], v[3], w[3];
+  for (int k = 0; k < 3; k++) {
+    u[k] = p[1][k] - p[0][k];
+    v[k] = p[2][k] - p[0][k];
+    w[k] = p[3][k] - p[0][k];
+  }
+  __int128 det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
+                 u[2] * (v[0] * w[1] - v[1] * w[0]);
+  return (det > 0) - (det < 0);
+}
+
+static int orient_double(const float p[4][3]) {
+  double u[3], v[3], w[3];
+  for (int k = 0; k < 3; k++) {
+    u[k] = (double)p[1][k] - p[0][k];
+    v[k] = (double)p[2][k] - p[0][k];
+    w[k] = (double)p[3][k] - p[0][k];
+  }
+  double det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
+               u[2] * (v[0] * w[1] - v[1] * w[0]);
+  return (det > 0) - (det < 0);
+}
+
+TEST(orient3d_exact) {
+  bbc_rng rng = bbc_rng_make(7, 0, 0);
+  long wrong = 0, naive_wrong = 0, zeros = 0;
+  const long cases = 30000;
+  for (long n = 0; n < cases; n++) {
+    long long p[4][3];
+    const long long range = 1 << 20;
+    for (int i = 0; i < 3; i++)
+      for (int k = 0; k < 3; k++)
+        p[i][k] = (long long)(bbc_rng_next(&rng) * 2 * range) - range;
+    const int kind = (int)(n % 3);
+    if (kind == 2) { /* general position */
+      for (int k = 0; k < 3; k++) p[3][k] = (long long)(bbc_rng_next(&rng) * 2 * range) - range;
+    } else {
+      long long i = (long long)(bbc_rng_next(&rng) * 7) - 3, j = (long long)(bbc_rng_next(&rng) * 7) - 3;
+      for (int k = 0; k < 3; k++) p[3][k] = p[0][k] + i * (p[1][k] - p[0][k]) + j * (p[2][k] - p[0][k]);
+      if (kind == 1) p[3][n % 9 / 3] += (n & 8) ? 1 : -1;
+    }
+    const int expect = orient_int(p);
+    zeros += expect == 0;
+    const float scale = ldexpf(1.0f, (int)(n % 41) - 20);
+    float f[4][3];
+    for (int i = 0; i < 4; i++)
+      for (int k = 0; k < 3; k++) f[i][k] = (float)p[i][k] * scale;
+    wrong += bbc__orient3d(f[0], f[1], f[2], f[3]) != expect;
+    naive_wrong += orient_double(f) != expect;
+  }
+  fprintf(stderr, "orient3d: %ld cases, %ld coplanar; exact wrong %ld, doubles wrong %ld\n", cases,
+          zeros, wrong, naive_wrong);
+  CHECK_INT(wrong, 0);
+  CHECK(zeros >= cases / 3);
+  CHECK(naive_wrong > 0); /* the cases are hard enough to need the exact predicate */
+}
+
+/* A flat mirror: its triangles are coplanar, so no light goes from one to another and
+ * no two-bounce candidate may remain; every single-reflection path has its tuple. */
+TEST(flat_mirror_coplanar) {
+  bbc_scene *s = NULL;
+  REQUIRE(bbc_scene_load(&s, TEST_SCENE("flat-mirror.gltf"), NULL) == BBC_OK);
+  bbc_tuple *tuples = NULL;
+  size_t count = 0, pairs = 0;
+  REQUIRE(bbc_tuples_find(s, BBC_CHAIN_MASK_ALL, &tuples, &count) == BBC_OK);
+  for (size_t i = 0; i < count; i++) pairs += bbc_chain_length((bbc_chain)tuples[i].chain) == 2;
+  free(tuples);
+  CHECK_INT(pairs, 0);
+  static const long min[BBC_CHAIN_COUNT] = {10000, 0, 0, 0, 0, 0};
+  check_loaded(s, BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000), min);
+  bbc_scene_free(s);
 }

@@ -51,6 +51,20 @@ typedef enum bbc_jacobian_form {
   BBC_JACOBIAN_QUOTIENT = 1     /* the quotient-rule form, |N| / q^4 with N = q D expanded */
 } bbc_jacobian_form;
 
+/* What the caller (the precompute, which records pieces into receiver cells) still
+ * needs from a piece whose position bound is known (see bbc_bound_params.need). */
+typedef enum bbc_piece_need {
+  BBC_NEED_SPLIT = 0, /* subdivide it as the stopping rules say */
+  BBC_NEED_KEEP = 1,  /* finer position bounds change nothing recorded (the piece falls
+                         in one cell): bound its irradiance and keep it unsplit */
+  BBC_NEED_NONE = 2   /* nothing it or its subpieces can hold changes what is recorded
+                         (every cell it reaches already holds at least its E_hi): keep
+                         it as it is */
+} bbc_piece_need;
+
+struct bbc_piece;
+typedef bbc_piece_need (*bbc_piece_need_fn)(void *user, const struct bbc_piece *piece);
+
 /* Parameters of the subdivision; a zero-initialised struct means the defaults. */
 typedef struct bbc_bound_params {
   int max_level;    /* deepest subdivision level of the u1 box; 0 = 10, negative = 0
@@ -62,6 +76,12 @@ typedef struct bbc_bound_params {
                        (NOT conservative: the paper's Fig. 18 ablation) */
   bbc_jacobian_form jacobian;
   int positions_only; /* skip irradiance bounds (E_hi = +inf, E_lo = 0) */
+  /* Optional (NULL: always split by the rules): asked for every piece whose position
+   * bound is known, with the E_lo, E_hi it inherits from its parent (a bound of its
+   * paths too) and again once its own irradiance bound is known. It may stop the
+   * subdivision early but never changes a bound, so every reported leaf stays valid. */
+  bbc_piece_need_fn need;
+  void *need_user;
 } bbc_bound_params;
 
 typedef enum bbc_piece_status {
