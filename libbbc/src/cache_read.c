@@ -353,10 +353,12 @@ static bbc_result check_receivers(bbc_cache *c) {
                   (unsigned long long)i, r->first_triangle, r->triangle_count, triangles);
     tri_end = (uint64_t)r->first_triangle + r->triangle_count;
     uint32_t longer = r->width > r->height ? r->width : r->height;
+    /* A projection of vertices that all project to one point has a 1 x 1 grid (6.3). */
+    int point = longer == 1 && r->domain[0] == r->domain[2] && r->domain[1] == r->domain[3];
     if (r->parameterisation > BBC_PARAM_BOX || r->width < 1 || r->height < 1 || r->width > res ||
         r->height > res ||
         (r->parameterisation == BBC_PARAM_TEXCOORD ? (r->width != res || r->height != res)
-                                                   : longer != res))
+                                                   : longer != res && !point))
       return fail(c, BBC_ERR_CORRUPT, "RCVR", at + 4,
                   "receiver %llu: parameterisation %u with a %u x %u grid at resolution %u "
                   "(R-RCV-2)",

@@ -58,4 +58,8 @@ const char *bbc__cache_path(const bbc_cache *c);
 /* The INFO section's bytes and size, or NULL when the file has none. Borrowed. */
 const uint8_t *bbc__cache_info_bytes(const bbc_cache *c, uint64_t *size);
 
+/* Writes the cache to file_path (created or truncated), naming `path` in messages. */
+bbc_result bbc__cache_builder_write_file(bbc_cache_builder *b, const char *file_path,
+                                         const char *path, const bbc_cache_write_options *o);
+
 #endif

@@ -1020,37 +1020,23 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   return r;
 }
 
-typedef struct file_job {
-  bbc_cache_builder *b;
-  const bbc_cache_write_options *o;
-  const char *path;
-} file_job;
-
-static bbc_result write_file(void *ctx, const char *tmp_path) {
-  file_job *job = ctx;
-  bbc_message_fn fn = job->o ? job->o->error_fn : NULL;
-  void *user = job->o ? job->o->user : NULL;
+bbc_result bbc__cache_builder_write_file(bbc_cache_builder *b, const char *file_path,
+                                         const char *path, const bbc_cache_write_options *o) {
+  bbc_message_fn fn = o ? o->error_fn : NULL;
+  void *user = o ? o->user : NULL;
   sink s;
   memset(&s, 0, sizeof s);
-  s.path = job->path;
+  s.path = path;
   s.error_fn = fn;
   s.user = user;
-  s.file = fopen(tmp_path, "wb");
+  s.file = fopen(file_path, "wb");
   if (!s.file)
-    return bbc__report(fn, user, BBC_ERR_IO, "%s: cannot create %s: %s", job->path, tmp_path,
+    return bbc__report(fn, user, BBC_ERR_IO, "%s: cannot create %s: %s", path, file_path,
                        strerror(errno));
-  bbc_result r = write_cache(job->b, &s, job->o);
+  bbc_result r = write_cache(b, &s, o);
   if (fclose(s.file) != 0 && r == BBC_OK)
-    r = bbc__report(fn, user, BBC_ERR_IO, "%s: cannot write: %s", job->path, strerror(errno));
+    r = bbc__report(fn, user, BBC_ERR_IO, "%s: cannot write: %s", path, strerror(errno));
   return r;
-}
-
-bbc_result bbc_cache_builder_write(bbc_cache_builder *b, const char *path,
-                                   const bbc_cache_write_options *options) {
-  if (!b || !path) return BBC_ERR_INVALID_ARGUMENT;
-  file_job job = {b, options, path};
-  return bbc__write_atomically(path, write_file, &job, options ? options->error_fn : NULL,
-                               options ? options->user : NULL);
 }
 
 bbc_result bbc_cache_builder_write_memory(bbc_cache_builder *b, void **bytes, size_t *size,

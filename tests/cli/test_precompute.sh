@@ -8,6 +8,53 @@ MIRROR="$BBC_TEST_SCENES/flat-mirror.gltf"
 POOL="$BBC_TEST_SCENES/pool.glb"
 . "$BBC_SOURCE_DIR/tests/cli/lib.sh"
 
+# Writer edge cases: every cache bbc-precompute writes passes its own validation (it is
+# checked before the rename). A receiver whose three vertices are one point gets the
+# 1 x 1 grid of a single-point domain (format-spec 6.3, R-RCV-2).
+test_degenerate_receiver_cache_is_valid() {
+  python3 - "$TMP/d.gltf" <<'PY' || fail "cannot write the scene"
+import json, struct, base64, sys
+# mirror triangle (x=0 wall), floor quad, and a receiver whose vertices are one point
+mirror = [(0,0,-1),(0,2,-1),(0,0,1)]
+floor = [(-2,0,-2),(2,0,-2),(2,0,2),(-2,0,2)]
+dot = [(1,0.5,0.5)]*3
+pos = mirror+floor+dot
+idx = [0,1,2, 0,2,1, 0,3,2, 0,1,2]
+blob = b''.join(struct.pack('<3f',*p) for p in pos) + struct.pack('<12I',*idx)
+nb = len(pos)*12
+uri = 'data:application/octet-stream;base64,' + base64.b64encode(blob).decode()
+def acc(bv, count, typ, comp, mn=None, mx=None):
+    a={"bufferView":bv,"componentType":comp,"count":count,"type":typ}
+    if mn: a["min"]=mn; a["max"]=mx
+    return a
+g = {"asset":{"version":"2.0","extras":{"bbc":{"light_units":"radiometric"}}},
+ "extensionsUsed":["KHR_lights_punctual"],
+ "extensions":{"KHR_lights_punctual":{"lights":[{"type":"point","color":[1,1,1],"intensity":10}]}},
+ "scene":0,"scenes":[{"nodes":[0,1,2,3,4]}],
+ "nodes":[{"mesh":0},{"mesh":1},{"mesh":2,"extras":{"bbc":{"role":"receiver"}}},
+          {"translation":[1,1,0],"extensions":{"KHR_lights_punctual":{"light":0}}},
+          {"camera":0,"translation":[2,6,0],"rotation":[-0.7071067811865475,0,0,0.7071067811865476]}],
+ "cameras":[{"type":"perspective","perspective":{"aspectRatio":1.333,"yfov":0.7,"znear":0.01}}],
+ "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":3,"material":0}]},
+           {"primitives":[{"attributes":{"POSITION":1},"indices":4,"material":1}]},
+           {"primitives":[{"attributes":{"POSITION":2},"indices":5,"material":1}]}],
+ "materials":[{"pbrMetallicRoughness":{"baseColorFactor":[1,1,1,1],"metallicFactor":1,"roughnessFactor":0}},
+              {"pbrMetallicRoughness":{"baseColorFactor":[0.8,0.8,0.8,1],"metallicFactor":0}}],
+ "buffers":[{"byteLength":len(blob),"uri":uri}],
+ "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":48},
+                {"buffer":0,"byteOffset":84,"byteLength":36},{"buffer":0,"byteOffset":nb,"byteLength":12},
+                {"buffer":0,"byteOffset":nb+12,"byteLength":24},{"buffer":0,"byteOffset":nb+36,"byteLength":12}],
+ "accessors":[acc(0,3,"VEC3",5126,[0,0,-1],[0,2,1]),acc(1,4,"VEC3",5126,[-2,0,-2],[2,0,2]),
+              acc(2,3,"VEC3",5126,[1,0.5,0.5],[1,0.5,0.5]),acc(3,3,"SCALAR",5125),acc(4,6,"SCALAR",5125),acc(5,3,"SCALAR",5125)]}
+json.dump(g, open(sys.argv[1],'w'))
+PY
+  expect_status 0 "$PRECOMPUTE" "$TMP/d.gltf" -o "$TMP/d.bbc" --chains R --max-level 4 \
+    --resolution 64 --no-progress
+  expect_status 0 "$BBC_BIN/bbc-inspect/bbc-inspect" info "$TMP/d.bbc"
+  grep -q "1: mesh 2, box, 1 x 1 cells" "$TMP/out" || fail "no 1 x 1 receiver: $(cat "$TMP/out")"
+  expect_status 0 "$BBC_BIN/bbc-inspect/bbc-inspect" validate "$TMP/d.bbc"
+}
+
 test_help_documents_every_flag() {
   expect_status 0 "$PRECOMPUTE" --help
   for flag in --output --stats --json --chains --max-level --sigma --alpha --alpha2 --m --resolution \

@@ -124,8 +124,9 @@ typedef struct bbc_cache_write_options {
   void *progress_user;
 } bbc_cache_write_options;
 
-/* Writes the cache to path through a temporary file in the same folder renamed on
- * success. The bytes depend only on the scene, the parameters, the tuples in id order,
+/* Writes the cache to path through a temporary file in the same folder, checks that
+ * file with the reader (bbc_cache_open and bbc_cache_validate) and renames it on
+ * success; a file that fails its own validation is never left behind. The bytes depend only on the scene, the parameters, the tuples in id order,
  * the set of splats (not their order or threads) and the options (spec Sec. 7.3).
  * The builder of a sharded precompute (bbc_precompute_options.shard_count) writes a
  * shard cache: the SHRD section and format version 1.1 (spec Sec. 5.10); every other
