@@ -153,7 +153,7 @@ static int cmd_info(const char *path) {
       (unsigned long long)f->total, (unsigned long long)f->geometry,
       (unsigned long long)f->materials, (unsigned long long)f->meshes,
       (unsigned long long)f->lights, (unsigned long long)f->params);
-  printf("scene        %u vertices, %u triangles, %u meshes, %u materials, %u point lights\n",
+  printf("scene        %u vertices, %u triangles, %u meshes, %u materials, %u lights\n",
          in.scene_vertex_count, in.scene_triangle_count, in.scene_mesh_count,
          in.scene_material_count, in.scene_light_count);
   uint64_t per_chain[BBC_CHAIN_COUNT] = {0};
@@ -173,6 +173,7 @@ static int cmd_info(const char *path) {
       printf("%s%s %llu", listed++ ? ", " : " (", bbc_chain_name((bbc_chain)k),
              (unsigned long long)per_chain[k]);
   printf("%s\n", listed ? ")" : "");
+  cli_print_tuples_per_light(stdout, "  ", t, in.tuple_count, in.scene_light_count, NULL);
   const bbc_grid *g = bbc_cache_grid(c);
   printf("receivers    %u\n", in.receiver_count);
   for (uint32_t i = 0; i < g->receiver_count; i++) {
@@ -455,7 +456,9 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
              scene_path, next, in.tuple_count);
 
   size_t blocks = (count + CHECK_BLOCK - 1) / CHECK_BLOCK;
-  bbc_validation *acc = calloc(BBC_CHAIN_COUNT * (blocks ? blocks : 1), sizeof *acc);
+  /* Per block, per light kind and chain type (merged in block order: deterministic). */
+  enum { KINDS = 3, SLOTS = KINDS * BBC_CHAIN_COUNT };
+  bbc_validation *acc = calloc(SLOTS * (blocks ? blocks : 1), sizeof *acc);
   if (!acc) cli_fail("out of memory");
   cli_progress bar;
   cli_progress_begin(&bar, "checking", progress);
@@ -468,8 +471,10 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
 #pragma omp for schedule(dynamic, 1)
     for (size_t b = 0; b < blocks; b++) {
       for (size_t i = b * CHECK_BLOCK; i < count && i < (b + 1) * CHECK_BLOCK && r == BBC_OK; i++) {
-        r = bbc_validate_cached_tuple(c, cur, scene, &cand[i], ids[i], samples, 1,
-                                      &acc[BBC_CHAIN_COUNT * b + cand[i].chain]);
+        const int kind = (int)scene->point_lights[cand[i].light].model.kind;
+        r = bbc_validate_cached_tuple(
+            c, cur, scene, &cand[i], ids[i], samples, 1,
+            &acc[SLOTS * b + BBC_CHAIN_COUNT * (kind < KINDS ? kind : 0) + cand[i].chain]);
       }
 #pragma omp atomic
       done++;
@@ -494,11 +499,14 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
   if (error == BBC_ERR_CHECKSUM || error == BBC_ERR_CORRUPT) exit(1);
   if (error != BBC_OK) cli_fail("%s: %s", cache_path, bbc_result_string(error));
 
-  bbc_validation total[BBC_CHAIN_COUNT];
+  bbc_validation total[BBC_CHAIN_COUNT], by_kind[SLOTS];
   for (int k = 0; k < BBC_CHAIN_COUNT; k++) bbc_validation_reset(&total[k]);
+  for (int k = 0; k < SLOTS; k++) bbc_validation_reset(&by_kind[k]);
   for (size_t b = 0; b < blocks; b++)
-    for (int k = 0; k < BBC_CHAIN_COUNT; k++)
-      bbc_validation_merge(&total[k], &acc[BBC_CHAIN_COUNT * b + k]);
+    for (int k = 0; k < SLOTS; k++) {
+      bbc_validation_merge(&total[k % BBC_CHAIN_COUNT], &acc[SLOTS * b + k]);
+      bbc_validation_merge(&by_kind[k], &acc[SLOTS * b + k]);
+    }
   /* The chain types of the cache's parameters, and any other that holds tuples. */
   uint64_t failures = 0;
   for (int k = 0; k < BBC_CHAIN_COUNT; k++) {
@@ -508,6 +516,18 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
         bbc_validation_print_histogram(&total[k], stdout) != BBC_OK)
       cli_fail("cannot write to stdout");
     failures += bbc_validation_failures(&total[k]);
+  }
+  /* With spot or directional lights, the summary per light kind as well. */
+  int other_kinds = 0;
+  for (int k = BBC_CHAIN_COUNT; k < SLOTS; k++) other_kinds |= by_kind[k].tuples > 0;
+  static const char *const kind_names[KINDS] = {"point", "spot", "directional"};
+  for (int k = 0; k < SLOTS && other_kinds; k++) {
+    if (by_kind[k].tuples == 0) continue;
+    char label[64];
+    snprintf(label, sizeof label, "%s, %s lights", bbc_chain_name((bbc_chain)(k % BBC_CHAIN_COUNT)),
+             kind_names[k / BBC_CHAIN_COUNT]);
+    if (bbc_validation_print_summary(&by_kind[k], label, stdout) != BBC_OK)
+      cli_fail("cannot write to stdout");
   }
   for (int k = 0; k < BBC_CHAIN_COUNT; k++)
     if (bbc_validation_failures(&total[k])) {

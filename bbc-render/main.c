@@ -121,7 +121,7 @@ static int on_progress(void *user, uint64_t done, uint64_t total) {
 }
 
 static void print_stats(const bbc_render_stats *s, const bbc_render_options *options,
-                        long long width, long long height) {
+                        const bbc_scene *scene, long long width, long long height) {
   double rays_per_s = s->seconds > 0 ? s->rays / s->seconds : 0;
   fprintf(stderr,
           "time         %.3f s\n"
@@ -141,6 +141,13 @@ static void print_stats(const bbc_render_stats *s, const bbc_render_options *opt
             s->sampled / lookups, s->sampled ? (double)s->solutions / s->sampled : 0.0,
             100 * s->sampling_seconds / busy, 100 * s->decoding_seconds / busy,
             100 * s->solving_seconds / busy);
+    if (options->cache) {
+      bbc_cache_info info;
+      bbc_cache_get_info(options->cache, &info);
+      fprintf(stderr, "tuples       %u in the cache, per light:\n", info.tuple_count);
+      cli_print_tuples_per_light(stderr, "  ", bbc_cache_tuples(options->cache), info.tuple_count,
+                                 scene->point_light_count, scene);
+    }
     if (s->newton_solves) {
       /* Double-scattering tuples: Newton's method on the chain (--solver). */
       unsigned cap =
@@ -366,7 +373,7 @@ int main(int argc, char **argv) {
     if (bbc_image_write_exr(image, output, cli_print_message, NULL) != BBC_OK) goto done;
     if (png && bbc_image_write_png(image, png, exposure, 1, cli_print_message, NULL) != BBC_OK)
       goto done;
-    if (stats) print_stats(&render_stats, &options, width, height);
+    if (stats) print_stats(&render_stats, &options, scene, width, height);
     fprintf(stderr, "bbc-render: interrupted after %u spp; wrote partial image %s\n",
             render_stats.spp, output);
     status = 130;
@@ -384,7 +391,7 @@ int main(int argc, char **argv) {
     if (bbc_image_relmse(image, reference, relmse_eps, reject, &relmse) != BBC_OK) goto done;
     printf("relMSE %.6g\n", relmse);
   }
-  if (stats) print_stats(&render_stats, &options, width, height);
+  if (stats) print_stats(&render_stats, &options, scene, width, height);
   status = 0;
 done:
   bbc_image_free(image);

@@ -1,6 +1,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include "cli.h"
 
+#include "bbc/scene.h"
 #include "bbc/tuple.h"
 
 #include <errno.h>
@@ -193,4 +194,25 @@ void cli_progress_update(cli_progress *p, double fraction, const char *detail) {
 void cli_progress_end(cli_progress *p) {
   if (p->enabled && p->drawn) fputc('\n', stderr);
   p->drawn = 0;
+}
+
+void cli_print_tuples_per_light(FILE *out, const char *indent, const bbc_tuple *tuples,
+                                uint32_t count, uint32_t light_count, const bbc_scene *scene) {
+  static const char *const kinds[3] = {"point", "spot", "directional"};
+  for (uint32_t l = 0; l < light_count; l++) {
+    uint64_t per_chain[BBC_CHAIN_COUNT] = {0}, total = 0;
+    for (uint32_t i = 0; i < count; i++)
+      if (tuples[i].light == l && tuples[i].chain < BBC_CHAIN_COUNT) per_chain[tuples[i].chain]++, total++;
+    if (!total) continue;
+    fprintf(out, "%slight %u", indent, l);
+    if (scene && l < scene->point_light_count && (unsigned)scene->point_lights[l].model.kind < 3)
+      fprintf(out, " (%s)", kinds[scene->point_lights[l].model.kind]);
+    fprintf(out, ": %llu tuples", (unsigned long long)total);
+    int listed = 0;
+    for (int k = 0; k < BBC_CHAIN_COUNT; k++)
+      if (per_chain[k])
+        fprintf(out, "%s%s %llu", listed++ ? ", " : " (", bbc_chain_name((bbc_chain)k),
+                (unsigned long long)per_chain[k]);
+    fprintf(out, "%s\n", listed ? ")" : "");
+  }
 }

@@ -5,6 +5,7 @@
 
 #include <signal.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include "bbc/common.h"
 #include "bbc/scene.h"
@@ -78,5 +79,13 @@ void cli_progress_update(cli_progress *p, double fraction, const char *detail);
 void cli_progress_end(cli_progress *p);
 
 double cli_now(void);
+
+/* Prints one line per light that has tuples, indented by `indent`: "light 0 (directional):
+ * 13 tuples (R 13)". scene may be NULL (the kind is then not named). */
+struct bbc_tuple;
+struct bbc_scene;
+void cli_print_tuples_per_light(FILE *out, const char *indent, const struct bbc_tuple *tuples,
+                                uint32_t count, uint32_t light_count,
+                                const struct bbc_scene *scene);
 
 #endif

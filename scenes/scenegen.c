@@ -17,8 +17,9 @@
  *     NORMAL and TEXCOORD_0 spanning [0,1]. Triangles wind counter-clockwise seen from
  *     the side their normals point to.
  *   - One point light (KHR_lights_punctual) or, with --area-light, one small emissive
- *     square of the same total power facing down; one perspective camera whose node
- *     extras hold the image size.
+ *     square of the same total power facing down, or with --sun / --spot a directional
+ *     or spot light aimed from the light's position at the origin; one perspective
+ *     camera whose node extras hold the image size.
  *
  * The output depends only on the arguments, so repeated runs give identical bytes. */
 #define _POSIX_C_SOURCE 200809L
@@ -620,6 +621,8 @@ typedef struct options {
   int size_given;
   unsigned long width, height;
   double area_side; /* 0: a point light */
+  double sun;       /* > 0: a directional light of this irradiance (W/m^2) instead */
+  double spot;      /* > 0: a spot of this outer cone angle (radians) instead */
   int glb;
 } options;
 
@@ -999,6 +1002,9 @@ static void build_gltf(const scene *s, const char *uri, bytes *json, bytes *bin)
     write_mesh(&g, &s->meshes[i], material_index[s->meshes[i].material], &meshes, i == 0);
   }
   int point_light = o->area_side <= 0;
+  /* --sun and --spot turn the point light into a directional light or a spot aimed from
+   * the light's position at the origin (the node's -Z, as KHR_lights_punctual says). */
+  const char *light_type = o->sun > 0 ? "directional" : o->spot > 0 ? "spot" : "point";
   int transmissive = material_index[MAT_GLASS] >= 0 || material_index[MAT_WATER] >= 0;
 
   bytes_printf(json, "{\"asset\":{\"version\":\"2.0\",\"generator\":\"" TOOL
@@ -1021,8 +1027,16 @@ static void build_gltf(const scene *s, const char *uri, bytes *json, bytes *bin)
   if (point_light) {
     bytes_printf(json,
                  ",\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"name\":"
-                 "\"light\",\"type\":\"point\",\"color\":[1,1,1],\"intensity\":");
-    bytes_double(json, s->intensity);
+                 "\"light\",\"type\":\"%s\",\"color\":[1,1,1],\"intensity\":",
+                 light_type);
+    bytes_double(json, o->sun > 0 ? o->sun : s->intensity);
+    if (o->spot > 0) {
+      bytes_printf(json, ",\"spot\":{\"innerConeAngle\":");
+      bytes_double(json, o->spot / 2);
+      bytes_printf(json, ",\"outerConeAngle\":");
+      bytes_double(json, o->spot);
+      bytes_printf(json, "}");
+    }
     bytes_printf(json, "}]}}");
   }
 
@@ -1040,6 +1054,17 @@ static void build_gltf(const scene *s, const char *uri, bytes *json, bytes *bin)
   if (point_light) {
     bytes_printf(json, ",{\"name\":\"light\",\"translation\":");
     json_vec3(json, s->light);
+    if (o->sun > 0 || o->spot > 0) {
+      vec3 d = v_normalize(v_sub(v3(0, 0, 0), s->light));
+      double lq[4];
+      look_at(s->light, v3(0, 0, 0), fabs(d.y) > 0.99 ? v3(0, 0, 1) : v3(0, 1, 0), lq);
+      bytes_printf(json, ",\"rotation\":[");
+      for (int i = 0; i < 4; i++) {
+        if (i) bytes_printf(json, ",");
+        bytes_double(json, lq[i]);
+      }
+      bytes_printf(json, "]");
+    }
     bytes_printf(json, ",\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}");
   }
   double q[4];
@@ -1229,6 +1254,11 @@ static void print_help(FILE *f) {
           "Lighting:\n"
           "  --area-light SIDE     instead of the point light, an emissive square of side\n"
           "                        SIDE facing down, of the same total power\n"
+          "  --sun E               instead of the point light, a directional light of\n"
+          "                        irradiance E (W/m^2) travelling from the light's\n"
+          "                        position toward the origin\n"
+          "  --spot OUTER          instead of the point light, a spot of the same intensity\n"
+          "                        aimed at the origin, cone angles OUTER/2 and OUTER (rad)\n"
           "\n"
           "Camera:\n"
           "  --width W             image width stored with the camera (default 320)\n"
@@ -1249,7 +1279,7 @@ static int usage_error(const char *fmt, ...) {
   va_end(ap);
   fprintf(stderr, "\nusage: " TOOL
                   " KIND -o OUT.gltf [--size N] [--width W] [--height H]"
-                  " [--area-light SIDE] [--glb]\n"
+                  " [--area-light SIDE | --sun E | --spot OUTER] [--glb]\n"
                   "Try '" TOOL " --help' for the kinds and options.\n");
   return 2;
 }
@@ -1310,7 +1340,8 @@ static int parse_args(int argc, char **argv, options *o) {
     }
     int known = strcmp(name, "-o") == 0 || strcmp(name, "--output") == 0 ||
                 strcmp(name, "--size") == 0 || strcmp(name, "--width") == 0 ||
-                strcmp(name, "--height") == 0 || strcmp(name, "--area-light") == 0;
+                strcmp(name, "--height") == 0 || strcmp(name, "--area-light") == 0 ||
+                strcmp(name, "--sun") == 0 || strcmp(name, "--spot") == 0;
     if (!known) return usage_error("unknown option '%s'", arg);
     if (!value) {
       if (i + 1 >= argc) return usage_error("option %s needs a value", name);
@@ -1328,6 +1359,12 @@ static int parse_args(int argc, char **argv, options *o) {
       if (parse_count(value, 1, MAX_IMAGE_SIDE, dst))
         return usage_error("%s wants a whole number from 1 to %lu, not '%s'", name, MAX_IMAGE_SIDE,
                            value);
+    } else if (strcmp(name, "--sun") == 0) {
+      if (parse_length(value, 1e9, &o->sun))
+        return usage_error("--sun wants an irradiance above 0, not '%s'", value);
+    } else if (strcmp(name, "--spot") == 0) {
+      if (parse_length(value, 1.5707963267948966, &o->spot))
+        return usage_error("--spot wants an outer cone angle in (0, pi/2], not '%s'", value);
     } else {
       if (parse_length(value, MAX_AREA_SIDE, &o->area_side))
         return usage_error("--area-light wants a side length above 0 and at most %g, not '%s'",
@@ -1335,6 +1372,8 @@ static int parse_args(int argc, char **argv, options *o) {
     }
   }
   if (o->kind == KIND_COUNT) return usage_error("no scene kind given");
+  if ((o->area_side > 0) + (o->sun > 0) + (o->spot > 0) > 1)
+    return usage_error("--area-light, --sun and --spot each replace the point light: give one");
   if (!o->output) return usage_error("no output file given (-o OUT.gltf)");
   /* Loaders pick the parser by extension, so a name that says the other format would
    * make a file nothing can read back. */

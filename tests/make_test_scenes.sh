@@ -35,6 +35,10 @@ scene floor -o "$out/floor.gltf"
 # mirror keeps enumeration cheap, and the area-light variant tests emissive triangles.
 scene flat-mirror --size 8 -o "$out/flat-mirror.gltf"
 scene flat-mirror --size 8 --area-light 0.25 -o "$out/flat-mirror-area.gltf"
+# The same mirror under a sun travelling along (-1, -1, 0) / sqrt 2, and under a spot
+# aimed at the mirror's foot whose cone edge crosses the caustic.
+scene flat-mirror --size 8 --sun 3 -o "$out/flat-mirror-sun.gltf"
+scene flat-mirror --size 8 --spot 0.5 -o "$out/flat-mirror-spot.gltf"
 # Curved casters for single reflection, double refraction and single refraction.
 scene wavy-mirror --size 800 -o "$out/wavy-mirror.gltf"
 scene glass-sphere --size 320 -o "$out/glass-sphere.gltf"
@@ -50,3 +54,10 @@ scene two-mirrors --size 8 -o "$out/two-mirrors.gltf"
 scene mirror-pool --size 800 -o "$out/mirror-pool.gltf"
 # Curved double reflection (RR, interpolated normals): the corner with bumpy mirrors.
 scene wavy-corner --size 200 -o "$out/wavy-corner.gltf"
+# Suns and spots through every chain type: T (pool), RR (two mirrors), TT (glass slab).
+for kind in pool two-mirrors glass-slab; do
+  size=200
+  [ "$kind" = two-mirrors ] && size=8
+  scene $kind --size $size --sun 2 -o "$out/$kind-sun.gltf"
+  scene $kind --size $size --spot 0.6 -o "$out/$kind-spot.gltf"
+done

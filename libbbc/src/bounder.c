@@ -13,6 +13,7 @@
 
 #include "bbc/interval.h"
 #include "chain_internal.h"
+#include "light_internal.h"
 #include "vec_internal.h"
 
 /* Working memory per piece: the largest single-refraction irradiance forms need a few
@@ -83,10 +84,14 @@ bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene
     return BBC_ERR_INVALID_ARGUMENT;
   memset(g, 0, sizeof *g);
   g->light = scene->point_lights[tuple->light].position;
+  g->light_model = scene->point_lights[tuple->light].model;
   g->length = length;
   const uint32_t *b = scene->indices + 3 * (size_t)tuple->receiver;
   for (int i = 0; i < 3; i++) g->r[i] = v3_load(scene->positions + 3 * (size_t)b[i]);
-  int front = load_oriented(scene, tuple->specular[0], g->light, g->p, g->n);
+  const uint32_t *a = scene->indices + 3 * (size_t)tuple->specular[0];
+  bbc_vec3 source =
+      bbc__light_source(g->light, &g->light_model, v3_load(scene->positions + 3 * (size_t)a[0]));
+  int front = load_oriented(scene, tuple->specular[0], source, g->p, g->n);
   g->refract = bbc_chain_refracts((bbc_chain)tuple->chain, 0);
   if (g->refract) {
     double ior = bbc_scene_triangle_material(scene, tuple->specular[0])->ior;
@@ -191,6 +196,8 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
    * bounds simply cover the part outside T1 too, which only loosens them (the
    * supplement's pbad_u1 with its tolerance U_TOL = 1 never fires either). */
   if (box[0] + box[2] > 1.0) return BBC_OK;
+  /* A spot lights nothing of the piece where its falloff is 0 everywhere. */
+  if (bbc__light_falloff_over_box(g->light, &g->light_model, g->p, box).hi <= 0) return BBC_OK;
   bbc_result r = bbc__chain_forms_prefix(arena, space, g, box, s_axis, t_axis, mode, f);
   if (r != BBC_OK) return r;
   int partial = 0, wide = 0, inside = 0, inside2 = 1;
@@ -270,11 +277,15 @@ static bbc_interval irradiance_scale(const bbc_tuple_geometry *g, const chain_fo
                                  bbc_ivec3_sub(bbc_ivec3_point(g->r[2]), r0));
   bbc_interval a1 = bbc_interval_sqrt(bbc_ivec3_dot(c1, c1));
   bbc_interval ak = bbc_interval_sqrt(bbc_ivec3_dot(ck, ck));
-  bbc_interval h =
-      bbc_interval_div(bbc_ivec3_dot(c1, bbc_ivec3_sub(p0, bbc_ivec3_point(g->light))), a1);
-  h = bbc_interval_make(fabs(h.lo), fabs(h.hi));
-  if (h.lo > h.hi) h = bbc_interval_make(h.hi, h.lo);
-  bbc_interval dist2 = bbc_poly_bound(&f->dist2);
+  /* A sun: d0 is its constant direction D and dist2 the constant 1 (chain.c), so
+   * cos(theta0) = |n1g . D| / |D| and the factor 1 / |d0|^2 is 1 (docs/lights.md). */
+  const int sun = g->light_model.kind == BBC_LIGHT_DIRECTIONAL;
+  const bbc_ivec3 dir = bbc_ivec3_point(g->light_model.direction);
+  bbc_interval h = bbc_interval_div(
+      bbc_ivec3_dot(c1, sun ? dir : bbc_ivec3_sub(p0, bbc_ivec3_point(g->light))), a1);
+  if (h.hi < 0) h = bbc_interval_neg(h);
+  else if (h.lo < 0) h = bbc_interval_make(0, fmax(-h.lo, h.hi));
+  bbc_interval dist2 = sun ? bbc_ivec3_dot(dir, dir) : bbc_poly_bound(&f->dist2);
   if (dist2.lo < 0) dist2.lo = 0;
   bbc_interval cos0 = bbc_interval_div(h, bbc_interval_sqrt(dist2));
   if (cos0.hi > 1) cos0.hi = 1;
@@ -342,6 +353,10 @@ static bbc_result irradiance_bound(bbc_arena *arena, const bbc_space *space,
   *e_hi = INFINITY;
   if (!f->slope_enclosed) return BBC_OK;
   bbc_interval scale = irradiance_scale(g, f, box);
+  /* A spot's falloff over the piece's directions (1 for other lights): its enclosure
+   * multiplies the geometric factors (docs/lights.md). */
+  scale = bbc_interval_mul(scale, bbc__light_falloff_over_box(g->light, &g->light_model, g->p, box));
+  if (!(scale.lo >= 0)) scale.lo = 0;
   bbc_result res;
   if (f->length == 2 && g->refract2 && f->has_derivatives) {
     /* Explicit, then where it is loose (near total internal reflection at T2, Fig. 7,

@@ -232,6 +232,17 @@ bbc_result bbc_fingerprint_compute(const bbc_scene *scene, const bbc_precompute_
     bbc__stf64(b + 16, l->position.z);
     bbc__xxh64_update(&s, b, 24);
     for (int k = 0; k < 3; k++) hash_f32(&s, l->intensity[k]);
+    /* Spots and suns add their kind, direction and cone; point lights add nothing, so
+     * caches of point-light scenes written before these kinds existed still match. */
+    if (l->model.kind != BBC_LIGHT_POINT) {
+      hash_u32(&s, (uint32_t)l->model.kind);
+      const double m[5] = {l->model.direction.x, l->model.direction.y, l->model.direction.z,
+                           l->model.cos_outer, l->model.cone_scale};
+      for (int k = 0; k < 5; k++) {
+        bbc__stf64(b, m[k]);
+        bbc__xxh64_update(&s, b, 8);
+      }
+    }
   }
   out->lights = bbc__xxh64_final(&s);
 

@@ -23,6 +23,7 @@
  * stays a pure function of the seed, whatever thread rendered what, and the variable
  * number of draws of K does not shift the path's later random numbers. */
 #include "caustics_internal.h"
+#include "light_internal.h"
 #include "media_internal.h"
 
 #include <math.h>
@@ -99,7 +100,9 @@ static int solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
   const bbc_point_light *light = &scene->point_lights[tuple->light];
   const int length = g->length;
   /* The path's vertices: x[0] the light, x[1..length] the specular ones, then p. */
-  bbc_vec3 x[4] = {light->position, s->x1, s->x2, s->x2};
+  const int sun = light->model.kind == BBC_LIGHT_DIRECTIONAL;
+  /* A sun stands at x1 - D for the side tests below (light_internal.h). */
+  bbc_vec3 x[4] = {bbc__light_source(light->position, &light->model, s->x1), s->x1, s->x2, s->x2};
   x[length + 1] = p;
   /* The light must reach the receiver on the side being shaded. */
   if (v3_dot(v3_sub(p, x[length]), ng) >= 0) return 0;
@@ -116,7 +119,7 @@ static int solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
        * T2; bounds.h, specular_path.h). A path whose shading normal says the ray arrives
        * from the other side is outside the bounded set: skipped (a documented
        * limitation, which only bites where shading and geometric normals disagree). */
-      bbc_vec3 source = light->position;
+      bbc_vec3 source = bbc__light_source(light->position, &light->model, g->specular[0].p[0]);
       if (i == 1) {
         const bbc_specular_triangle *t1 = &g->specular[0];
         source = v3_scale(v3_add(t1->p[0], v3_add(t1->p[1], t1->p[2])), 1.0 / 3.0);
@@ -138,7 +141,14 @@ static int solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
   /* Visibility of every segment: light -> x1 (traced from the light, which needs no
    * offset), x1 -> x2, x_last -> p. */
   bbc_vec3 x1_light_side = v3_offset_origin(x[1], ngeo[0], v3_sub(x[0], x[1]));
-  if (bbc_accel_occluded(c->accel, x[0], v3_sub(x1_light_side, x[0]), 0.0, 1.0 - 1e-6)) return 0;
+  if (sun) {
+    /* The sun's light comes from infinity: nothing may lie on the ray from x1 back
+     * against its direction. */
+    if (bbc_accel_occluded(c->accel, x1_light_side, v3_neg(light->model.direction), 0.0, INFINITY))
+      return 0;
+  } else if (bbc_accel_occluded(c->accel, x[0], v3_sub(x1_light_side, x[0]), 0.0, 1.0 - 1e-6)) {
+    return 0;
+  }
   for (int i = 1; i <= length; i++) {
     bbc_vec3 nb = i < length ? ngeo[i] : ng;
     if (!segment_visible(c, x[i], ngeo[i - 1], x[i + 1], nb)) return 0;

@@ -163,12 +163,19 @@ bbc_result bbc__chain_forms_prefix(bbc_arena *arena, bbc_space *space,
               su, sv, s_axis, t_axis));
   TRY(bbc__chain_affine(arena, &n1, g->n[0], v3_sub(g->n[1], g->n[0]), v3_sub(g->n[2], g->n[0]), u_lo, v_lo,
               su, sv, s_axis, t_axis));
-  bbc_poly3 light;
-  TRY(bbc_poly3_constant(arena, &light, g->light));
-  TRY(bbc_poly3_sub(arena, &d0, x1, &light));
   bbc_poly dn;
+  if (g->light_model.kind == BBC_LIGHT_DIRECTIONAL) {
+    /* A sun: d0 is its constant direction (exact input) and dist2 = 1, the factor
+     * 1 / |d0|^2 being absent for parallel light (docs/lights.md). */
+    TRY(bbc_poly3_constant(arena, &d0, g->light_model.direction));
+    TRY(bbc_poly_constant(arena, &out->dist2, 1.0));
+  } else {
+    bbc_poly3 light;
+    TRY(bbc_poly3_constant(arena, &light, g->light));
+    TRY(bbc_poly3_sub(arena, &d0, x1, &light));
+    TRY(bbc_poly3_dot(arena, &out->dist2, &d0, &d0));
+  }
   TRY(bbc_poly3_dot(arena, &dn, &d0, &n1));
-  TRY(bbc_poly3_dot(arena, &out->dist2, &d0, &d0));
   TRY(bbc_poly_scale(arena, &out->facing, &dn, -1.0));
   TRY(scatter(arena, space, &d0, &n1, g->refract, g->eta, mode, d1, &out->beta,
               &out->slope_enclosed));

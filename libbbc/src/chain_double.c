@@ -367,14 +367,23 @@ bbc_result bbc__chain_double_prefix(bbc_arena *arena, bbc_space *space, const bb
                 s_axis, t_axis));
   TRY(dv_affine(&c, &n1, g->n[0], v3_sub(g->n[1], g->n[0]), v3_sub(g->n[2], g->n[0]), box, s_axis,
                 t_axis));
-  TRY(dv_constant(&c, &light, g->light, 0));
-  TRY(dv_add(&c, &d0, &st->x1, &light, -1));
+  const int sun = g->light_model.kind == BBC_LIGHT_DIRECTIONAL;
+  if (sun) {
+    /* A sun: the constant direction d0 (exact input), dist2 = 1 (chain.c). */
+    TRY(dv_constant(&c, &d0, g->light_model.direction, 0));
+  } else {
+    TRY(dv_constant(&c, &light, g->light, 0));
+    TRY(dv_add(&c, &d0, &st->x1, &light, -1));
+  }
   out->x1.x = st->x1.x.v, out->x1.y = st->x1.y.v, out->x1.z = st->x1.z.v;
   dscal dn;
   TRY(dv_dot(&c, &dn, &d0, &n1));
   TRY(bbc_poly_scale(arena, &out->facing, &dn.v, -1.0));
   bbc_poly3 d0v = {d0.x.v, d0.y.v, d0.z.v};
-  TRY(bbc_poly3_dot(arena, &out->dist2, &d0v, &d0v));
+  if (sun)
+    TRY(bbc_poly_constant(arena, &out->dist2, 1.0));
+  else
+    TRY(bbc_poly3_dot(arena, &out->dist2, &d0v, &d0v));
   TRY(dv_scatter(&c, &st->d1, &d0, &n1, g->refract, g->eta, &out->beta, &out->slope_enclosed));
   out->d1.x = st->d1.x.v, out->d1.y = st->d1.y.v, out->d1.z = st->d1.z.v;
   TRY(dv_hit(&c, &st->x1, NULL, &st->d1, g->p2, &st->up2, &st->vp2, &st->kappa2, &st->tnum2));

@@ -437,6 +437,9 @@ class reader {
       g.type = out_.keep(l.type);
       g.node_index = uint32_t(index);
       for (int k = 0; k < 3; k++) g.position[k] = world[12 + k];
+      for (int k = 0; k < 3; k++) g.direction[k] = -world[8 + k];
+      g.inner_cone = l.spot.innerConeAngle;
+      g.outer_cone = l.spot.outerConeAngle;
       if (l.color.empty()) {
         g.color[0] = g.color[1] = g.color[2] = 1.0;
       } else if (l.color.size() == 3) {

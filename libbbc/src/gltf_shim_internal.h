@@ -68,6 +68,8 @@ typedef struct bbc__gltf_light {
   double position[3]; /* world position of the node's origin */
   double color[3];    /* default 1 */
   double intensity;   /* default 1 */
+  double direction[3]; /* the node's world -Z axis (not normalised; spot and directional) */
+  double inner_cone, outer_cone; /* spot.innerConeAngle, outerConeAngle (defaults 0, pi/4) */
 } bbc__gltf_light;
 
 /* The first node with a camera reached in a depth-first walk of the default scene

@@ -111,16 +111,23 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
 
   for (uint32_t i = 0; i < scene->point_light_count && segments + 1 <= ctx->max_depth; i++) {
     const bbc_point_light *light = &scene->point_lights[i];
-    bbc_vec3 to_light = v3_sub(light->position, s->p);
+    /* A sun: irradiance E cos from the direction against its travel, unoccluded to
+     * infinity; point and spot lights: I cos / r^2, a spot times its falloff. */
+    const int sun = light->model.kind == BBC_LIGHT_DIRECTIONAL;
+    bbc_vec3 to_light = sun ? v3_neg(light->model.direction) : v3_sub(light->position, s->p);
     double dist2 = v3_dot(to_light, to_light);
     double cos_s = v3_dot(s->ns, to_light);
     if (!(cos_s > 0) || v3_dot(s->ng, to_light) <= 0) continue;
     cos_s /= sqrt(dist2);
+    double falloff = bbc_light_falloff(&light->model, v3_scale(to_light, -1.0 / sqrt(dist2)));
+    if (!(falloff > 0)) continue;
     bbc_vec3 origin = v3_offset_origin(s->p, s->ng, to_light);
     (*rays)++;
-    if (bbc_accel_occluded(ctx->accel, origin, v3_sub(light->position, origin), 0.0, 1.0 - 1e-6))
+    if (sun ? bbc_accel_occluded(ctx->accel, origin, to_light, 0.0, INFINITY)
+            : bbc_accel_occluded(ctx->accel, origin, v3_sub(light->position, origin), 0.0,
+                                 1.0 - 1e-6))
       continue;
-    double g = cos_s / dist2;
+    double g = sun ? cos_s : falloff * cos_s / dist2;
     sum =
         v3_add(sum, v3(light->intensity[0] * g, light->intensity[1] * g, light->intensity[2] * g));
   }

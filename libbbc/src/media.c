@@ -91,6 +91,7 @@ bbc_result bbc__scene_media(bbc_scene *scene) {
   for (uint32_t l = 0; l < scene->point_light_count; l++) {
     bbc_point_light *light = &scene->point_lights[l];
     light->medium = 0;
+    if (light->model.kind == BBC_LIGHT_DIRECTIONAL) continue; /* a sun shines from outside */
     for (uint32_t i = 0; i < scene->mesh_count && !light->medium; i++)
       if (scene->meshes[i].closed && point_inside(scene, &scene->meshes[i], light->position))
         light->medium = i + 1;

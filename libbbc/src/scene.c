@@ -425,6 +425,32 @@ static bbc_result light_units(const loader *ld, const bbc__gltf_data *g, bbc_sce
   return BBC_OK;
 }
 
+/* The kind-specific part of a light (scene.h): the direction of spots and suns from the
+ * node's -Z axis, the cone of spots. */
+static bbc_result light_model(const loader *ld, const bbc__gltf_light *l, bbc_light_model *m) {
+  memset(m, 0, sizeof *m);
+  m->kind = strcmp(l->type, "spot") == 0          ? BBC_LIGHT_SPOT
+            : strcmp(l->type, "directional") == 0 ? BBC_LIGHT_DIRECTIONAL
+                                                  : BBC_LIGHT_POINT;
+  if (m->kind == BBC_LIGHT_POINT) return BBC_OK;
+  double d[3] = {l->direction[0], l->direction[1], l->direction[2]};
+  if (!finite3(d) || !normalize3(d))
+    return fail(ld, BBC_ERR_SCENE, "light \"%s\" (node %u): its node's -Z axis has no direction",
+                l->name, l->node_index);
+  m->direction = (bbc_vec3){d[0], d[1], d[2]};
+  if (m->kind == BBC_LIGHT_SPOT) {
+    /* KHR_lights_punctual: 0 <= inner < outer <= pi/2. */
+    if (!(l->inner_cone >= 0 && l->inner_cone < l->outer_cone && l->outer_cone <= PI / 2))
+      return fail(ld, BBC_ERR_SCENE,
+                  "light \"%s\" (node %u): spot cone angles need 0 <= innerConeAngle < "
+                  "outerConeAngle <= pi/2 (have %g and %g)",
+                  l->name, l->node_index, l->inner_cone, l->outer_cone);
+    m->cos_outer = cos(l->outer_cone);
+    m->cone_scale = 1.0 / fmax(0.001, cos(l->inner_cone) - m->cos_outer);
+  }
+  return BBC_OK;
+}
+
 static bbc_result load_lights(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
   bbc_result r = light_units(ld, g, s);
   if (r != BBC_OK) return r;
@@ -433,11 +459,10 @@ static bbc_result load_lights(const loader *ld, const bbc__gltf_data *g, bbc_sce
   uint32_t ignored = 0;
   for (uint32_t i = 0; i < g->light_count; i++) {
     const bbc__gltf_light *l = &g->lights[i];
-    if (strcmp(l->type, "point") != 0) {
-      warn(ld,
-           "light \"%s\" (node %u) is a %s light and is ignored; only point lights are "
-           "supported",
-           l->name, l->node_index, l->type);
+    if (strcmp(l->type, "point") != 0 && strcmp(l->type, "spot") != 0 &&
+        strcmp(l->type, "directional") != 0) {
+      warn(ld, "light \"%s\" (node %u) is a %s light and is ignored", l->name, l->node_index,
+           l->type);
       ignored++;
       continue;
     }
@@ -454,6 +479,7 @@ static bbc_result load_lights(const loader *ld, const bbc__gltf_data *g, bbc_sce
                   l->name, l->node_index);
     out->position = (bbc_vec3){l->position[0], l->position[1], l->position[2]};
     for (int k = 0; k < 3; k++) out->intensity[k] = (float)power[k];
+    if ((r = light_model(ld, l, &out->model)) != BBC_OK) return r;
   }
 
   /* Area lights: every emissive triangle, sampled in proportion to its power. */
@@ -493,8 +519,8 @@ static bbc_result load_lights(const loader *ld, const bbc__gltf_data *g, bbc_sce
 
   if (s->point_light_count == 0 && s->emitter_count == 0)
     return fail(ld, BBC_ERR_SCENE,
-                "no light: the scene has neither a point light nor an emissive triangle%s",
-                ignored ? " (spot and directional lights are not supported)" : "");
+                "no light: the scene has neither a punctual light nor an emissive triangle%s",
+                ignored ? " (lights of unknown types were ignored)" : "");
   return BBC_OK;
 }
 

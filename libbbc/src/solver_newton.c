@@ -166,6 +166,13 @@ static int vertex_constraint(const bbc_specular_triangle *t, dvec4 prev, dvec4 x
   return 1;
 }
 
+/* The vertex before x1: the light, or for a sun a point against its direction from x1,
+ * so that x1 - x0 is its constant direction. */
+static dvec4 light_vertex(const bbc_path_geometry *g, dvec4 x1) {
+  if (g->light_model.kind == BBC_LIGHT_DIRECTIONAL) return qv_sub(x1, qv_const(g->light_model.direction));
+  return qv_const(g->light);
+}
+
 /* Moves (u, v) to the nearest point of the triangle (in world-space distance, so the
  * result does not depend on the triangle's vertex order) if it lies outside by more than
  * CLAMP_MARGIN. The margin lets Newton reach a root just beyond an edge, which
@@ -214,7 +221,7 @@ static int reduced_constraint(const bbc_path_geometry *g, bbc_vec3 xk, const dou
   dual4 c[2];
   if (last == 0) {
     dvec4 n1 = qv_affine(g->specular[0].n, z[0], z[1], 0);
-    if (!vertex_constraint(&g->specular[0], qv_const(g->light), x1, qv_const(xk), n1, c)) return 0;
+    if (!vertex_constraint(&g->specular[0], light_vertex(g, x1), x1, qv_const(xk), n1, c)) return 0;
     for (int r = 0; r < 2; r++) {
       f[r] = c[r].v;
       jac[2 * r] = c[r].d[0], jac[2 * r + 1] = c[r].d[1];
@@ -298,7 +305,7 @@ static int full_constraint(const bbc_path_geometry *g, bbc_vec3 xk, const double
   dvec4 x2 = qv_affine(g->specular[1].p, z[2], z[3], 2);
   dvec4 n2 = qv_affine(g->specular[1].n, z[2], z[3], 2);
   dual4 c[4];
-  if (!vertex_constraint(&g->specular[0], qv_const(g->light), x1, x2, n1, c) ||
+  if (!vertex_constraint(&g->specular[0], light_vertex(g, x1), x1, x2, n1, c) ||
       !vertex_constraint(&g->specular[1], x1, x2, qv_const(xk), n2, c + 2))
     return 0;
   for (int r = 0; r < 4; r++) {

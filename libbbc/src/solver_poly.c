@@ -820,31 +820,42 @@ static void solve_polynomials(solve_state *st) {
   const bbc_specular_triangle *t = &g->specular[0];
   bbc_vec3 e1 = v3_sub(t->p[1], t->p[0]), e2 = v3_sub(t->p[2], t->p[0]);
   /* The polynomial vectors of Eq. 6-8 (x1 itself only through d0 and d1). */
+  /* A sun (directional light) has the constant d0 = D: then d0 x d1 = D x d1 takes the
+   * place of d0 x w, still of degree 1, and D itself that of w in the plane of incidence. */
+  const int sun = g->light_model.kind == BBC_LIGHT_DIRECTIONAL;
+  const bbc_vec3 zero = {0, 0, 0};
   bvec d0, d1, n;
-  bv_linear(&d0, v3_sub(t->p[0], g->light), e1, e2);
+  if (sun)
+    bv_linear(&d0, g->light_model.direction, zero, zero);
+  else
+    bv_linear(&d0, v3_sub(t->p[0], g->light), e1, e2);
   bv_linear(&d1, v3_sub(xk, t->p[0]), v3_neg(e1), v3_neg(e2));
   bv_linear(&n, t->n[0], v3_sub(t->n[1], t->n[0]), v3_sub(t->n[2], t->n[0]));
-  bbc_vec3 w = v3_sub(xk, g->light);
+  bbc_vec3 w = sun ? g->light_model.direction : v3_sub(xk, g->light);
 
   /* Coplanarity C = (d0 x w) . n (degree 2). */
   bvec d0w;
-  bv_crossc(&d0w, &d0, w);
+  if (sun)
+    bv_cross(&d0w, &d0, &d1);
+  else
+    bv_crossc(&d0w, &d0, w);
   bpoly c;
   bv_dot(&c, &d0w, &n);
 
   /* Natural magnitudes: lengths from the light (L0) and to x_k (L1) over T1, and of the
    * normals (N). A polynomial far below its magnitude vanishes identically. */
   double le = v3_length(e1) + v3_length(e2);
-  double L0 = v3_length(v3_sub(t->p[0], g->light)) + le, L1 = v3_length(v3_sub(xk, t->p[0])) + le;
+  double L0 = sun ? 1.0 : v3_length(v3_sub(t->p[0], g->light)) + le;
+  double L1 = v3_length(v3_sub(xk, t->p[0])) + le;
   double N = v3_length(t->n[0]) + v3_length(v3_sub(t->n[1], t->n[0])) +
              v3_length(v3_sub(t->n[2], t->n[0]));
-  double W = v3_length(w);
+  double W = sun ? L1 : v3_length(w);
   double scale_c = L0 * W * N;
 
   int solved = 1;
   bbc_vec3 navg = v3_normalize(v3_add(t->n[0], v3_add(t->n[1], t->n[2])));
   bbc_vec3 tv = v3_cross(w, navg);
-  if (!t->refract && v3_length(tv) > 0.05 * W) {
+  if (!t->refract && v3_length(tv) > 0.05 * v3_length(w)) {
     /* A = (r x d1) . t with r x d1 = (n.n)(d0 x w) - 2 (d0.n)(n x d1) (degree 4). */
     tv = v3_scale(tv, 1.0 / v3_length(tv));
     bpoly nn, d0n, p1, p2, a;
@@ -887,7 +898,7 @@ static void solve_polynomials(solve_state *st) {
         bbc_vec3 x = v3_add(t->p[0], v3_add(v3_scale(e1, pu), v3_scale(e2, pv)));
         bbc_vec3 nrm = v3_add(t->n[0], v3_add(v3_scale(v3_sub(t->n[1], t->n[0]), pu),
                                               v3_scale(v3_sub(t->n[2], t->n[0]), pv)));
-        double side = v3_dot(v3_sub(g->light, x), nrm);
+        double side = sun ? -v3_dot(g->light_model.direction, nrm) : v3_dot(v3_sub(g->light, x), nrm);
         if (i < 3)
           sc[i] = side;
         else

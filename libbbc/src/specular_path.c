@@ -5,6 +5,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "light_internal.h"
 #include "vec_internal.h"
 
 /* ------------------------------------------------------------------------------------ */
@@ -239,7 +240,8 @@ bbc_result bbc_specular_path_trace(const bbc_path_geometry *g, double u, double 
     return BBC_OK;
   }
   out->n1 = dv_value(n);
-  bbc_vec3 d0 = v3_sub(out->x1, g->light);
+  const int sun = g->light_model.kind == BBC_LIGHT_DIRECTIONAL;
+  bbc_vec3 d0 = bbc__light_d0(g->light, &g->light_model, out->x1);
   double dist = v3_length(d0);
   bbc_vec3 area1 = v3_cross(v3_sub(t1->p[1], t1->p[0]), v3_sub(t1->p[2], t1->p[0]));
   if (!(dist > 0) || !(v3_dot(area1, area1) > 0)) {
@@ -247,11 +249,16 @@ bbc_result bbc_specular_path_trace(const bbc_path_geometry *g, double u, double 
     return BBC_OK;
   }
   /* |n1g . d0| |e11 x e12| = |(e11 x e12) . d0|: the solid angle at the light per unit
-   * barycentric area (dOmega0/dA1 |dx1/du1| of Eq. 15). */
-  out->domega_du = fabs(v3_dot(area1, d0)) / (dist * dist * dist);
+   * barycentric area (dOmega0/dA1 |dx1/du1| of Eq. 15); for a sun (unit d0, constant)
+   * the cross-section of the parallel beam per unit barycentric area
+   * (docs/lights.md). */
+  out->domega_du = sun ? fabs(v3_dot(area1, d0)) / dist
+                       : fabs(v3_dot(area1, d0)) / (dist * dist * dist);
+  const double falloff = bbc_light_falloff(&g->light_model, v3_scale(d0, 1.0 / dist));
+  if (!(falloff > 0)) out->flags |= BBC_PATH_OUTSIDE_CONE;
 
   dvec d;
-  if (!dv_normalize(dv_sub(x, dv_const(g->light)), &d)) {
+  if (!dv_normalize(sun ? dv_const(d0) : dv_sub(x, dv_const(g->light)), &d)) {
     out->flags |= BBC_PATH_DEGENERATE;
     return BBC_OK;
   }
@@ -288,7 +295,7 @@ bbc_result bbc_specular_path_trace(const bbc_path_geometry *g, double u, double 
       out->darea_du = fabs(v3_dot(v3_cross(xu, xv), nk));
       out->jacobian = fabs(bu.du * bv.dv - bu.dv * bv.du);
       out->irradiance =
-          out->darea_du > 0 ? g->intensity * out->domega_du / out->darea_du : INFINITY;
+          out->darea_du > 0 ? g->intensity * falloff * out->domega_du / out->darea_du : INFINITY;
       out->complete = 1;
     } else {
       if (!inside(bu.v, bv.v)) out->flags |= BBC_PATH_OUTSIDE_T2;
@@ -326,6 +333,7 @@ bbc_result bbc_path_geometry_init(bbc_path_geometry *g, const bbc_scene *scene,
     if (tuple->specular[i] >= scene->triangle_count) return BBC_ERR_INVALID_ARGUMENT;
 
   g->light = scene->point_lights[tuple->light].position;
+  g->light_model = scene->point_lights[tuple->light].model;
   g->intensity = 1.0;
   g->length = length;
   for (int i = 0; i < length; i++) {
@@ -346,7 +354,7 @@ bbc_result bbc_path_geometry_init(bbc_path_geometry *g, const bbc_scene *scene,
   for (int i = 0; i < length; i++) {
     bbc_specular_triangle *t = &g->specular[i];
     if (t->refract) continue;
-    bbc_vec3 source = g->light;
+    bbc_vec3 source = bbc__light_source(g->light, &g->light_model, t->p[0]);
     if (i == 1) {
       const bbc_specular_triangle *t1 = &g->specular[0];
       source = v3_scale(v3_add(t1->p[0], v3_add(t1->p[1], t1->p[2])), 1.0 / 3.0);

@@ -12,6 +12,7 @@
 #include "bbc/interval.h"
 #include "bbc/precompute.h"
 #include "chain_internal.h"
+#include "light_internal.h"
 #include "media_internal.h"
 #include "orient_internal.h"
 #include "vec_internal.h"
@@ -274,6 +275,25 @@ static int second_refraction_possible(const bbc_scene *scene, uint32_t medium, u
          (behind && bbc__media_refract(scene, medium, t2, -1, &after));
 }
 
+/* 0 only when the outer cone of a spot light provably misses triangle t: the cone of
+ * half-angle outer around the axis against the triangle's bounding sphere (centre c,
+ * radius r, at distance L from the light), which it misses when the angle between the
+ * axis and c exceeds outer + asin(r / L). A margin of 1e-6 radians covers the rounding
+ * of this test many times over; every other light kind lights every triangle. */
+static int spot_may_light(const bbc_point_light *light, const bbc_scene *scene, uint32_t t) {
+  if (light->model.kind != BBC_LIGHT_SPOT) return 1;
+  bbc_vec3 p[3];
+  for (int k = 0; k < 3; k++) p[k] = v3_load(scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t + k]);
+  bbc_vec3 c = v3_scale(v3_add(p[0], v3_add(p[1], p[2])), 1.0 / 3.0);
+  double r = fmax(v3_length(v3_sub(p[0], c)), fmax(v3_length(v3_sub(p[1], c)), v3_length(v3_sub(p[2], c))));
+  bbc_vec3 w = v3_sub(c, light->position);
+  double L = v3_length(w);
+  if (!(L > 1.001 * r)) return 1; /* the light is (nearly) inside the sphere */
+  double angle = acos(fmax(-1.0, fmin(1.0, v3_dot(w, light->model.direction) / L)));
+  double outer = acos(fmax(-1.0, fmin(1.0, light->model.cos_outer)));
+  return angle <= outer + asin(fmin(1.0, 1.001 * r / L)) + 1e-6;
+}
+
 bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
                            size_t *count) {
   *out = NULL;
@@ -305,9 +325,13 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
       if (first < 0) continue;
       /* The medium beyond T1 (media_internal.h). */
       uint32_t medium = light->medium;
-      if (first == 1 && !bbc__media_refract(scene, light->medium, t,
-                                            bbc__media_side(scene, t, light->position), &medium))
+      const bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t]);
+      const bbc_vec3 source = bbc__light_source(light->position, &light->model, p0);
+      if (first == 1 &&
+          !bbc__media_refract(scene, light->medium, t, bbc__media_side(scene, t, source), &medium))
         continue;
+      /* A spot whose cone misses T1's bounding sphere lights none of it. */
+      if (!spot_may_light(light, scene, t)) continue;
       const bbc_chain single = first ? BBC_CHAIN_T : BBC_CHAIN_R;
       const uint32_t after[2] = {1u << (first ? BBC_CHAIN_TR : BBC_CHAIN_RR),
                                  1u << (first ? BBC_CHAIN_TT : BBC_CHAIN_RT)};
@@ -318,7 +342,7 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
       if ((result = bbc_tuple_geometry_init(&g, scene, &tuple)) != BBC_OK) break;
       /* A light in T1's plane sees it edge-on: no light passes through. */
       bbc_vec3 ng = v3_cross(v3_sub(g.p[1], g.p[0]), v3_sub(g.p[2], g.p[0]));
-      if (v3_dot(ng, v3_sub(g.light, g.p[0])) == 0) continue;
+      if (v3_dot(ng, bbc__light_d0(g.light, &g.light_model, g.p[0])) == 0) continue;
       bbc_ivec3 x, d;
       static const double whole[4] = {0, 1, 0, 1};
       if ((result = beam_of(&arena, &g, whole, &x, &d)) != BBC_OK) break;

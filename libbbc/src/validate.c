@@ -9,6 +9,7 @@
 
 #include "bbc/specular_path.h"
 #include "rng_internal.h"
+#include "light_internal.h"
 #include "vec_internal.h"
 
 /* ---- the leaves of one tuple and a grid to find the one holding u1 ------------------ */
@@ -265,7 +266,8 @@ static int admissible_path(const bbc_path_geometry *pg, orientation o, const dou
                            bbc_specular_path *path) {
   if (bbc_specular_path_trace(pg, u1[0], u1[1], path) != BBC_OK) return 0;
   if (path->flags & BBC_PATH_REJECT) return 0;
-  if (pg->specular[0].refract && o.t1 * v3_dot(v3_sub(path->x1, pg->light), path->n1) >= 0)
+  if (pg->specular[0].refract &&
+      o.t1 * v3_dot(bbc__light_d0(pg->light, &pg->light_model, path->x1), path->n1) >= 0)
     return 0;
   if (pg->length == 2 && pg->specular[1].refract &&
       o.t2 * v3_dot(v3_sub(path->x2, path->x1), path->n2) >= 0)

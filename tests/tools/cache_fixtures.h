@@ -36,7 +36,7 @@ static bbc_material fx_materials[] = {
     {"mirror", BBC_MATERIAL_MIRROR, {1, 1, 1}, 1.5f, {0, 0, 0}},
     {"floor", BBC_MATERIAL_DIFFUSE, {0.8f, 0.8f, 0.8f}, 1.5f, {0, 0, 0}},
 };
-static bbc_point_light fx_lights[] = {{{0.5, 2, 0.5}, {10, 10, 10}, 0}};
+static bbc_point_light fx_lights[] = {{.position = {0.5, 2, 0.5}, .intensity = {10, 10, 10}}};
 
 static bbc_scene fx_tiny_scene(void) {
   bbc_scene s;

@@ -600,7 +600,7 @@ TEST(emissive_triangles) {
   bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/emissive.gltf"), &m);
   REQUIRE(s != NULL);
   check_invariants(s);
-  CHECK_INT(s->point_light_count, 0);
+  CHECK_INT(s->point_light_count, 1); /* a spot */
   REQUIRE(s->emitter_count == 2);
   CHECK_INT(s->emitters[0], 2);
   CHECK_INT(s->emitters[1], 3);
@@ -615,13 +615,30 @@ TEST(emissive_triangles) {
   bbc_scene_free(s);
 }
 
-TEST(spot_light_ignored_with_warning) {
+/* Spot and directional lights (KHR_lights_punctual) are loaded with their kind, the
+ * node's -Z axis as direction and the spot's cone (defaults 0 and pi/4). */
+TEST(spot_and_directional_lights) {
   messages m;
-  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/emissive.gltf"), &m);
+  bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/spot-and-sun.gltf"), &m);
   REQUIRE(s != NULL);
-  CHECK_INT(m.warnings, 1);
-  CHECK_STR_CONTAINS(m.warning[0], "spot");
-  CHECK_STR_CONTAINS(m.warning[0], "emissive.gltf");
+  CHECK_INT(m.warnings, 0);
+  REQUIRE(s->point_light_count == 2);
+  /* Node order: the sun's node comes first. */
+  const bbc_point_light *sun = &s->point_lights[0], *spot = &s->point_lights[1];
+  CHECK_INT(sun->model.kind, BBC_LIGHT_DIRECTIONAL);
+  CHECK_INT(spot->model.kind, BBC_LIGHT_SPOT);
+  CHECK_NEAR(sun->model.direction.z, -1.0, 0.0);
+  CHECK_NEAR(spot->model.direction.z, -1.0, 0.0);
+  CHECK_NEAR(spot->model.cos_outer, cos(PI / 4), 1e-9);
+  CHECK_NEAR(spot->model.cone_scale, 1.0 / (1.0 - cos(PI / 4)), 1e-6);
+  CHECK_INT(sun->medium, 0);
+  /* The falloff: 1 inside the inner cone, 0 outside the outer one, t^2 between. */
+  CHECK_NEAR(bbc_light_falloff(&spot->model, (bbc_vec3){0, 0, -1}), 1.0, 0.0);
+  CHECK_NEAR(bbc_light_falloff(&spot->model, (bbc_vec3){0, sin(0.8), -cos(0.8)}), 0.0, 0.0);
+  double t = (cos(0.5) - cos(PI / 4)) / (1.0 - cos(PI / 4));
+  /* tinygltf's default outer angle is 0.7853981634, not pi/4 exactly. */
+  CHECK_NEAR(bbc_light_falloff(&spot->model, (bbc_vec3){0, sin(0.5), -cos(0.5)}), t * t, 1e-8);
+  CHECK_NEAR(bbc_light_falloff(&sun->model, (bbc_vec3){1, 0, 0}), 1.0, 0.0);
   bbc_scene_free(s);
 }
 

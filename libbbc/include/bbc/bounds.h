@@ -1,4 +1,4 @@
-/* Caustic bounds (paper Sec. 4.2-4.5): for a tuple (point light, one or two specular
+/* Caustic bounds (paper Sec. 4.2-4.5): for a tuple (light, one or two specular
  * triangles T1 (T2), a receiver triangle Tk) and boxes ("pieces") of T1's barycentrics
  * u1, conservative bounds of where on the receiver the caustic lands (the position bound,
  * a box of receiver barycentrics u_k) and of the irradiance it carries there (the
@@ -39,6 +39,11 @@ typedef struct bbc_tuple_geometry {
   double eta2;    /* length 2: eta' at the second vertex */
   bbc_vec3 p2[3]; /* length 2: T2's vertices */
   bbc_vec3 n2[3]; /* length 2: T2's vertex normals, oriented as described */
+  /* The light's kind (scene.h; zero: a point light at `light`). A sun (directional)
+   * sends d0 = light_model.direction to every x1, and "the light's side" of T1 is the
+   * side that direction comes from; its irradiance bounds are per unit irradiance
+   * (W/m^2 per W/m^2). A spot's bounds include its falloff. */
+  bbc_light_model light_model;
 } bbc_tuple_geometry;
 
 /* Fills g for a tuple of the scene (any chain type).

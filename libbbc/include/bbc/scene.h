@@ -72,13 +72,44 @@ static inline double bbc_light_radiometric(double intensity, bbc_light_units uni
   return units == BBC_LIGHT_UNITS_RADIOMETRIC ? intensity : intensity / BBC_LUMENS_PER_WATT;
 }
 
-/* A point light: radiant intensity (W/sr) per RGB channel, glTF intensity x color in
- * radiometric units (bbc_light_radiometric). */
+
+/* The kinds of KHR_lights_punctual light. The values are fixed. */
+typedef enum bbc_light_kind {
+  BBC_LIGHT_POINT = 0,      /* emits equally in every direction */
+  BBC_LIGHT_SPOT = 1,       /* a point light with the glTF cone falloff (bbc_light_falloff) */
+  BBC_LIGHT_DIRECTIONAL = 2 /* a sun: parallel light along `direction`, from infinity */
+} bbc_light_kind;
+
+/* How a light emits, apart from its position and brightness: what the bounds, the exact
+ * paths and the path tracer need to know of its kind. Zero-initialised it is a point
+ * light. */
+typedef struct bbc_light_model {
+  bbc_light_kind kind;
+  bbc_vec3 direction; /* spot: the cone's axis; directional: the direction the light
+                         travels (the node's -Z); unit length; zero for point lights */
+  /* Spot only, glTF's reference falloff (KHR_lights_punctual): with cd the cosine between
+   * `direction` and the direction to the lit point, t = clamp((cd - cos_outer) scale, 0, 1)
+   * and the intensity is multiplied by t^2, where
+   * scale = 1 / max(0.001, cos(innerConeAngle) - cos(outerConeAngle)). */
+  double cos_outer, cone_scale;
+} bbc_light_model;
+
+/* A light of KHR_lights_punctual (the array keeps the historical name point_lights).
+ * Point and spot lights: intensity is the radiant intensity (W/sr) per RGB channel,
+ * glTF intensity x color in radiometric units (bbc_light_radiometric), at position.
+ * Directional lights (suns): intensity is the irradiance (W/m^2) on a surface facing the
+ * light, likewise; position is the node's and unused. */
 typedef struct bbc_point_light {
   bbc_vec3 position;
   float intensity[3];
-  uint32_t medium; /* 0: in air; m + 1: inside the closed dielectric mesh m */
+  uint32_t medium; /* 0: in air; m + 1: inside the closed dielectric mesh m (suns: 0) */
+  bbc_light_model model;
 } bbc_point_light;
+
+/* The spot falloff of `model` (1 for other kinds) for the unit direction w from the
+ * light to the lit point: glTF's reference curve above, in [0, 1], non-decreasing in
+ * the cosine w . direction and 0 on and outside the outer cone. */
+BBC_API double bbc_light_falloff(const bbc_light_model *model, bbc_vec3 w);
 
 /* A pinhole camera looking along -w with up v and right u (orthonormal, world space). */
 typedef struct bbc_camera {

@@ -65,6 +65,12 @@ typedef struct bbc_path_geometry {
   int length;       /* number of specular vertices: 1 or 2 */
   bbc_specular_triangle specular[2]; /* T1 and, for length 2, T2 */
   bbc_vec3 receiver[3];              /* Tk's vertex positions */
+  /* The light's kind (scene.h; zero: a point light). A sun (directional) sends the
+   * parallel light d0 = light_model.direction (unit) from infinity, `light` is unused,
+   * intensity is an irradiance (W/m^2) on a surface facing the sun, and domega_du becomes
+   * the beam's cross-section per unit barycentric area |n1g . d0| |e11 x e12|. A spot
+   * multiplies the irradiance by bbc_light_falloff in the direction of d0. */
+  bbc_light_model light_model;
 } bbc_path_geometry;
 
 /* Fills g from a scene tuple of any chain type (R, T, RR, RT, TR, TT): positions and
@@ -94,16 +100,17 @@ typedef enum bbc_path_flag {
   BBC_PATH_OUTSIDE_RECEIVER = 1u << 5, /* x_k is not inside the receiver triangle */
   BBC_PATH_DEGENERATE = 1u << 6,       /* x1 = x0, a vanishing normal, or a ray parallel
                                           to the next plane: the trace stops there */
-  BBC_PATH_GEOMETRIC_SIDE = 1u << 7    /* informational, not part of BBC_PATH_REJECT: the
+  BBC_PATH_GEOMETRIC_SIDE = 1u << 7,   /* informational, not part of BBC_PATH_REJECT: the
                                           shading normal disagrees with the geometric one
                                           about the side a ray arrives from or leaves to
                                           (the path tracer absorbs such paths) */
+  BBC_PATH_OUTSIDE_CONE = 1u << 8      /* a spot light's falloff is 0 along d0 */
 } bbc_path_flag;
 
 /* The flags that make a path inadmissible. */
 #define BBC_PATH_REJECT                                                          \
   (BBC_PATH_OUTSIDE_T1 | BBC_PATH_BACK_SIDE | BBC_PATH_TIR | BBC_PATH_BACKWARD | \
-   BBC_PATH_OUTSIDE_T2 | BBC_PATH_OUTSIDE_RECEIVER | BBC_PATH_DEGENERATE)
+   BBC_PATH_OUTSIDE_T2 | BBC_PATH_OUTSIDE_RECEIVER | BBC_PATH_DEGENERATE | BBC_PATH_OUTSIDE_CONE)
 
 /* A traced path. Fields of vertices the trace did not reach (after BBC_PATH_TIR or
  * BBC_PATH_DEGENERATE, or x2 of a one-vertex chain) are zero; `complete` says whether
@@ -120,9 +127,10 @@ typedef struct bbc_specular_path {
   double duk[2][2];           /* d u_k / d u1, same layout: the receiver barycentric derivatives */
   double dxk[2][3];           /* d x_k / du and d x_k / dv (world space) */
   double jacobian;            /* |det(d u_k / d u1)| (Eq. 16) */
-  double domega_du;           /* dOmega0/du1 = |n1g . d0| |e11 x e12| / |d0|^3 */
+  double domega_du;           /* dOmega0/du1 = |n1g . d0| |e11 x e12| / |d0|^3 (a sun:
+                                 |n1g . d0| |e11 x e12| with unit d0) */
   double darea_du;            /* dA_k/du1 = |(dx_k/du x dx_k/dv) . n_kg| */
-  double irradiance;          /* E_k = I domega_du / darea_du; +inf where darea_du = 0 (a focal
+  double irradiance;          /* E_k = I falloff domega_du / darea_du; +inf where darea_du = 0 (a focal
                                  point); 0 if the path is not complete */
 } bbc_specular_path;
 

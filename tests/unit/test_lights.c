@@ -1,0 +1,323 @@
+/* Sun (directional) and spot lights end to end: exact images of a flat mirror under a
+ * sun and under a spot whose cone edge crosses the caustic (cache, bounds, solver and
+ * path tracer at once), each with a control that drops a term and must fail, and the
+ * bounds validated against true paths for every light kind and chain type. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "bbc/bbc.h"
+#include "floor_footprint.h"
+#include "harness.h"
+#include "vec_internal.h"
+
+#define PI 3.14159265358979323846
+
+typedef struct fixture {
+  bbc_scene *scene;
+  bbc_accel *accel;
+  bbc_cache *cache;
+  void *bytes;
+} fixture;
+
+static int setup(fixture *f, const char *path, uint32_t chains) {
+  memset(f, 0, sizeof *f);
+  if (bbc_scene_load(&f->scene, path, NULL) != BBC_OK) return 0;
+  if (bbc_accel_create(&f->accel, f->scene, NULL, NULL) != BBC_OK) return 0;
+  bbc_precompute_options o;
+  memset(&o, 0, sizeof o);
+  bbc_precompute_params_default(&o.params);
+  o.params.chains = chains;
+  o.params.max_level = 6;
+  o.params.grid_resolution = 128;
+  bbc_cache_builder *b = NULL;
+  if (bbc_precompute(&b, f->scene, &o, NULL) != BBC_OK) return 0;
+  size_t size = 0;
+  bbc_result r = bbc_cache_builder_write_memory(b, &f->bytes, &size, NULL);
+  bbc_cache_builder_free(b);
+  if (r != BBC_OK) return 0;
+  return bbc_cache_open_memory(&f->cache, f->bytes, size, NULL) == BBC_OK &&
+         bbc_cache_check_scene(f->cache, f->scene) == BBC_OK;
+}
+
+static void teardown(fixture *f) {
+  bbc_cache_close(f->cache);
+  free(f->bytes);
+  bbc_accel_free(f->accel);
+  bbc_scene_free(f->scene);
+}
+
+static bbc_image *render(const fixture *f, bbc_method method, uint32_t components, uint32_t spp,
+                         uint32_t w, uint32_t h) {
+  bbc_image *image = NULL;
+  if (bbc_image_create(&image, w, h) != BBC_OK) return NULL;
+  bbc_render_options o;
+  memset(&o, 0, sizeof o);
+  o.method = method;
+  o.cache = method == BBC_METHOD_PT ? NULL : f->cache;
+  o.spp = spp;
+  o.seed = 3;
+  o.components = components;
+  o.gamma_value = 2;
+  if (bbc_render(f->scene, f->accel, &o, image, NULL) != BBC_OK) {
+    bbc_image_free(image);
+    return NULL;
+  }
+  return image;
+}
+
+/* The flat mirror (x = 0, facing +x) spans y in [y0, y1], z in [z0, z1]; the floor is
+ * y = 0. */
+typedef struct mirror_scene {
+  double y0, y1, z0, z1;
+  double box[4]; /* the floor's interior, clear of its edges */
+  double albedo;
+} mirror_scene;
+
+static mirror_scene measure(const bbc_scene *s) {
+  mirror_scene m = {1e30, -1e30, 1e30, -1e30, {1e30, -1e30, 1e30, -1e30}, 0};
+  for (uint32_t k = 0; k < s->mesh_count; k++) {
+    const bbc_mesh *mesh = &s->meshes[k];
+    int floor = mesh->role == BBC_ROLE_RECEIVER;
+    if (floor) m.albedo = s->materials[mesh->material].base_color[0];
+    for (uint32_t v = mesh->first_vertex; v < mesh->first_vertex + mesh->vertex_count; v++) {
+      const float *p = s->positions + 3 * (size_t)v;
+      if (floor) {
+        m.box[0] = fmin(m.box[0], p[0]), m.box[1] = fmax(m.box[1], p[0]);
+        m.box[2] = fmin(m.box[2], p[2]), m.box[3] = fmax(m.box[3], p[2]);
+      } else {
+        m.y0 = fmin(m.y0, p[1]), m.y1 = fmax(m.y1, p[1]);
+        m.z0 = fmin(m.z0, p[2]), m.z1 = fmax(m.z1, p[2]);
+      }
+    }
+  }
+  m.box[0] += 0.05, m.box[1] -= 0.05, m.box[2] += 0.05, m.box[3] -= 0.05;
+  return m;
+}
+
+/* Compares every usable pixel of the image with the analytic value over its footprint
+ * and returns the number of pixels outside [lo, hi] (up to the ray offsets, 1e-4). */
+static int count_bad(const fixture *f, const bbc_image *image, const double box[4],
+                     floor_value_fn value, const void *user, int *checked, int *dark, int *lit,
+                     int verbose) {
+  int bad = 0;
+  *checked = *dark = *lit = 0;
+  for (uint32_t y = 0; y < image->height; y++) {
+    for (uint32_t x = 0; x < image->width; x++) {
+      double lo, hi;
+      if (!floor_footprint_range(f->scene, f->accel, image->width, image->height, x, y, box, value,
+                                 user, &lo, &hi))
+        continue;
+      (*checked)++;
+      *dark += hi == 0;
+      *lit += lo > 0;
+      double got = image->rgb[3 * ((size_t)y * image->width + x)];
+      if (!(got >= lo * (1 - 1e-4) && got <= hi * (1 + 1e-4))) {
+        if (verbose && bad < 5)
+          fprintf(stderr, "pixel (%u,%u): %.9g not in [%.9g, %.9g]\n", x, y, got, lo, hi);
+        bad++;
+      }
+    }
+  }
+  return bad;
+}
+
+/* ---- the sun ------------------------------------------------------------------------- */
+
+typedef struct sun_model {
+  mirror_scene m;
+  bbc_vec3 d;      /* the sun's direction of travel */
+  double e;        /* its irradiance */
+  int caustic;     /* 1: the mirrored sun; 0: the sun itself (direct light) */
+  int drop_cosine; /* the control: E instead of E cos(theta) */
+} sun_model;
+
+/* Radiance albedo/pi E cos(theta) of the floor from the sun (direct) or from its mirror
+ * image, the parallel beam of direction (-d.x, d.y, d.z) that leaves the mirror where
+ * the ray from p back along it meets x = 0 inside the mirror. Points within 0.03 of the
+ * reflected aperture's edges are not used (a pixel there is partly lit). */
+static double sun_value(const void *user, bbc_vec3 p) {
+  const sun_model *s = user;
+  bbc_vec3 d = s->caustic ? v3(-s->d.x, s->d.y, s->d.z) : s->d;
+  double value = s->m.albedo / PI * s->e * (s->drop_cosine ? 1.0 : -d.y);
+  if (!s->caustic) return value;
+  /* p - t d reaches x = 0 at t = p.x / d.x. */
+  double t = p.x / d.x;
+  double y = p.y - t * d.y, z = p.z - t * d.z;
+  const double margin = 0.03;
+  if (y > s->m.y0 + margin && y < s->m.y1 - margin && z > s->m.z0 + margin && z < s->m.z1 - margin)
+    return value;
+  if (y < s->m.y0 - margin || y > s->m.y1 + margin || z < s->m.z0 - margin || z > s->m.z1 + margin)
+    return 0;
+  return -1;
+}
+
+/* A flat mirror under a sun: the caustic is the mirrored sun's irradiance E cos(theta)
+ * within the mirror's reflected aperture and nothing outside it (enumeration of the
+ * cache: every sample is exact), and the path tracer's direct light is the sun's own
+ * E cos(theta) everywhere on the floor. Dropping the cosine must fail both checks. */
+TEST(sun_flat_mirror_is_the_mirrored_sun) {
+  fixture f;
+  REQUIRE(setup(&f, TEST_SCENE("flat-mirror-sun.gltf"), BBC_CHAIN_BIT(BBC_CHAIN_R)));
+  const bbc_point_light *sun = &f.scene->point_lights[0];
+  REQUIRE(sun->model.kind == BBC_LIGHT_DIRECTIONAL);
+  sun_model s = {measure(f.scene), sun->model.direction, sun->intensity[0], 1, 0};
+  const uint32_t w = 40, h = 30;
+  bbc_image *caustic = render(&f, BBC_METHOD_ENUMERATE, BBC_COMPONENT_CAUSTICS, 2, w, h);
+  bbc_image *direct = render(&f, BBC_METHOD_PT, BBC_COMPONENT_DIRECT, 2, w, h);
+  REQUIRE(caustic && direct);
+  int checked, dark, lit;
+  CHECK_INT(count_bad(&f, caustic, s.m.box, sun_value, &s, &checked, &dark, &lit, 1), 0);
+  fprintf(stderr, "caustic: %d pixels checked, %d dark, %d lit\n", checked, dark, lit);
+  CHECK(lit > 100 && dark > 100); /* the aperture's edge crosses the floor */
+  s.drop_cosine = 1;
+  int bad = count_bad(&f, caustic, s.m.box, sun_value, &s, &checked, &dark, &lit, 0);
+  fprintf(stderr, "control without the cosine: %d of %d pixels off\n", bad, checked);
+  CHECK(bad > 100);
+  s.caustic = 0, s.drop_cosine = 0;
+  CHECK_INT(count_bad(&f, direct, s.m.box, sun_value, &s, &checked, &dark, &lit, 1), 0);
+  CHECK(checked > 300);
+  s.drop_cosine = 1;
+  CHECK(count_bad(&f, direct, s.m.box, sun_value, &s, &checked, &dark, &lit, 0) > 100);
+  bbc_image_free(caustic);
+  bbc_image_free(direct);
+  teardown(&f);
+}
+
+/* ---- the spot ------------------------------------------------------------------------ */
+
+typedef struct spot_model {
+  mirror_scene m;
+  bbc_vec3 position, axis;
+  double intensity, cos_inner, cos_outer;
+  int caustic;
+  int drop_falloff; /* the control */
+} spot_model;
+
+/* glTF's reference falloff (KHR_lights_punctual), written out independently of
+ * bbc_light_falloff. */
+static double spot_falloff(const spot_model *s, bbc_vec3 w) {
+  double scale = 1.0 / fmax(0.001, s->cos_inner - s->cos_outer);
+  double t = v3_dot(w, s->axis) * scale - s->cos_outer * scale;
+  t = fmin(fmax(t, 0.0), 1.0);
+  return t * t;
+}
+
+/* Radiance albedo/pi I F cos(theta) / r^2 of the floor from the spot (direct) or from
+ * its mirror image at (-x, y, z), F taken in the direction the spot sends the light
+ * (toward the mirror point x1 for the caustic). */
+static double spot_value(const void *user, bbc_vec3 p) {
+  const spot_model *s = user;
+  bbc_vec3 src = s->caustic ? v3(-s->position.x, s->position.y, s->position.z) : s->position;
+  bbc_vec3 l = v3_sub(src, p);
+  double r2 = v3_dot(l, l);
+  bbc_vec3 toward = v3_sub(p, s->position);
+  if (s->caustic) {
+    /* x1: where the segment from the image to p crosses x = 0. */
+    double t = -src.x / (p.x - src.x);
+    bbc_vec3 x1 = v3_add(src, v3_scale(v3_sub(p, src), t));
+    const double margin = 0.03;
+    if (x1.y < s->m.y0 - margin || x1.y > s->m.y1 + margin || x1.z < s->m.z0 - margin ||
+        x1.z > s->m.z1 + margin)
+      return 0;
+    if (!(x1.y > s->m.y0 + margin && x1.y < s->m.y1 - margin && x1.z > s->m.z0 + margin &&
+          x1.z < s->m.z1 - margin))
+      return -1;
+    toward = v3_sub(x1, s->position);
+  }
+  double falloff = s->drop_falloff ? 1.0 : spot_falloff(s, v3_normalize(toward));
+  return s->m.albedo / PI * s->intensity * falloff * (l.y / sqrt(r2)) / r2;
+}
+
+/* A spot aimed at the foot of a flat mirror, its outer cone's edge crossing the
+ * caustic: the caustic is the mirrored spot with the falloff of the direction toward
+ * the mirror, dark beyond the edge; the direct light is the spot's own. Dropping the
+ * falloff must fail. */
+TEST(spot_flat_mirror_cone_edge) {
+  fixture f;
+  REQUIRE(setup(&f, TEST_SCENE("flat-mirror-spot.gltf"), BBC_CHAIN_BIT(BBC_CHAIN_R)));
+  const bbc_point_light *spot = &f.scene->point_lights[0];
+  REQUIRE(spot->model.kind == BBC_LIGHT_SPOT);
+  /* The scene's cone: innerConeAngle 0.25, outerConeAngle 0.5 (make_test_scenes.sh). */
+  spot_model s = {measure(f.scene), spot->position, spot->model.direction, spot->intensity[0],
+                  cos(0.25), cos(0.5), 1, 0};
+  const uint32_t w = 40, h = 30;
+  bbc_image *caustic = render(&f, BBC_METHOD_ENUMERATE, BBC_COMPONENT_CAUSTICS, 2, w, h);
+  bbc_image *direct = render(&f, BBC_METHOD_PT, BBC_COMPONENT_DIRECT, 2, w, h);
+  REQUIRE(caustic && direct);
+  int checked, dark, lit;
+  CHECK_INT(count_bad(&f, caustic, s.m.box, spot_value, &s, &checked, &dark, &lit, 1), 0);
+  fprintf(stderr, "caustic: %d pixels checked, %d dark, %d lit\n", checked, dark, lit);
+  CHECK(lit > 100 && dark > 50); /* the cone's edge crosses the caustic */
+  s.drop_falloff = 1;
+  int bad = count_bad(&f, caustic, s.m.box, spot_value, &s, &checked, &dark, &lit, 0);
+  fprintf(stderr, "control without the falloff: %d of %d pixels off\n", bad, checked);
+  CHECK(bad > 100);
+  s.caustic = 0, s.drop_falloff = 0;
+  CHECK_INT(count_bad(&f, direct, s.m.box, spot_value, &s, &checked, &dark, &lit, 1), 0);
+  CHECK(checked > 300 && lit > 50 && dark > 50);
+  s.drop_falloff = 1;
+  CHECK(count_bad(&f, direct, s.m.box, spot_value, &s, &checked, &dark, &lit, 0) > 50);
+  bbc_image_free(caustic);
+  bbc_image_free(direct);
+  teardown(&f);
+}
+
+/* ---- bounds against true paths, per light kind and chain type ------------------------- */
+
+/* Validates every candidate tuple of one chain type of the scene with `samples` true
+ * paths each, into *acc. */
+static void validate_chain(const char *path, bbc_chain chain, uint32_t samples,
+                           bbc_validation *acc) {
+  bbc_scene *scene = NULL;
+  REQUIRE(bbc_scene_load(&scene, path, NULL) == BBC_OK);
+  bbc_tuple *tuples = NULL;
+  size_t count = 0;
+  REQUIRE(bbc_tuples_find(scene, BBC_CHAIN_BIT(chain), &tuples, &count) == BBC_OK);
+  bbc_bounder *b = NULL;
+  REQUIRE(bbc_bounder_create(&b) == BBC_OK);
+  for (size_t i = 0; i < count; i++) {
+    bbc_result r = bbc_validate_tuple(b, scene, &tuples[i], NULL, samples, 23, acc);
+    if (r != BBC_OK) harness_fail(__FILE__, __LINE__, "bbc_validate_tuple: %d", (int)r);
+  }
+  bbc_bounder_free(b);
+  free(tuples);
+  bbc_scene_free(scene);
+}
+
+/* At least `paths` admissible true paths of the chain under each of a sun and a spot,
+ * none outside its piece's bounds. Samples per tuple double until the count is met. */
+static void validate_kinds(const char *base, bbc_chain chain, long paths) {
+  static const char *const kinds[2] = {"sun", "spot"};
+  for (int k = 0; k < 2; k++) {
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s-%s.gltf", BBC_TEST_SCENES, base, kinds[k]);
+    bbc_validation acc;
+    uint32_t samples = 64;
+    for (;;) {
+      bbc_validation_reset(&acc);
+      validate_chain(path, chain, samples, &acc);
+      if ((long)acc.admissible >= paths || samples >= (1u << 20) || acc.admissible == 0) break;
+      samples *= 2;
+    }
+    char label[64];
+    snprintf(label, sizeof label, "%s %s %s", base, kinds[k], bbc_chain_name(chain));
+    bbc_validation_print_summary(&acc, label, stderr);
+    CHECK((long)acc.admissible >= paths);
+    CHECK_INT(bbc_validation_failures(&acc), 0);
+    CHECK_INT(acc.position_violations + acc.upper_violations + acc.lower_violations, 0);
+    CHECK_INT(acc.in_discarded + acc.uncovered, 0);
+  }
+}
+
+TEST(bounds_hold_for_suns_and_spots_r) {
+  validate_kinds("flat-mirror", BBC_CHAIN_R, harness_scale(20000, 1000000));
+}
+TEST(bounds_hold_for_suns_and_spots_t) {
+  validate_kinds("pool", BBC_CHAIN_T, harness_scale(20000, 1000000));
+}
+TEST(bounds_hold_for_suns_and_spots_rr) {
+  validate_kinds("two-mirrors", BBC_CHAIN_RR, harness_scale(20000, 1000000));
+}
+TEST(bounds_hold_for_suns_and_spots_tt) {
+  validate_kinds("glass-slab", BBC_CHAIN_TT, harness_scale(5000, 1000000));
+}
