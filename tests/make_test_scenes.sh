@@ -39,6 +39,8 @@ scene flat-mirror --size 8 --area-light 0.25 -o "$out/flat-mirror-area.gltf"
 # aimed at the mirror's foot whose cone edge crosses the caustic.
 scene flat-mirror --size 8 --sun 3 -o "$out/flat-mirror-sun.gltf"
 scene flat-mirror --size 8 --spot 0.5 -o "$out/flat-mirror-spot.gltf"
+scene wavy-mirror --size 200 --sun 2 -o "$out/wavy-mirror-sun.gltf"
+scene wavy-mirror --size 200 --spot 0.6 -o "$out/wavy-mirror-spot.gltf"
 # Curved casters for single reflection, double refraction and single refraction.
 scene wavy-mirror --size 800 -o "$out/wavy-mirror.gltf"
 scene glass-sphere --size 320 -o "$out/glass-sphere.gltf"
@@ -56,7 +58,7 @@ scene mirror-pool --size 800 -o "$out/mirror-pool.gltf"
 scene wavy-corner --size 200 -o "$out/wavy-corner.gltf"
 # Suns and spots through every chain type: T (pool), RR (two mirrors), TT (glass slab).
 for kind in pool two-mirrors glass-slab; do
-  size=200
+  size=60
   [ "$kind" = two-mirrors ] && size=8
   scene $kind --size $size --sun 2 -o "$out/$kind-sun.gltf"
   scene $kind --size $size --spot 0.6 -o "$out/$kind-spot.gltf"

@@ -353,10 +353,6 @@ static bbc_result irradiance_bound(bbc_arena *arena, const bbc_space *space,
   *e_hi = INFINITY;
   if (!f->slope_enclosed) return BBC_OK;
   bbc_interval scale = irradiance_scale(g, f, box);
-  /* A spot's falloff over the piece's directions (1 for other lights): its enclosure
-   * multiplies the geometric factors (docs/lights.md). */
-  scale = bbc_interval_mul(scale, bbc__light_falloff_over_box(g->light, &g->light_model, g->p, box));
-  if (!(scale.lo >= 0)) scale.lo = 0;
   bbc_result res;
   if (f->length == 2 && g->refract2 && f->has_derivatives) {
     /* Explicit, then where it is loose (near total internal reflection at T2, Fig. 7,
@@ -648,6 +644,17 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       piece.e_hi = fmin(piece.e_hi, e_hi);
       if (can_split && prm.need) can_split = prm.need(prm.need_user, &piece) == BBC_NEED_SPLIT;
       split = can_split && area >= sigma && !(piece.e_hi < alpha * piece.e_lo);
+      /* A spot's falloff over the piece's directions (1 for other lights) multiplies the
+       * bound after the stopping rule, which judges the geometric factors alone: near
+       * the cone's edge the falloff's lower end is 0 at every level (docs/lights.md). */
+      if (!split && g->light_model.kind == BBC_LIGHT_SPOT) {
+        bbc_interval fall = bbc__light_falloff_over_box(g->light, &g->light_model, g->p, box);
+        piece.e_lo = piece.e_lo > 0 ? piece.e_lo * fall.lo * (1 - 4 * DBL_EPSILON) : 0;
+        if (isfinite(piece.e_hi) && piece.e_hi > 0) {
+          double hi = piece.e_hi * fall.hi * (1 + 4 * DBL_EPSILON);
+          piece.e_hi = hi > 0 ? hi : DBL_TRUE_MIN; /* never rounded down to 0 */
+        }
+      }
     } else {
       split = can_split && area >= sigma;
     }

@@ -660,6 +660,24 @@ static int solve_flat_mirror(solve_state *st) {
       return 0;
   bbc_vec3 n = v3_normalize(t->n[0]);
   bbc_vec3 g = v3_cross(v3_sub(t->p[1], t->p[0]), v3_sub(t->p[2], t->p[0]));
+  if (st->g->light_model.kind == BBC_LIGHT_DIRECTIONAL) {
+    /* A sun's parallel light D leaves the mirror along r = H D: x1 = x_k - s r on T1's
+     * plane, s = (x_k - p0) . g / (r . g) > 0. */
+    bbc_vec3 d = st->g->light_model.direction;
+    bbc_vec3 r = v3_madd(d, n, -2 * v3_dot(d, n));
+    double den = v3_dot(r, g), s = v3_dot(v3_sub(st->xk, t->p[0]), g) / den;
+    if (!(v3_length(n) > 0) || !(den != 0)) return 0;
+    if (!(s > 0) || !isfinite(s)) return 1;
+    double uv[2];
+    bbc_solution sol;
+    st->stats.candidates++;
+    if (!bbc_triangle_barycentrics(t->p, v3_madd(st->xk, r, -s), uv) ||
+        !bbc_solver_verify(st->g, st->xk, uv[0], uv[1], st->options, &sol))
+      st->stats.rejected_inadmissible++;
+    else if (st->count < BBC_SOLVER_MAX_SOLUTIONS)
+      st->found[st->count++] = sol;
+    return 1;
+  }
   bbc_vec3 x0 = st->g->light, w = v3_sub(st->xk, x0);
   double wn = v3_dot(w, n);
   bbc_vec3 wp = v3_madd(w, n, -wn);

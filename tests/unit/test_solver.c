@@ -264,6 +264,14 @@ static void round_trip_test(const char *path, bbc_chain chain, long samples) {
   CHECK(rt.missed <= samples / 10000);
 }
 
+/* Suns (constant d0) and spots through the polynomial solver: curved reflection and
+ * refraction. */
+TEST(round_trip_sun_and_spot) {
+  round_trip_test(TEST_SCENE("wavy-mirror-sun.gltf"), BBC_CHAIN_R, harness_scale(5000, 200000));
+  round_trip_test(TEST_SCENE("pool-sun.gltf"), BBC_CHAIN_T, harness_scale(5000, 200000));
+  round_trip_test(TEST_SCENE("pool-spot.gltf"), BBC_CHAIN_T, harness_scale(5000, 200000));
+}
+
 TEST(round_trip_plane1k) {
   round_trip_test(SHARED_SCENE("plane1k.gltf"), BBC_CHAIN_R, harness_scale(20000, 500000));
 }
