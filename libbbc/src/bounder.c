@@ -644,19 +644,21 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       piece.e_hi = fmin(piece.e_hi, e_hi);
       if (can_split && prm.need) can_split = prm.need(prm.need_user, &piece) == BBC_NEED_SPLIT;
       split = can_split && area >= sigma && !(piece.e_hi < alpha * piece.e_lo);
-      /* A spot's falloff over the piece's directions (1 for other lights) multiplies the
-       * bound after the stopping rule, which judges the geometric factors alone: near
-       * the cone's edge the falloff's lower end is 0 at every level (docs/lights.md). */
-      if (!split && g->light_model.kind == BBC_LIGHT_SPOT) {
-        bbc_interval fall = bbc__light_falloff_over_box(g->light, &g->light_model, g->p, box);
-        piece.e_lo = piece.e_lo > 0 ? piece.e_lo * fall.lo * (1 - 4 * DBL_EPSILON) : 0;
-        if (isfinite(piece.e_hi) && piece.e_hi > 0) {
-          double hi = piece.e_hi * fall.hi * (1 + 4 * DBL_EPSILON);
-          piece.e_hi = hi > 0 ? hi : DBL_TRUE_MIN; /* never rounded down to 0 */
-        }
-      }
     } else {
       split = can_split && area >= sigma;
+    }
+    /* A spot's falloff over the piece's directions (1 for other lights) multiplies the
+     * bound of a kept piece, after the stopping rule, which judges the geometric factors
+     * alone: near the cone's edge the falloff's lower end is 0 at every level
+     * (docs/lights.md). Inherited bounds are geometric too (a split piece's bound never
+     * has the falloff), so it is applied exactly once. */
+    if (!split && g->light_model.kind == BBC_LIGHT_SPOT) {
+      bbc_interval fall = bbc__light_falloff_over_box(g->light, &g->light_model, g->p, box);
+      piece.e_lo = piece.e_lo > 0 ? piece.e_lo * fall.lo * (1 - 4 * DBL_EPSILON) : 0;
+      if (isfinite(piece.e_hi) && piece.e_hi > 0) {
+        double hi = piece.e_hi * fall.hi * (1 + 4 * DBL_EPSILON);
+        piece.e_hi = hi > 0 ? hi : DBL_TRUE_MIN; /* never rounded down to 0 */
+      }
     }
 
     if (split) {
