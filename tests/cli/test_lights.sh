@@ -1,0 +1,40 @@
+# CLI tests of spot and directional lights: per-light tuple lists (bbc-inspect info,
+# bbc-render --stats) and check-bounds summaries per light kind. Each test_* function is
+# one ctest entry (tests/CMakeLists.txt).
+set -u
+INSPECT="$BBC_BIN/bbc-inspect/bbc-inspect"
+PRECOMPUTE="$BBC_BIN/bbc-precompute/bbc-precompute"
+RENDER="$BBC_BIN/bbc-render/bbc-render"
+. "$BBC_SOURCE_DIR/tests/cli/lib.sh"
+
+precompute() {
+  expect_status 0 "$PRECOMPUTE" "$BBC_TEST_SCENES/$1" -o "$2" --max-level 5 --no-progress \
+    --chains "$3"
+}
+
+test_info_and_stats_list_tuples_per_light() {
+  precompute flat-mirror-sun.gltf "$TMP/sun.bbc" R
+  expect_status 0 "$INSPECT" info "$TMP/sun.bbc"
+  grep -q "^  light 0: [1-9][0-9]* tuples (R [1-9]" "$TMP/out" || fail "info: $(cat "$TMP/out")"
+  expect_status 0 "$RENDER" "$BBC_TEST_SCENES/flat-mirror-sun.gltf" --cache "$TMP/sun.bbc" \
+    --spp 1 --width 16 --height 12 --stats --no-progress -o "$TMP/sun.exr"
+  grep -q "^  light 0 (directional): [1-9][0-9]* tuples (R " "$TMP/err" ||
+    fail "--stats: $(cat "$TMP/err")"
+}
+
+test_check_bounds_per_light_kind() {
+  precompute two-mirrors-spot.gltf "$TMP/spot.bbc" R,RR
+  expect_status 0 "$INSPECT" check-bounds "$BBC_TEST_SCENES/two-mirrors-spot.gltf" "$TMP/spot.bbc" \
+    --samples 200 --no-progress
+  for c in R RR; do
+    grep -q "^$c, spot lights: .* [1-9][0-9]* admissible paths.*(0 failing paths)" "$TMP/out" ||
+      fail "no clean $c spot summary: $(cat "$TMP/out")"
+  done
+  precompute pool-sun.gltf "$TMP/sun.bbc" T
+  expect_status 0 "$INSPECT" check-bounds "$BBC_TEST_SCENES/pool-sun.gltf" "$TMP/sun.bbc" \
+    --samples 20 --no-progress
+  grep -q "^T, directional lights: .* [1-9][0-9]* admissible paths.*(0 failing paths)" "$TMP/out" ||
+    fail "no clean T sun summary: $(cat "$TMP/out")"
+}
+
+"test_$1"
