@@ -54,8 +54,16 @@ typedef struct trace_totals {
 /* Traces one light path aimed at point `aim`; adds it to the totals. */
 static void trace_one(const bbc_scene *s, const bbc_accel *accel, uint32_t light, bbc_vec3 aim,
                       const bbc_tuple *sorted, size_t count, trace_totals *out) {
-  bbc_vec3 o = s->point_lights[light].position, d = v3_normalize(v3_sub(aim, o));
-  uint32_t medium = s->point_lights[light].medium; /* 0 air, else 1 + the mesh */
+  const bbc_point_light *l = &s->point_lights[light];
+  bbc_vec3 o = l->position, d = v3_normalize(v3_sub(aim, o));
+  if (l->model.kind == BBC_LIGHT_DIRECTIONAL) {
+    /* A sun's ray toward aim comes from far outside the scene along its direction. */
+    d = l->model.direction;
+    o = v3_sub(aim, v3_scale(d, 100.0));
+  } else if (l->model.kind == BBC_LIGHT_SPOT && !(bbc_light_falloff(&l->model, d) > 0)) {
+    return; /* outside the spot's cone: no light */
+  }
+  uint32_t medium = l->medium; /* 0 air, else 1 + the mesh */
   uint32_t specular[2] = {BBC_NO_TRIANGLE, BBC_NO_TRIANGLE};
   int letters[2] = {0, 0}, length = 0;
   for (;;) {
@@ -275,6 +283,23 @@ TEST(glass_slab_closed) {
   static const long min[BBC_CHAIN_COUNT] = {0, 0, 0, 0, 0, 10000};
   check_scene(TEST_SCENE("glass-slab.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
               min);
+}
+
+/* Suns (rays from outside the scene along the light's direction) and spots (rays
+ * inside the outer cone only) have their tuples too. */
+TEST(suns_and_spots) {
+  static const char *const scenes[4] = {"wavy-mirror", "pool", "two-mirrors", "glass-slab"};
+  static const long mins[4][BBC_CHAIN_COUNT] = {{3000, 0, 0, 0, 0, 0},
+                                                {0, 3000, 0, 0, 0, 0},
+                                                {300, 0, 300, 0, 0, 0},
+                                                {0, 0, 0, 0, 0, 300}};
+  static const char *const kinds[2] = {"sun", "spot"};
+  for (int i = 0; i < 4; i++)
+    for (int k = 0; k < 2; k++) {
+      char path[1024];
+      snprintf(path, sizeof path, "%s/%s-%s.gltf", BBC_TEST_SCENES, scenes[i], kinds[k]);
+      check_scene(path, BBC_CHAIN_MASK_ALL, harness_scale(30000, 1000000), mins[i]);
+    }
 }
 
 /* The exact orientation against 128-bit integer determinants: integer coordinates below
