@@ -1,0 +1,418 @@
+#!/bin/sh
+# The comparison benchmark: quality against CPU time of the caustic alone.
+#
+#   sh bench/compare.sh [--scale K] [--part all|flat|scenes] [--scenes DIR] [--width W]
+#
+# 1. flat mirror (bbc-scenegen flat-mirror, 100 triangles, 160x120, 2 threads): the exact
+#    image (bench/flat_mirror_exact), POV-Ray 3.7 photon mapping of the scene translated
+#    by bench/povray_scene (after a calibration of the translation on the direct light,
+#    which must match the exact image to relMSE < 1e-6), and bbc (default precompute,
+#    then bbc-render --only caustics at several --spp);
+# 2. the shared scenes plane1k, plane7k, pool4k (one bounce) and ball320 (two, at
+#    --max-level 3), W pixels wide (80 by default): bbc, uniform and enumerate at several
+#    --spp against a reference made of two independent enumerations (cached in
+#    bench/work/refs; they take most of the time of a first run).
+# Every run is timed in CPU-seconds (user + sys of the process, /usr/bin/time), not wall
+# time: the machine may be shared. --scale K multiplies every budget (spp, photons,
+# reference spp). Writes bench/results/compare.md, flat-mirror.png, scenes.png and the
+# README's "Numbers" rows between the compare.sh markers. Installs POV-Ray and gnuplot
+# when missing (bench/install-deps.sh, as root) and builds bbc (Release) in build/.
+set -eu
+root=$(cd "$(dirname "$0")/.." && pwd)
+cd "$root" # POV-Ray's I/O restrictions let it write below the current folder only
+scale=1
+part=all
+scenes=$root/../shared/scenes
+scene_width=80
+while [ $# -gt 0 ]; do
+  case $1 in
+    --scale) scale=$2; shift 2 ;;
+    --part) part=$2; shift 2 ;;
+    --scenes) scenes=$2; shift 2 ;;
+    --width) scene_width=$2; shift 2 ;;
+    *) echo "usage: sh bench/compare.sh [--scale K] [--part all|flat|scenes] [--scenes DIR] [--width W]" >&2
+       exit 1 ;;
+  esac
+done
+case $part in all | flat | scenes) ;; *) echo "compare.sh: --part all, flat or scenes" >&2; exit 1 ;; esac
+
+sh "$root/bench/install-deps.sh"
+for t in gnuplot povray /usr/bin/time; do
+  command -v "$t" > /dev/null || { echo "compare.sh: $t is missing" >&2; exit 1; }
+done
+if [ ! -f "$root/build/CMakeCache.txt" ]; then
+  cmake -S "$root" -B "$root/build" -DCMAKE_BUILD_TYPE=Release > /dev/null
+fi
+cmake --build "$root/build" -j "$(nproc)" > /dev/null
+bin=$root/build
+gen=$bin/scenes/bbc-scenegen
+pre=$bin/bbc-precompute/bbc-precompute
+ren=$bin/bbc-render/bbc-render
+work=$root/bench/work
+out=$root/bench/results
+mkdir -p "$work/flat" "$work/scenes" "$work/refs" "$out"
+# BBC_COMMIT names the commit measured when root is not a git checkout.
+commit=${BBC_COMMIT:-$(git -C "$root" rev-parse --short HEAD 2> /dev/null || echo unknown)}
+dirty=$(git -C "$root" status --porcelain --untracked-files=no -- libbbc bbc-render bbc-precompute \
+  scenes 2> /dev/null | head -1)
+[ -z "$dirty" ] || commit="$commit+changes"
+
+# n K: the budget N times the scale, at least 1, rounded.
+n() { awk -v a="$1" -v k="$scale" 'BEGIN { v = a * k; if (v < 1) v = 1; printf "%d", v + 0.5 }'; }
+
+# cpu LOG CMD...: runs CMD (output to LOG), prints its CPU-seconds (user + sys).
+cpu() {
+  log=$1
+  shift
+  if ! /usr/bin/time -f '%U %S' -o "$work/time" "$@" > "$log" 2>&1; then
+    echo "compare.sh: failed: $*" >&2
+    tail -5 "$log" >&2
+    exit 1
+  fi
+  awk '{ printf "%.3f", $1 + $2 }' "$work/time"
+}
+
+err() { "$bin/bench/image_error" "$1" "$2"; }   # "relMSE R lit_mean_ratio Q"
+
+machine="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //'), $(nproc) cores"
+
+# interpolate FILE X: log-log interpolation of the curve "x y" (sorted by x) at X; beyond
+# its ends, extrapolated along 1/x (the rate of unbiased Monte Carlo).
+interpolate() {
+  sort -g "$1" | awk -v X="$2" '
+    { x[NR] = log($1); y[NR] = log($2) }
+    END {
+      lx = log(X)
+      if (lx <= x[1]) { printf "%.4g", exp(y[1] - (lx - x[1])); exit }
+      if (lx >= x[NR]) { printf "%.4g", exp(y[NR] - (lx - x[NR])); exit }
+      for (i = 1; i < NR; i++)
+        if (lx <= x[i + 1]) {
+          t = x[i + 1] > x[i] ? (lx - x[i]) / (x[i + 1] - x[i]) : 0
+          printf "%.4g", exp(y[i] + t * (y[i + 1] - y[i])); exit
+        }
+    }'
+}
+
+# slope FILE: the least-squares slope of log y against log x of the curve "x y" (-1 for
+# unbiased Monte Carlo with independent samples; a floor or a bias flattens it).
+slope() {
+  awk '{ x = log($1); y = log($2); n++; sx += x; sy += y; sxx += x * x; sxy += x * y }
+    END { d = n * sxx - sx * sx; if (n > 1 && d > 0) printf "%.2f", (n * sxy - sx * sy) / d; else printf "?" }' "$1"
+}
+
+# reach FILE E: the least x at which the curve "x y" (sorted by x) falls to E, by log-log
+# interpolation between its points ("never" if it does not within them).
+reach() {
+  sort -g "$1" | awk -v E="$2" '
+    { x[NR] = log($1); y[NR] = log($2) }
+    END {
+      le = log(E)
+      if (y[1] <= le) { printf "%.3g", exp(x[1]); exit }
+      for (i = 1; i < NR; i++)
+        if (y[i + 1] <= le) {
+          t = (le - y[i]) / (y[i + 1] - y[i])
+          printf "%.3g", exp(x[i] + t * (x[i + 1] - x[i])); exit
+        }
+      printf "never"
+    }'
+}
+
+flat_md=$work/flat/section.md
+scenes_md=$work/scenes/section.md
+readme_rows=$work/readme-rows.md
+
+# ------------------------------------------------------------------------------------
+# 1. The flat mirror.
+flat() {
+  d=$work/flat
+  w=160
+  h=120
+  scene=$d/flat-mirror.gltf
+  "$gen" flat-mirror -o "$scene" --size 100 > /dev/null
+  "$bin/bench/flat_mirror_exact" "$scene" --width $w --height $h --caustic -o "$d/exact.exr" 2> "$d/exact.log"
+  "$bin/bench/flat_mirror_exact" "$scene" --width $w --height $h --direct -o "$d/direct-exact.exr" 2> "$d/direct-exact.log"
+  # povray_run POV ARGS...: renders POV to OUT.exr beside it and prints the CPU-seconds.
+  # POV-Ray does not depend on bbc's code, so its renders are cached by the content of
+  # the scene file and the arguments (bench/work/povray).
+  mkdir -p "$work/povray"
+  povray_run() {
+    p=$1
+    shift
+    key=$work/povray/$( (cat "$p"; echo "$*") | md5sum | cut -c1-16)
+    if [ ! -f "$key.cpu" ]; then
+      cpu "$key.log" povray "+I$p" "+O$key.exr" +FE +W$w +H$h -D +WT2 -V "$@" > "$key.tmp"
+      mv "$key.tmp" "$key.cpu"
+    fi
+    cp "$key.exr" "${p%.pov}.exr"
+    cp "$key.log" "${p%.pov}.log"
+    cat "$key.cpu"
+  }
+
+  # Calibration: the translated scene, lit directly (no mirror), one ray per pixel centre.
+  "$bin/bench/povray_scene" "$scene" --width $w --height $h --direct -o "$d/direct.pov"
+  povray_run "$d/direct.pov" -A > /dev/null
+  set -- $(err "$d/direct.exr" "$d/direct-exact.exr")
+  calibration=$2
+  calibration_ratio=$4
+  if ! awk -v e="$calibration" 'BEGIN { exit !(e < 1e-6) }'; then
+    echo "compare.sh: the POV-Ray translation is off: relMSE $calibration >= 1e-6 on the direct light" >&2
+    exit 1
+  fi
+
+  # POV-Ray photon mapping: photon counts x fixed gather radii, 3x3 antialiasing.
+  : > "$d/povray.dat"
+  for count in 300000 1000000 3000000 10000000 30000000; do
+    count=$(n $count)
+    for radius in 0.0025 0.005 0.01 0.02; do
+      p=$d/pov-$count-$radius.pov
+      "$bin/bench/povray_scene" "$scene" --width $w --height $h --photons "$count" --radius $radius -o "$p"
+      c=$(povray_run "$p" +A0.0 +AM1 +R3)
+      set -- $(err "${p%.pov}.exr" "$d/exact.exr")
+      stored=$(sed -n 's/.*Surface photons stored: *\([0-9]*\).*/\1/p' "${p%.pov}.log")
+      echo "$count $radius $c $2 $4 ${stored:-?}" >> "$d/povray.dat"
+    done
+  done
+
+  # bbc: the default precompute (every chain type), then renders of the caustic.
+  pre_cpu=$(cpu "$d/pre.log" "$pre" "$scene" -o "$d/flat.bbc" --threads 2 --no-progress --json "$d/pre.json")
+  tuples=$(sed -n 's/.*"tuples": \([0-9]*\).*/\1/p' "$d/pre.json" | head -1)
+  : > "$d/bbc.dat"
+  for spp in 1 2 4 8 16 32 64 128; do
+    spp=$(n $spp)
+    c=$(cpu "$d/bbc-$spp.log" "$ren" "$scene" --cache "$d/flat.bbc" --only caustics --width $w \
+      --height $h --threads 2 --spp "$spp" --seed 7 --stats --no-progress -o "$d/bbc-$spp.exr")
+    set -- $(err "$d/bbc-$spp.exr" "$d/exact.exr")
+    sols=$(sed -n 's/.*; \([0-9.]*\) solutions per solved tuple.*/\1/p' "$d/bbc-$spp.log")
+    total=$(awk -v a="$c" -v b="$pre_cpu" 'BEGIN { printf "%.3f", a + b }')
+    echo "$spp $c $total $2 $4 ${sols:-?}" >> "$d/bbc.dat"
+  done
+
+  # Curves and acceptance figures.
+  awk '{ print $3, $4 }' "$d/povray.dat" > "$d/povray.xy"
+  awk '{ print $2, $4 }' "$d/bbc.dat" > "$d/bbc-render.xy"
+  awk '{ print $3, $4 }' "$d/bbc.dat" > "$d/bbc-total.xy"
+  best=$(sort -g -k4 "$d/povray.dat" | head -1)
+  set -- $best
+  pov_best_err=$4
+  pov_best_cpu=$3
+  pov_best="$1 photons, radius $2: relMSE $4 in $3 CPU-s (lit-mean ratio $5)"
+  bbc_reach=$(reach "$d/bbc-total.xy" "$pov_best_err")
+  solutions=$(awk '$1 == 16 || NR == 5 { print $6; exit }' "$d/bbc.dat")
+  aim=$(awk '$3 <= 10 { e = $4; s = $1; c = $3 } END { if (s) printf "%s (%s spp, %s CPU-s)", e, s, c; else printf "none" }' "$d/bbc.dat")
+  lit_worst=$(awk '{ q = $5 - 1; if (q < 0) q = -q; if (q > m) { m = q; v = $5 } } END { print v }' "$d/bbc.dat")
+
+  gnuplot <<EOF
+set terminal pngcairo size 900,600 font ",11"
+set output "$out/flat-mirror.png"
+set logscale xy
+set format y "%.0e"
+set xlabel "CPU-seconds (user + sys)"
+set ylabel "relMSE against the exact image"
+set title "Flat mirror caustic, 160x120 ($commit)"
+set grid
+set key outside right
+plot for [r in "0.0025 0.005 0.01 0.02"] "< awk '\$2 == ".r." { print \$3, \$4 }' $d/povray.dat" \
+       with linespoints title "POV-Ray, radius ".r, \
+     "$d/bbc-render.xy" with linespoints lw 2 lc rgb "#c00000" title "bbc, render only", \
+     "$d/bbc-total.xy" with linespoints lw 2 lc rgb "#000000" title "bbc, precompute + render"
+EOF
+
+  {
+    echo "## Flat mirror against POV-Ray photon mapping"
+    echo
+    echo "bbc-scenegen flat-mirror --size 100 (a mirror of 100 triangles, reflectance 1, on a"
+    echo "floor of albedo 0.8 under a 10 W/sr point light), ${w}x${h}, caustic only, 2 threads."
+    echo "Exact image: bench/flat_mirror_exact (the floor lit by the mirrored light, seen directly"
+    echo "and in the mirror, box-filtered over each pixel by Gauss-Legendre quadrature; 8 against"
+    echo "16 nodes: $(sed -n 's/.*nodes: //p' "$d/exact.log"))."
+    echo
+    echo "Calibration (bench/povray_scene --direct: the floor lit by the light alone, one ray per"
+    echo "pixel centre, POV-Ray's EXR output): relMSE **$calibration** against the exact direct image"
+    echo "(must be < 1e-6), lit-mean ratio $calibration_ratio."
+    echo
+    echo "POV-Ray: \`povray +FE +W$w +H$h +WT2 +A0.0 +AM1 +R3\` (3x3 supersampling of every pixel),"
+    echo "photons shot at the mirror, gathered within a fixed radius (\`gather 0, 1000000\`,"
+    echo "\`expand_thresholds 0, 0\`), no direct light on the floor (a light group without lights)."
+    echo
+    echo "| photons (count) | stored | radius | CPU-s | relMSE | lit-mean ratio |"
+    echo "|---|---|---|---|---|---|"
+    awk '{ printf "| %s | %s | %s | %s | %.3g | %.4f |\n", $1, $6, $2, $3, $4, $5 }' "$d/povray.dat"
+    echo
+    echo "bbc: \`bbc-precompute SCENE -o C.bbc --threads 2\` (defaults, every chain type):"
+    echo "**$pre_cpu CPU-s**, $tuples tuples; then"
+    echo "\`bbc-render SCENE --cache C.bbc --only caustics --width $w --height $h --threads 2 --spp N --seed 7\`."
+    echo
+    echo "| spp | render CPU-s | total CPU-s | relMSE | lit-mean ratio | solutions per solved tuple |"
+    echo "|---|---|---|---|---|---|"
+    awk '{ printf "| %s | %s | %s | %.3g | %.6f | %s |\n", $1, $2, $3, $4, $5, $6 }' "$d/bbc.dat"
+    echo
+    echo "- POV-Ray's best: $pov_best."
+    echo "- bbc reaches that relMSE at **$bbc_reach CPU-s** in total (precompute + render)."
+    echo "- bbc's best relMSE within 10 CPU-s in total: $aim (aim: <= 2e-6)."
+    echo "- bbc's lit-mean ratio furthest from 1: $lit_worst (limit: within 0.1 %)."
+    echo "- Solutions per solved tuple (16 spp): $solutions (aim: >= 0.5)."
+    echo
+    echo "Curves: bench/results/flat-mirror.png."
+  } > "$flat_md"
+  {
+    awk -v e="$pov_best_err" -v c="$pov_best_cpu" -v p="$pre_cpu" -v r="$bbc_reach" '
+      $3 <= 10 { best = sprintf("%.2g at %s CPU-s in total (%s spp)", $4, $3, $1) }
+      END { printf "| flat mirror (vs exact) | POV-Ray photon mapping, best: %.2g in %s CPU-s | precompute %s CPU-s; POV-Ray'"'"'s best reached at %s CPU-s in total; %s |\n", e, c, p, r, best }' "$d/bbc.dat"
+  } > "$work/flat/readme-row.md"
+}
+
+# ------------------------------------------------------------------------------------
+# 2. The shared scenes: bbc, uniform and enumerate against two enumeration references.
+scenes_part() {
+  d=$work/scenes
+  w=$scene_width
+  : > "$d/summary.dat"
+  for spec in plane1k:R::128 plane7k:R::128 pool4k:T::512 ball320:TT:3:2048; do
+    s=${spec%%:*}
+    rest=${spec#*:}
+    chain=${rest%%:*}
+    rest=${rest#*:}
+    level=${rest%%:*}
+    refspp=$(n "${rest#*:}")
+    gltf=$scenes/$s.gltf
+    [ -f "$gltf" ] || { echo "compare.sh: $gltf is missing, skipped" >&2; continue; }
+    pc=$(cpu "$d/$s-pre.log" "$pre" "$gltf" -o "$d/$s.bbc" --chains "$chain" ${level:+--max-level $level} \
+      --threads 2 --no-progress --json "$d/$s-pre.json")
+    common="$gltf --cache $d/$s.bbc --only caustics --max-depth 3 --width $w --threads 2 --no-progress"
+    # The references: enumerations with two seeds, cached by scene content and options.
+    sum=$(cat "$gltf" "${gltf%.gltf}.bin" 2> /dev/null | md5sum | cut -c1-8)
+    for seed in 1001 1002; do
+      ref=$work/refs/$s-$sum-w$w-enumerate-$refspp-$seed.exr
+      if [ ! -f "$ref" ]; then
+        c=$(cpu "$d/$s-ref-$seed.log" "$ren" $common --method enumerate --spp "$refspp" --seed $seed -o "$ref.tmp.exr")
+        mv "$ref.tmp.exr" "$ref"
+        echo "$c" > "$ref.cpu"
+      fi
+    done
+    refa=$work/refs/$s-$sum-w$w-enumerate-$refspp-1001.exr
+    refb=$work/refs/$s-$sum-w$w-enumerate-$refspp-1002.exr
+    set -- $(err "$refa" "$refb")
+    agree=$2
+    refcpu=$(cat "$refa.cpu" "$refb.cpu" | awk '{ s += $1 } END { printf "%.0f", s }')
+    : > "$d/$s.dat"
+    for m in bbc uniform enumerate; do
+      : > "$d/$s-$m.xy"
+      list="1 2 4 8 16"
+      [ $m = enumerate ] && list="1 2 4"
+      for spp in $list; do
+        spp=$(n $spp)
+        c=$(cpu "$d/$s-$m-$spp.log" "$ren" $common --method $m --spp "$spp" --seed 7 --stats -o "$d/$s-$m-$spp.exr")
+        set -- $(err "$d/$s-$m-$spp.exr" "$refa")
+        sols=$(sed -n 's/.*; \([0-9.]*\) solutions per solved tuple.*/\1/p' "$d/$s-$m-$spp.log")
+        echo "$m $spp $c $2 $4 ${sols:-?}" >> "$d/$s.dat"
+        echo "$c $2" >> "$d/$s-$m.xy"
+      done
+    done
+    # At equal CPU: the others interpolated at bbc's largest budget.
+    bc=$(tail -1 "$d/$s-bbc.xy" | cut -d' ' -f1)
+    be=$(tail -1 "$d/$s-bbc.xy" | cut -d' ' -f2)
+    ue=$(interpolate "$d/$s-uniform.xy" "$bc")
+    ee=$(interpolate "$d/$s-enumerate.xy" "$bc")
+    smallest=$(awk '{ print $4 }' "$d/$s.dat" | sort -g | head -1)
+    lit=$(awk '$1 == "bbc" { q = $5 } END { print q }' "$d/$s.dat")
+    echo "$s $chain ${level:--} $pc $refspp $refcpu $agree $smallest $bc $be $ue $ee $lit" \
+      "$(slope "$d/$s-bbc.xy") $(slope "$d/$s-uniform.xy") $(slope "$d/$s-enumerate.xy")" >> "$d/summary.dat"
+  done
+
+  gnuplot <<EOF
+set terminal pngcairo size 1100,800 font ",10"
+set output "$out/scenes.png"
+set multiplot layout 2,2 title "Caustic only, $w px wide, relMSE against enumeration ($commit)"
+set logscale xy
+set format y "%.0e"
+set xlabel "render CPU-seconds (user + sys)"
+set ylabel "relMSE"
+set grid
+set key top right
+do for [s in "plane1k plane7k pool4k ball320"] {
+  set title s
+  plot "$d/".s."-bbc.xy" with linespoints lw 2 lc rgb "#c00000" title "bbc", \
+       "$d/".s."-uniform.xy" with linespoints lc rgb "#0060c0" title "uniform", \
+       "$d/".s."-enumerate.xy" with linespoints lc rgb "#008000" title "enumerate"
+}
+unset multiplot
+EOF
+
+  {
+    echo "## bbc, uniform and enumerate on the shared scenes"
+    echo
+    echo "\`bbc-precompute SCENE -o C.bbc --chains CHAIN [--max-level L] --threads 2\`, then"
+    echo "\`bbc-render SCENE --cache C.bbc --only caustics --max-depth 3 --width $w --threads 2"
+    echo "--method M --spp N --seed 7\`. Reference: \`--method enumerate\` with seeds 1001 and 1002"
+    echo "(cached in bench/work/refs); errors are against the first; the two agree to the"
+    echo "\"refs agree\" relMSE, which must be ten times below the smallest relMSE reported."
+    echo
+    echo "| scene | chain | level | precompute CPU-s | ref spp | ref CPU-s (both) | refs agree | smallest reported | ok |"
+    echo "|---|---|---|---|---|---|---|---|---|"
+    awk '{ ok = ($7 * 10 <= $8) ? "yes" : "**no**"
+           printf "| %s | %s | %s | %s | %s | %s | %.2g | %.2g | %s |\n", $1, $2, $3, $4, $5, $6, $7, $8, ok }' \
+      "$d/summary.dat"
+    echo
+    echo "At equal render CPU (uniform and enumerate interpolated log-log at bbc's largest budget):"
+    echo
+    echo "| scene | CPU-s | bbc | uniform | enumerate | uniform / bbc | enumerate / bbc | bbc lit-mean vs enumeration | slopes bbc, uniform, enumerate |"
+    echo "|---|---|---|---|---|---|---|---|---|"
+    awk '{ printf "| %s | %s | %.3g | %.3g | %.3g | %.2f | %.2f | %.4f | %s, %s, %s |\n", $1, $9, $10, $11, $12, $11 / $10, $12 / $10, $13, $14, $15, $16 }' \
+      "$d/summary.dat"
+    echo
+    echo "Slopes: of log relMSE against log CPU-s over the budgets (-1: unbiased Monte Carlo with"
+    echo "independent samples; a bias or a floor flattens it). bbc converges to the enumeration"
+    echo "when its slope stays near -1 (or steeper) and its lit-mean ratio near 1."
+    echo
+    echo "All runs:"
+    echo
+    echo "| scene | method | spp | render CPU-s | relMSE | lit-mean ratio | solutions per solved tuple |"
+    echo "|---|---|---|---|---|---|---|"
+    while read -r s rest; do
+      awk -v s="$s" '{ printf "| %s | %s | %s | %s | %.3g | %.4f | %s |\n", s, $1, $2, $3, $4, $5, $6 }' "$d/$s.dat"
+    done < "$d/summary.dat"
+    echo
+    echo "Curves: bench/results/scenes.png."
+  } > "$scenes_md"
+  awk '{ printf "| %s (vs enumeration) | at %s render CPU-s: uniform %.3g, enumerate %.3g | bbc %.3g (%.1fx below uniform, %.1fx below enumerate) |\n",
+         $1, $9, $11, $12, $10, $11 / $10, $12 / $10 }' "$d/summary.dat" > "$work/scenes/readme-rows.md"
+}
+
+case $part in all | flat) flat ;; esac
+case $part in all | scenes) scenes_part ;; esac
+
+# ------------------------------------------------------------------------------------
+# The report and the README rows (from whichever parts have been run).
+{
+  echo "# Caustic quality against CPU time"
+  echo
+  echo "Generated by \`sh bench/compare.sh --scale $scale\` at commit $commit; $machine; $(date -u +%Y-%m-%d)."
+  echo "CPU-s: user + sys of each process (/usr/bin/time), precompute counted separately."
+  echo "relMSE: mean over pixels of the mean over RGB of (I - R)^2 / (R^2 + eps), eps = 1e-2"
+  echo "(bbc_image_relmse, as \`bbc-render --reference\`). Lit-mean ratio: the image's mean over"
+  echo "the pixels where the reference is lit, divided by the reference's mean there."
+  echo
+  [ -f "$flat_md" ] && cat "$flat_md" && echo
+  [ -f "$scenes_md" ] && cat "$scenes_md"
+} > "$out/compare.md"
+{
+  echo "<!-- compare.sh begin: regenerated by sh bench/compare.sh -->"
+  echo "Caustic quality against CPU-seconds (\`bench/results/compare.md\`, commit $commit, 2 threads,"
+  echo "relMSE with eps 1e-2; curves in bench/results/flat-mirror.png and scenes.png):"
+  echo
+  echo "| scene | others | bbc |"
+  echo "|---|---|---|"
+  [ -f "$work/flat/readme-row.md" ] && cat "$work/flat/readme-row.md"
+  [ -f "$work/scenes/readme-rows.md" ] && cat "$work/scenes/readme-rows.md"
+  echo "<!-- compare.sh end -->"
+} > "$readme_rows"
+awk -v rows="$readme_rows" '
+  /<!-- compare.sh begin/ { while ((getline l < rows) > 0) print l; skip = 1; next }
+  /<!-- compare.sh end/ { skip = 0; next }
+  !skip { print }' "$root/README.md" > "$work/README.md"
+if grep -q '<!-- compare.sh begin' "$root/README.md"; then
+  cp "$work/README.md" "$root/README.md"
+else
+  echo "compare.sh: README.md has no compare.sh markers; rows left in $readme_rows" >&2
+fi
+cat "$out/compare.md"

@@ -1,0 +1,45 @@
+/* The error of an image against a reference, for the comparison benchmark:
+ *
+ *   image_error IMAGE.exr REFERENCE.exr [--eps E]
+ *
+ * prints "relMSE R lit_mean_ratio Q": R is bbc's relMSE (bbc_image_relmse: the mean over
+ * pixels of the mean over RGB of (I - R)^2 / (R^2 + eps), eps 1e-2 by default), Q the mean
+ * of the image over the lit pixels (those where the reference is positive in some
+ * channel) divided by the reference's mean over the same pixels: 1 for an unbiased image,
+ * below 1 for a dark one. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bbc/bbc.h"
+
+int main(int argc, char **argv) {
+  double eps = 1e-2;
+  if (argc == 5 && !strcmp(argv[3], "--eps")) eps = atof(argv[4]);
+  else if (argc != 3) {
+    fprintf(stderr, "usage: image_error IMAGE.exr REFERENCE.exr [--eps E]\n");
+    return 1;
+  }
+  bbc_image *image = NULL, *ref = NULL;
+  if (bbc_image_read_exr(&image, argv[1], NULL, NULL) != BBC_OK ||
+      bbc_image_read_exr(&ref, argv[2], NULL, NULL) != BBC_OK) {
+    fprintf(stderr, "image_error: cannot read %s or %s\n", argv[1], argv[2]);
+    return 1;
+  }
+  double relmse;
+  if (!(eps > 0) || bbc_image_relmse(image, ref, eps, 0, &relmse) != BBC_OK) {
+    fprintf(stderr, "image_error: the images differ in size (or eps is not positive)\n");
+    return 1;
+  }
+  double sum_i = 0, sum_r = 0;
+  for (size_t p = 0; p < (size_t)ref->width * ref->height; p++) {
+    const float *r = ref->rgb + 3 * p, *i = image->rgb + 3 * p;
+    if (!(r[0] > 0 || r[1] > 0 || r[2] > 0)) continue;
+    sum_i += (double)i[0] + i[1] + i[2];
+    sum_r += (double)r[0] + r[1] + r[2];
+  }
+  printf("relMSE %.6g lit_mean_ratio %.7f\n", relmse, sum_r > 0 ? sum_i / sum_r : 0.0);
+  bbc_image_free(image);
+  bbc_image_free(ref);
+  return 0;
+}
