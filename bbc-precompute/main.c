@@ -29,6 +29,9 @@ static const char help[] =
     "  --stats               print the precompute statistics (the paper's Table 2\n"
     "                        columns) to stderr\n"
     "  --json FILE           write the statistics as JSON to FILE\n"
+    "  --allow-empty         write the cache even when it holds no tuple although the\n"
+    "                        scene has casters (otherwise that is an error, exit 1, with\n"
+    "                        the reason: no point light, --chains, no reach, culled)\n"
     "\n"
     "Bounds:\n"
     "  --chains LIST         chain types, comma-separated: R, T, RR, RT, TR, TT (R\n"
@@ -101,6 +104,46 @@ static void parse_shard(const char *text, uint32_t *index, uint32_t *count) {
   *count = (uint32_t)v[1];
 }
 
+static int has_caster(const bbc_scene *scene) {
+  for (uint32_t i = 0; i < scene->mesh_count; i++)
+    if (scene->meshes[i].role == BBC_ROLE_CASTER) return 1;
+  return 0;
+}
+
+/* Why a precompute stored no tuple (NULL when it stored some), in the order a user
+ * would check: casters, point lights, chain types, reach, culling. */
+static const char *why_empty(const bbc_scene *scene, uint32_t chains,
+                             const bbc_precompute_stats *st) {
+  if (st->tuples > 0) return NULL;
+  int mirror = 0, dielectric = 0;
+  for (uint32_t i = 0; i < scene->mesh_count; i++) {
+    const bbc_mesh *m = &scene->meshes[i];
+    if (m->role != BBC_ROLE_CASTER) continue;
+    mirror |= scene->materials[m->material].type == BBC_MATERIAL_MIRROR;
+    dielectric |= scene->materials[m->material].type == BBC_MATERIAL_DIELECTRIC;
+  }
+  if (!mirror && !dielectric)
+    return "no mesh is a caster (no mirror or smooth dielectric, or none with role caster)";
+  if (scene->point_light_count == 0)
+    return "the scene has no point light (caustics of area lights are path traced, not cached)";
+  int possible = 0;
+  for (int c = 0; c < BBC_CHAIN_COUNT; c++) {
+    if (!(chains & BBC_CHAIN_BIT(c))) continue;
+    int ok = 1;
+    for (int v = 0; v < bbc_chain_length((bbc_chain)c); v++)
+      ok &= bbc_chain_refracts((bbc_chain)c, v) ? dielectric : mirror;
+    possible |= ok;
+  }
+  if (!possible)
+    return mirror && dielectric ? "no chain type asked for (--chains) can be formed"
+           : mirror             ? "the casters are all mirrors, but --chains asks for no R-only chain"
+                                : "the casters are all dielectrics, but --chains asks for no T-only chain";
+  if (st->candidate_tuples == 0)
+    return "no light path reaches a receiver through the casters (no candidate tuple: check "
+           "the roles, the light's position and the casters' normals)";
+  return "every candidate tuple was culled: none carries light to a receiver";
+}
+
 /* Writes s as a JSON string literal. */
 static void json_string(FILE *f, const char *s) {
   fputc('"', f);
@@ -123,7 +166,7 @@ int main(int argc, char **argv) {
   bbc_precompute_options options;
   memset(&options, 0, sizeof options);
   bbc_precompute_params_default(&options.params);
-  int progress = -1, stats = 0;
+  int progress = -1, stats = 0, allow_empty = 0;
   bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
 
   while (a.i < argc) {
@@ -166,6 +209,8 @@ int main(int argc, char **argv) {
         options.jacobian = BBC_JACOBIAN_QUOTIENT;
       else
         cli_usage_error(usage, "--jacobian: '%s' is neither determinant nor quotient", value);
+    } else if (cli_flag(&a, "--allow-empty")) {
+      allow_empty = 1;
     } else if (cli_option(&a, "--light-units", &value)) {
       light_units = cli_parse_light_units(&a, "--light-units", value);
     } else if (cli_option(&a, "--threads", &value)) {
@@ -214,10 +259,23 @@ int main(int argc, char **argv) {
     bbc_scene_free(scene);
     return 1;
   }
-  if (st.candidate_tuples == 0)
-    fprintf(stderr, "bbc-precompute: warning: %s has %s; the cache holds no tuples\n", scene_path,
-            scene->point_light_count == 0 ? "no point light (area lights are path traced)"
-                                          : "no specular caster that reaches a receiver");
+  const char *empty = options.shard_count ? NULL : why_empty(scene, options.params.chains, &st);
+  if (empty && !has_caster(scene)) {
+    /* Nothing to cache is the right answer for a scene without mirrors or glass. */
+    fprintf(stderr, "bbc-precompute: warning: %s: %s; the cache holds no tuples\n", scene_path,
+            empty);
+  } else if (empty && !allow_empty) {
+    fprintf(stderr,
+            "bbc-precompute: %s: the cache would hold no tuple: %s; %s was not written "
+            "(--allow-empty writes it)\n",
+            scene_path, empty, output);
+    bbc_cache_builder_free(builder);
+    bbc_scene_free(scene);
+    return 1;
+  } else if (empty) {
+    fprintf(stderr, "bbc-precompute: warning: %s: %s; the cache holds no tuples\n", scene_path,
+            empty);
+  }
   double w0 = cli_now();
   bbc_cache_write_options write_options;
   memset(&write_options, 0, sizeof write_options);

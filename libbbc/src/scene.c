@@ -183,8 +183,11 @@ static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32
 
   if (g->metallic == 1.0 && g->roughness == 0.0) {
     m->type = BBC_MATERIAL_MIRROR;
-  } else if (g->metallic == 0.0 && g->transmission == 1.0 && g->thickness > 0.0 &&
+  } else if (g->metallic == 0.0 && g->transmission == 1.0 && g->thickness >= 0.0 &&
              g->roughness == 0.0) {
+    /* Without KHR_materials_volume (thickness 0) glTF means a thin wall; Blender's
+     * exporter writes glass and water that way. bbc renders it as a volume all the same
+     * and says so per mesh (volume_warnings). */
     if (!fits_float(g->ior) || !(g->ior > 0.0))
       return fail(ld, BBC_ERR_SCENE, "%s: ior %g is not a positive number", label, g->ior);
     m->type = BBC_MATERIAL_DIELECTRIC;
@@ -584,6 +587,34 @@ static bbc_result load_camera(const loader *ld, const bbc__gltf_data *g, bbc_sce
   return BBC_OK;
 }
 
+/* A dielectric whose material has no KHR_materials_volume (thickness 0) is, for glTF, a
+ * thin wall that transmits without bending light. bbc has no thin walls: a closed mesh
+ * is rendered as the solid it encloses, an open one as a single refracting surface with
+ * the dielectric behind its vertex normals (the media rule, media_internal.h). One
+ * warning per mesh says which. */
+static void volume_warnings(const loader *ld, const bbc__gltf_data *g, const bbc_scene *s) {
+  for (uint32_t i = 0; i < s->mesh_count; i++) {
+    const bbc_mesh *mesh = &s->meshes[i];
+    const bbc_material *m = &s->materials[mesh->material];
+    if (m->type != BBC_MATERIAL_DIELECTRIC || mesh->material >= g->material_count ||
+        g->materials[mesh->material].thickness > 0.0)
+      continue;
+    char label[128];
+    material_label(&g->materials[mesh->material], mesh->material, label, sizeof label);
+    if (mesh->closed)
+      warn(ld,
+           "mesh \"%s\" (%s): KHR_materials_transmission without KHR_materials_volume; the "
+           "mesh is closed, so it is rendered as a solid dielectric of ior %g",
+           mesh->name, label, (double)m->ior);
+    else
+      warn(ld,
+           "mesh \"%s\" (%s): KHR_materials_transmission without KHR_materials_volume on an "
+           "open mesh; it is rendered as one refracting surface with a dielectric of ior %g "
+           "behind its vertex normals and air in front, not as the thin wall glTF means",
+           mesh->name, label, (double)m->ior);
+  }
+}
+
 /* Builds the scene from the view; on failure *out stays NULL. */
 static bbc_result build(bbc_scene **out, const loader *ld, const bbc__gltf_data *g) {
   bbc_scene *s = calloc(1, sizeof *s);
@@ -594,6 +625,7 @@ static bbc_result build(bbc_scene **out, const loader *ld, const bbc__gltf_data 
   if (r == BBC_OK) r = load_lights(ld, g, s);
   if (r == BBC_OK) r = load_camera(ld, g, s);
   if (r == BBC_OK) r = bbc__scene_media(s);
+  if (r == BBC_OK) volume_warnings(ld, g, s);
   if (r != BBC_OK) {
     bbc_scene_free(s);
     return r;

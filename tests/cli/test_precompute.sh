@@ -58,7 +58,8 @@ PY
 test_help_documents_every_flag() {
   expect_status 0 "$PRECOMPUTE" --help
   for flag in --output --stats --json --chains --max-level --sigma --alpha --alpha2 --m --resolution \
-              --no-remainder --jacobian --threads --progress --no-progress --version --help; do
+              --no-remainder --jacobian --threads --progress --no-progress --version --help \
+              --allow-empty --light-units; do
     grep -q -- "$flag" "$TMP/out" || fail "--help does not mention $flag"
   done
 }
@@ -73,6 +74,25 @@ test_bad_usage_exits_2() {
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --frobnicate
   [ -e "$TMP/x.bbc" ] && fail "an output was written"
   return 0
+}
+
+# A cache with no tuple for a scene with casters is an error that says why, unless
+# --allow-empty; a scene without casters only gets a warning.
+test_empty_cache_says_why() {
+  area="$BBC_TEST_SCENES/flat-mirror-area.gltf"
+  expect_status 1 "$PRECOMPUTE" "$area" -o "$TMP/a.bbc" --no-progress
+  grep -q "^bbc-precompute: .*flat-mirror-area.gltf: the cache would hold no tuple: the scene has no point light" \
+    "$TMP/err" || fail "message: $(cat "$TMP/err")"
+  [ "$(wc -l < "$TMP/err")" -eq 1 ] || fail "more than one line: $(cat "$TMP/err")"
+  [ -e "$TMP/a.bbc" ] && fail "an output was written"
+  expect_status 0 "$PRECOMPUTE" "$area" -o "$TMP/a.bbc" --no-progress --allow-empty
+  grep -q "warning: .*no point light" "$TMP/err" || fail "no warning: $(cat "$TMP/err")"
+  [ -s "$TMP/a.bbc" ] || fail "--allow-empty wrote no cache"
+  expect_status 1 "$PRECOMPUTE" "$MIRROR" -o "$TMP/m.bbc" --chains T,TT --no-progress
+  grep -q "the casters are all mirrors" "$TMP/err" || fail "message: $(cat "$TMP/err")"
+  expect_status 0 "$PRECOMPUTE" "$BBC_TEST_SCENES/floor.gltf" -o "$TMP/f.bbc" --no-progress
+  grep -q "warning: .*no mesh is a caster" "$TMP/err" || fail "floor: $(cat "$TMP/err")"
+  [ -s "$TMP/f.bbc" ] || fail "floor: no cache"
 }
 
 test_bad_scene_exits_1() {

@@ -544,7 +544,7 @@ TEST(material_classification) {
       {"silver", BBC_MATERIAL_MIRROR, BBC_ROLE_CASTER, 1.5},
       {"glass_1.7", BBC_MATERIAL_DIELECTRIC, BBC_ROLE_CASTER, 1.7},
       {"glass_default", BBC_MATERIAL_DIELECTRIC, BBC_ROLE_CASTER, 1.5},
-      {"thin_glass", BBC_MATERIAL_DIFFUSE, BBC_ROLE_RECEIVER, 1.5},
+      {"thin_glass", BBC_MATERIAL_DIELECTRIC, BBC_ROLE_CASTER, 1.5},
       {"brushed_steel", BBC_MATERIAL_DIFFUSE, BBC_ROLE_RECEIVER, 1.5},
       {"white", BBC_MATERIAL_DIFFUSE, BBC_ROLE_RECEIVER, 1.5},
   };
@@ -570,7 +570,8 @@ TEST(material_classification) {
 }
 
 /* Materials bbc cannot render exactly fall back to diffuse with one warning each,
- * naming the material, sent with code BBC_OK. */
+ * naming the material, sent with code BBC_OK; glass without a volume (thin_glass, on
+ * one triangle) is a refracting surface, with its own warning. */
 TEST(unknown_material_warns) {
   messages m;
   bbc_scene *s = load_ok(SOURCE_PATH("tests/corpus/valid/materials.gltf"), &m);
@@ -579,10 +580,12 @@ TEST(unknown_material_warns) {
   CHECK_INT(m.warning_code, BBC_OK);
   int thin = 0, steel = 0;
   for (int i = 0; i < m.warnings && i < 8; i++) {
-    thin += strstr(m.warning[i], "\"thin_glass\"") != NULL;
+    int is_thin = strstr(m.warning[i], "\"thin_glass\"") != NULL;
+    thin += is_thin;
     steel += strstr(m.warning[i], "\"brushed_steel\"") != NULL;
     CHECK_STR_CONTAINS(m.warning[i], "materials.gltf");
-    CHECK_STR_CONTAINS(m.warning[i], "diffuse");
+    CHECK_STR_CONTAINS(m.warning[i], is_thin ? "without KHR_materials_volume on an open mesh"
+                                             : "treated as diffuse");
     CHECK(strchr(m.warning[i], '\n') == NULL);
   }
   CHECK_INT(thin, 1);
@@ -722,6 +725,47 @@ TEST(light_units_from_the_asset) {
     CHECK_INT(r, BBC_ERR_SCENE);
     CHECK_INT(m.errors, 1);
     CHECK_STR_CONTAINS(m.error, "blender.gltf: asset.extras.bbc.light_units");
+    bbc_scene_free(s);
+  }
+}
+
+/* Blender's glass: Principled BSDF transmission 1, roughness 0, exported with
+ * KHR_materials_transmission and no KHR_materials_volume. On the closed octahedron it is
+ * a solid dielectric, on the open half a refracting surface; each says so once. */
+#define BLENDER_GLASS                                                                         \
+  "[{\"name\":\"Floor\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.8,0.8,0.8,1],"              \
+  "\"metallicFactor\":0,\"roughnessFactor\":0.5}},"                                             \
+  "{\"name\":\"Glass\",\"pbrMetallicRoughness\":{\"metallicFactor\":0,\"roughnessFactor\":0},"       \
+  "\"extensions\":{\"KHR_materials_transmission\":{\"transmissionFactor\":1},"                    \
+  "\"KHR_materials_ior\":{\"ior\":1.45}}}]"
+
+TEST(transmission_without_volume) {
+  blender_style b = {0};
+  b.lights = "[{\"type\":\"point\",\"intensity\":5435}]";
+  b.cameras = BLENDER_CAMERA;
+  b.materials = BLENDER_GLASS;
+  for (int open = 0; open < 2; open++) {
+    b.caster = open ? 2 : 1;
+    messages m;
+    bbc_result r;
+    bbc_scene *s = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+    CHECK_INT(r, BBC_OK);
+    REQUIRE(s != NULL);
+    const bbc_mesh *ico = find_mesh(s, "Ico");
+    REQUIRE(ico != NULL);
+    CHECK_INT(ico->triangle_count, open ? 4 : 8);
+    CHECK_INT(s->materials[ico->material].type, BBC_MATERIAL_DIELECTRIC);
+    CHECK_NEAR(s->materials[ico->material].ior, 1.45, 1e-6);
+    CHECK_INT(ico->role, BBC_ROLE_CASTER);
+    CHECK_INT(ico->closed, !open);
+    CHECK_INT(m.warnings, 1);
+    int glass = -1;
+    for (int i = 0; i < m.warnings && i < 8; i++)
+      if (strstr(m.warning[i], "KHR_materials_volume")) glass = i;
+    REQUIRE(glass >= 0);
+    CHECK_STR_CONTAINS(m.warning[glass], "mesh \"Ico\" (material \"Glass\")");
+    CHECK_STR_CONTAINS(m.warning[glass], open ? "open mesh; it is rendered as one refracting surface"
+                                              : "closed, so it is rendered as a solid dielectric");
     bbc_scene_free(s);
   }
 }
