@@ -56,6 +56,7 @@ struct holder {
   std::vector<bbc__gltf_primitive> primitives;
   std::vector<bbc__gltf_material> materials;
   std::vector<bbc__gltf_light> lights;
+  std::vector<const char *> notes;
 
   const char *keep(const std::string &s) {
     strings.push_back(s);
@@ -225,8 +226,20 @@ class reader {
 
   void run() {
     check_required_extensions();
+    static const char *const asset_keys[] = {"light_units", nullptr};
+    check_extras(model_.asset.extras, "asset", asset_keys);
     if (const tinygltf::Value *bbc = bbc_extras(model_.asset.extras))
       out_.view.light_units = string_key(*bbc, "light_units");
+    static const char *const no_keys[] = {nullptr};
+    for (size_t i = 0; i < model_.materials.size(); i++)
+      check_extras(model_.materials[i].extras, label("material", i, model_.materials[i].name),
+                   no_keys);
+    for (size_t i = 0; i < model_.meshes.size(); i++)
+      check_extras(model_.meshes[i].extras, label("mesh", i, model_.meshes[i].name), no_keys);
+    static const char *const camera_keys[] = {"width", "height", nullptr};
+    for (size_t i = 0; i < model_.cameras.size(); i++)
+      check_extras(model_.cameras[i].extras, label("camera", i, model_.cameras[i].name),
+                   camera_keys);
     for (size_t i = 0; i < model_.materials.size(); i++) read_material(i);
 
     if (model_.scenes.empty()) fail(BBC_ERR_SCENE, "the file has no scene");
@@ -246,6 +259,8 @@ class reader {
     v.materials = out_.materials.empty() ? nullptr : out_.materials.data();
     v.light_count = uint32_t(out_.lights.size());
     v.lights = out_.lights.empty() ? nullptr : out_.lights.data();
+    v.note_count = uint32_t(out_.notes.size());
+    v.notes = out_.notes.empty() ? nullptr : out_.notes.data();
   }
 
  private:
@@ -276,6 +291,41 @@ class reader {
     if (!bbc.Has(key)) return nullptr;
     const tinygltf::Value &v = bbc.Get(key);
     return v.IsString() ? out_.keep(v.Get<std::string>()) : "<not a string>";
+  }
+
+  void note(const std::string &text) { out_.notes.push_back(out_.keep(text)); }
+
+  // Notes extras that look meant for bbc but that bbc will not read: extras.bbc that
+  // is not an object, a key of it not in `known` (NULL-terminated), and flat keys such
+  // as "bbc.role" or "bbc_width" (what a custom property named so in Blender becomes).
+  void check_extras(const tinygltf::Value &extras, const std::string &owner,
+                    const char *const *known) {
+    if (!extras.IsObject()) return;
+    for (const std::string &key : extras.Keys()) {
+      if (key == "bbc") {
+        const tinygltf::Value &bbc = extras.Get(key);
+        if (!bbc.IsObject()) {
+          note(owner + ": extras.bbc is not a JSON object and is ignored (bbc reads objects " +
+               "such as {\"bbc\": {\"role\": \"caster\"}})");
+          continue;
+        }
+        for (const std::string &inner : bbc.Keys()) {
+          bool ok = false;
+          for (const char *const *k = known; *k; k++) ok = ok || inner == *k;
+          if (ok) continue;
+          std::string list;
+          for (const char *const *k = known; *k; k++) list += std::string(list.empty() ? "" : ", ") + *k;
+          note(owner + ": extras.bbc." + inner + " is not read here (" +
+               (list.empty() ? std::string("bbc reads no settings here") : "bbc reads " + list) +
+               ")");
+        }
+      } else if (key.size() > 3 && (key.compare(0, 3, "bbc") == 0 || key.compare(0, 3, "BBC") == 0) &&
+                 (key[3] == '.' || key[3] == '_' || key[3] == ':' || key[3] == '-' ||
+                  key[3] == '/')) {
+        note(owner + ": extras key \"" + key + "\" is not read; bbc reads the object " +
+             "extras.bbc, e.g. {\"bbc\": {\"" + key.substr(4) + "\": ...}}");
+      }
+    }
   }
 
   static std::string label(const char *kind, size_t index, const std::string &name) {
@@ -394,6 +444,10 @@ class reader {
   }
 
   void visit(const tinygltf::Node &n, size_t index, const double world[16]) {
+    static const char *const mesh_node_keys[] = {"role", nullptr};
+    static const char *const camera_node_keys[] = {"role", "width", "height", nullptr};
+    check_extras(n.extras, label("node", index, n.name),
+                 n.camera >= 0 ? camera_node_keys : mesh_node_keys);
     const tinygltf::Value *bbc = bbc_extras(n.extras);
     if (n.mesh >= 0) {
       if (size_t(n.mesh) >= model_.meshes.size())
@@ -466,11 +520,21 @@ class reader {
     const char *keys[2] = {"width", "height"};
     int *has[2] = {&g.has_width, &g.has_height};
     double *value[2] = {&g.width, &g.height};
+    const tinygltf::Value *camera_bbc = bbc_extras(c.extras);
     for (int k = 0; k < 2; k++) {
-      if (bbc && bbc->Has(keys[k])) {
-        const tinygltf::Value &v = bbc->Get(keys[k]);
+      const tinygltf::Value *from = bbc && bbc->Has(keys[k]) ? bbc
+                                    : camera_bbc && camera_bbc->Has(keys[k]) ? camera_bbc
+                                                                             : nullptr;
+      if (!from) continue;
+      const tinygltf::Value &v = from->Get(keys[k]);
+      if (v.IsNumber()) {
         *has[k] = 1;
-        *value[k] = v.IsNumber() ? v.GetNumberAsDouble() : std::nan("");
+        *value[k] = v.GetNumberAsDouble();
+      } else {
+        note(label(from == bbc ? "node" : "camera", from == bbc ? index : size_t(n.camera),
+                   from == bbc ? n.name : c.name) +
+             ": extras.bbc." + keys[k] + " is not a number and is ignored" +
+             (v.IsString() ? " (it is the string \"" + v.Get<std::string>() + "\")" : ""));
       }
     }
   }

@@ -81,9 +81,12 @@ typedef struct bbc__gltf_camera {
   double world[16];    /* the node's world matrix; the camera looks along -z */
   double yfov;         /* perspective.yfov, radians */
   double aspect_ratio; /* perspective.aspectRatio; 0 when absent */
-  int has_width;       /* the node's extras.bbc.width is present */
-  int has_height;      /* the node's extras.bbc.height is present */
-  double width;        /* its value; NaN when present but not a number */
+  /* extras.bbc.width/height of the node, else of the camera (cameras[i].extras, where
+   * Blender writes the camera data's custom properties). A value that is not a number
+   * leaves has_* at 0 and is listed in bbc__gltf_data.notes. */
+  int has_width;
+  int has_height;
+  double width;
   double height;
 } bbc__gltf_camera;
 
@@ -101,6 +104,11 @@ typedef struct bbc__gltf_data {
   bbc__gltf_light *lights; /* lights placed by nodes, in node order */
   int has_camera;
   bbc__gltf_camera camera; /* zero unless has_camera */
+  /* Extras that look meant for bbc but are not read (a flat "bbc.role" key, extras.bbc
+   * that is not an object, an unknown key inside it, a string where a number belongs),
+   * one message each, for the loader to warn about. */
+  uint32_t note_count;
+  const char *const *notes;
   void *internal;          /* storage behind the pointers above */
 } bbc__gltf_data;
 

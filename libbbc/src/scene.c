@@ -527,17 +527,19 @@ static bbc_result load_lights(const loader *ld, const bbc__gltf_data *g, bbc_sce
   return BBC_OK;
 }
 
-static bbc_result film_size(const loader *ld, const bbc__gltf_camera *c, int has, double value,
-                            const char *key, uint32_t fallback, uint32_t *out) {
-  if (!has) {
-    *out = fallback;
-    return BBC_OK;
-  }
+static bbc_result film_size(const loader *ld, const bbc__gltf_camera *c, double value,
+                            const char *key, uint32_t *out) {
   if (!(value >= 1.0 && value <= MAX_FILM_SIZE && value == floor(value)))
     return fail(ld, BBC_ERR_SCENE, "camera \"%s\": extras.bbc.%s must be an integer from 1 to %d",
                 c->name, key, MAX_FILM_SIZE);
   *out = (uint32_t)value;
   return BBC_OK;
+}
+
+/* A side of the film from the other and the aspect ratio, at least one pixel. */
+static uint32_t film_side(double other, double ratio) {
+  double v = floor(other * ratio + 0.5);
+  return v < 1.0 ? 1u : v > MAX_FILM_SIZE ? MAX_FILM_SIZE : (uint32_t)v;
 }
 
 static bbc_result load_camera(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
@@ -550,19 +552,33 @@ static bbc_result load_camera(const loader *ld, const bbc__gltf_data *g, bbc_sce
                 c->name, c->type);
   if (!(c->yfov > 0.0 && c->yfov < PI))
     return fail(ld, BBC_ERR_SCENE, "camera \"%s\": yfov %g is not in (0, pi)", c->name, c->yfov);
-  bbc_result r = film_size(ld, c, c->has_width, c->width, "width", 640, &out->width);
-  if (r == BBC_OK) r = film_size(ld, c, c->has_height, c->height, "height", 480, &out->height);
-  if (r != BBC_OK) return r;
-  out->yfov = c->yfov;
-  if (c->aspect_ratio == 0.0) {
-    /* tinygltf reports an absent aspectRatio as 0, which the glTF schema forbids. */
-    out->aspect = (double)out->width / (double)out->height;
-  } else if (c->aspect_ratio > 0.0 && isfinite(c->aspect_ratio)) {
-    out->aspect = c->aspect_ratio;
-  } else {
+  /* tinygltf reports an absent aspectRatio as 0, which the glTF schema forbids. */
+  double aspect = c->aspect_ratio;
+  if (aspect != 0.0 && !(aspect > 0.0 && aspect <= MAX_FILM_SIZE))
     return fail(ld, BBC_ERR_SCENE, "camera \"%s\": aspectRatio %g is not positive", c->name,
                 c->aspect_ratio);
+  bbc_result r = BBC_OK;
+  if (c->has_width) r = film_size(ld, c, c->width, "width", &out->width);
+  if (r == BBC_OK && c->has_height) r = film_size(ld, c, c->height, "height", &out->height);
+  if (r != BBC_OK) return r;
+  /* A side not given follows the aspect ratio (4:3 without one); with neither, the
+   * longer side is 640 pixels. */
+  double ratio = aspect > 0.0 ? aspect : 4.0 / 3.0;
+  if (!c->has_width && !c->has_height) {
+    out->width = ratio >= 1.0 ? 640u : film_side(640.0, ratio);
+    out->height = ratio >= 1.0 ? film_side(640.0, 1.0 / ratio) : 640u;
+  } else if (!c->has_height) {
+    out->height = film_side(out->width, 1.0 / ratio);
+  } else if (!c->has_width) {
+    out->width = film_side(out->height, ratio);
+  } else if (aspect > 0.0 && fabs(out->width - aspect * out->height) >= 1.0) {
+    warn(ld,
+         "camera \"%s\": the image is %ux%u but aspectRatio is %g; the image keeps yfov and "
+         "shows a horizontal field of view of aspect %g",
+         c->name, out->width, out->height, aspect, (double)out->width / out->height);
   }
+  out->yfov = c->yfov;
+  out->aspect = aspect > 0.0 ? aspect : (double)out->width / (double)out->height;
 
   /* The camera frame is the node's rotation: x right, y up, looking along -z. Any
    * scale is removed, and a shear is squeezed out by Gram-Schmidt so u, v, w are
@@ -626,6 +642,7 @@ static bbc_result build(bbc_scene **out, const loader *ld, const bbc__gltf_data 
   if (r == BBC_OK) r = load_camera(ld, g, s);
   if (r == BBC_OK) r = bbc__scene_media(s);
   if (r == BBC_OK) volume_warnings(ld, g, s);
+  for (uint32_t i = 0; r == BBC_OK && i < g->note_count; i++) warn(ld, "%s", g->notes[i]);
   if (r != BBC_OK) {
     bbc_scene_free(s);
     return r;

@@ -770,6 +770,86 @@ TEST(transmission_without_volume) {
   }
 }
 
+/* Blender's camera: aspectRatio 16:9 and no image size. The image follows the aspect
+ * ratio (longer side 640) instead of 640x480 cropping its sides; a size given on the
+ * camera data (cameras[i].extras, where Blender writes camera custom properties) is
+ * read, and the node's extras take precedence. */
+TEST(camera_aspect_and_camera_extras) {
+  blender_style b = {0};
+  b.lights = "[{\"type\":\"point\",\"intensity\":5435}]";
+  b.cameras = BLENDER_CAMERA;
+  messages m;
+  bbc_result r;
+  bbc_scene *s = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(s != NULL);
+  CHECK_INT(m.warnings, 0);
+  CHECK_INT(s->camera.width, 640);
+  CHECK_INT(s->camera.height, 360);
+  CHECK_NEAR(s->camera.aspect, 16.0 / 9.0, 1e-15);
+  bbc_scene_free(s);
+
+  b.cameras = "[{\"type\":\"perspective\",\"perspective\":{\"aspectRatio\":0.5,\"yfov\":0.5,"
+              "\"znear\":0.1}}]";
+  s = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(s != NULL);
+  CHECK_INT(s->camera.width, 320);
+  CHECK_INT(s->camera.height, 640);
+  bbc_scene_free(s);
+
+  /* Camera-data extras: a width alone gives the height from the aspect ratio. */
+  b.cameras = "[{\"name\":\"Cam\",\"type\":\"perspective\",\"extras\":{\"bbc\":{\"width\":1280}},"
+              "\"perspective\":{\"aspectRatio\":1.7777777777777777,\"yfov\":0.4,\"znear\":0.1}}]";
+  s = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(s != NULL);
+  CHECK_INT(m.warnings, 0);
+  CHECK_INT(s->camera.width, 1280);
+  CHECK_INT(s->camera.height, 720);
+  bbc_scene_free(s);
+
+  /* The node's extras win over the camera's; a size against the aspect ratio warns. */
+  b.camera_node_extras = "{\"bbc\":{\"width\":200,\"height\":100}}";
+  s = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(s != NULL);
+  CHECK_INT(s->camera.width, 200);
+  CHECK_INT(s->camera.height, 100);
+  CHECK_INT(m.warnings, 1);
+  CHECK_STR_CONTAINS(m.warning[0], "the image is 200x100 but aspectRatio is 1.77778");
+  bbc_scene_free(s);
+}
+
+/* Extras that look meant for bbc but cannot be read: one warning each, naming the
+ * object and the key, and the scene still loads. */
+TEST(unreadable_bbc_extras_warn) {
+  blender_style b = {0};
+  b.lights = "[{\"type\":\"point\",\"intensity\":5435}]";
+  b.cameras = "[{\"name\":\"Cam\",\"type\":\"perspective\",\"extras\":{\"bbc\":{\"width\":\"1280\","
+              "\"fov\":1}},\"perspective\":{\"aspectRatio\":1.5,\"yfov\":0.4,\"znear\":0.1}}]";
+  b.camera_node_extras = "{\"bbc.role\":\"caster\",\"bbc_width\":100,\"other\":1}";
+  b.asset_extras = "{\"bbc\":\"{\\\"light_units\\\":\\\"radiometric\\\"}\"}";
+  messages m;
+  bbc_result r;
+  bbc_scene *s = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  CHECK_INT(r, BBC_OK);
+  REQUIRE(s != NULL);
+  CHECK_INT(s->camera.width, 640); /* the string was not read */
+  CHECK_INT(s->camera.height, 427);
+  const char *expected[] = {
+      "asset: extras.bbc is not a JSON object and is ignored",
+      "camera 0 (\"Cam\"): extras.bbc.fov is not read here (bbc reads width, height)",
+      "camera 0 (\"Cam\"): extras.bbc.width is not a number and is ignored (it is the string \"1280\")",
+      "node 3 (\"Camera\"): extras key \"bbc.role\" is not read; bbc reads the object extras.bbc",
+      "node 3 (\"Camera\"): extras key \"bbc_width\" is not read",
+  };
+  int n = (int)(sizeof expected / sizeof expected[0]);
+  CHECK_INT(m.warnings, n);
+  for (int k = 0; k < n; k++) {
+    int found = 0;
+    for (int i = 0; i < m.warnings && i < 8; i++) found |= strstr(m.warning[i], expected[k]) != NULL;
+    if (!found) harness_fail(__FILE__, __LINE__, "no warning \"%s\"", expected[k]);
+  }
+  bbc_scene_free(s);
+}
+
 /* ------------------------------------------------------------------ failures */
 
 static bbc_result code_from_name(const char *name, int *known) {
