@@ -27,6 +27,18 @@ static const char help[] =
     "                        the other follows the camera's aspect ratio)\n"
     "  --height N            image height in pixels (default: extras.bbc.height)\n"
     "\n"
+    "Cameras (the scene, cache and ray-tracing structure are loaded once for all images):\n"
+    "  --camera NAME|INDEX   the camera to render: its glTF name (the camera's, else its\n"
+    "                        node's), or its index among the scene's camera nodes in\n"
+    "                        depth-first order (default 0, the first)\n"
+    "  --all-cameras         one image per camera, OUT.camN.exr for camera N\n"
+    "  --frames A:B[:STEP]   the frames A, A+STEP, ... <= B of the camera's glTF\n"
+    "                        animation, frame F at time F/fps seconds, into OUT.FFFF.exr\n"
+    "                        (OUT.camN.FFFF.exr with --all-cameras; the same for --png).\n"
+    "                        Frame F uses a seed that is a fixed function of --seed and F,\n"
+    "                        so re-rendering gives bit-identical frames\n"
+    "  --fps F               frames per second of --frames (default 24, Blender's)\n"
+    "\n"
     "Scene:\n"
     "  --light-units U       photometric or radiometric: how light intensities are read\n"
     "                        (default: the file's asset.extras.bbc.light_units, else\n"
@@ -165,6 +177,132 @@ static void print_stats(const bbc_render_stats *s, const bbc_render_options *opt
   }
 }
 
+/* --frames A:B[:STEP]: integers 0 <= A <= B, STEP >= 1; anything else is a usage error. */
+static void parse_frames(const cli_args *a, const char *text, long long *first, long long *last,
+                         long long *step) {
+  char buffer[128];
+  snprintf(buffer, sizeof buffer, "%s", text);
+  char *parts[3] = {buffer, NULL, NULL};
+  int n = 1;
+  for (char *c = buffer; *c && n <= 3; c++)
+    if (*c == ':') {
+      *c = '\0';
+      if (n < 3) parts[n] = c + 1;
+      n++;
+    }
+  if (n < 2 || n > 3) cli_usage_error(a->usage, "--frames: '%s' is not A:B or A:B:STEP", text);
+  *first = cli_parse_int(a, "--frames", parts[0], 0, 100000000);
+  *last = cli_parse_int(a, "--frames", parts[1], 0, 100000000);
+  *step = n == 3 ? cli_parse_int(a, "--frames", parts[2], 1, 100000000) : 1;
+  if (*last < *first) cli_usage_error(a->usage, "--frames: '%s': B is before A", text);
+}
+
+/* The camera named `text`, else the one with that index; -1 if none. */
+static long long find_camera(const bbc_scene *scene, const char *text) {
+  for (uint32_t i = 0; i < scene->camera_count; i++)
+    if (strcmp(scene->cameras[i].name, text) == 0) return i;
+  char *end = NULL;
+  long long index = strtoll(text, &end, 10);
+  if (*text >= '0' && *text <= '9' && *end == '\0' && index < scene->camera_count) return index;
+  return -1;
+}
+
+/* PATH with ".camN" and ".FFFF" inserted before its extension, for the cameras and
+ * frames (negative: none). */
+static void image_name(char *out, size_t size, const char *path, long long camera,
+                       long long frame) {
+  const char *slash = strrchr(path, '/'), *dot = strrchr(path, '.');
+  size_t stem = dot && (!slash || dot > slash) ? (size_t)(dot - path) : strlen(path);
+  char tags[64] = "";
+  if (camera >= 0) snprintf(tags, sizeof tags, ".cam%lld", camera);
+  if (frame >= 0) snprintf(tags + strlen(tags), sizeof tags - strlen(tags), ".%04lld", frame);
+  snprintf(out, size, "%.*s%s%s", (int)stem, path, tags, path + stem);
+}
+
+/* The seed of frame f: a fixed mix of the base seed and f (SplitMix64's finaliser), so
+ * frames differ in their noise and re-rendering a frame repeats it exactly. */
+static uint64_t frame_seed(uint64_t seed, long long frame) {
+  uint64_t z = seed + 0x9E3779B97F4A7C15ull * (uint64_t)(frame + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+/* Renders one image of options->camera and writes it (and its PNG); returns the exit
+ * status: 0, 1 on failure, 130 when interrupted. */
+static int render_one(const bbc_scene *scene, const bbc_accel *accel,
+                      const bbc_render_options *options, long long width, long long height,
+                      const char *output, const char *png, double exposure,
+                      const char *reference_path, double relmse_eps, double reject, int progress,
+                      int stats, int write_partial) {
+  int status = 1;
+  bbc_image *image = NULL, *reference = NULL;
+  if (reference_path) {
+    if (bbc_image_read_exr(&reference, reference_path, cli_print_message, NULL) != BBC_OK)
+      goto done;
+    if (reference->width != (uint32_t)width || reference->height != (uint32_t)height) {
+      fprintf(stderr, "bbc-render: %s: not the size of the image (%ux%u vs %lldx%lld)\n",
+              reference_path, reference->width, reference->height, width, height);
+      goto done;
+    }
+  }
+  if (bbc_image_create(&image, (uint32_t)width, (uint32_t)height) != BBC_OK) {
+    fprintf(stderr, "bbc-render: cannot allocate a %lldx%lld image\n", width, height);
+    goto done;
+  }
+
+  progress_state state;
+  state.time_limit = options->time_limit;
+  cli_progress_begin(&state.bar, "rendering", progress);
+  bbc_render_options opts = *options;
+  opts.progress = on_progress;
+  opts.progress_user = &state;
+  bbc_render_stats render_stats;
+  memset(&render_stats, 0, sizeof render_stats);
+  /* A signal during loading cancels before the first pass (0 spp). */
+  bbc_result r = cli_interrupted ? BBC_ERR_CANCELLED
+                                 : bbc_render(scene, accel, &opts, image, &render_stats);
+  cli_progress_end(&state.bar);
+  /* A damaged chunk (already reported in one line by the cache) ends the render with
+   * nothing written, even with --write-partial. */
+  if (r == BBC_ERR_CHECKSUM || r == BBC_ERR_CORRUPT) goto done;
+  if (r == BBC_ERR_CANCELLED || cli_interrupted) {
+    /* Only the passes completed before the signal are in the image; write them only
+     * when asked, and never an image of no pass at all. */
+    if (!write_partial || render_stats.spp == 0) {
+      fprintf(stderr, "bbc-render: interrupted; %s was not written\n", output);
+      status = 130;
+      goto done;
+    }
+    if (bbc_image_write_exr(image, output, cli_print_message, NULL) != BBC_OK) goto done;
+    if (png && bbc_image_write_png(image, png, exposure, 1, cli_print_message, NULL) != BBC_OK)
+      goto done;
+    if (stats) print_stats(&render_stats, options, scene, width, height);
+    fprintf(stderr, "bbc-render: interrupted after %u spp; wrote partial image %s\n",
+            render_stats.spp, output);
+    status = 130;
+    goto done;
+  }
+  if (r != BBC_OK) {
+    fprintf(stderr, "bbc-render: rendering failed: %s\n", bbc_result_string(r));
+    goto done;
+  }
+  if (bbc_image_write_exr(image, output, cli_print_message, NULL) != BBC_OK) goto done;
+  if (png && bbc_image_write_png(image, png, exposure, 1, cli_print_message, NULL) != BBC_OK)
+    goto done;
+  if (reference) {
+    double relmse;
+    if (bbc_image_relmse(image, reference, relmse_eps, reject, &relmse) != BBC_OK) goto done;
+    printf("relMSE %.6g\n", relmse);
+  }
+  if (stats) print_stats(&render_stats, options, scene, width, height);
+  status = 0;
+done:
+  bbc_image_free(image);
+  bbc_image_free(reference);
+  return status;
+}
+
 int main(int argc, char **argv) {
   cli_tool = "bbc-render";
   cli_args a = {argc, argv, 1, usage};
@@ -177,6 +315,9 @@ int main(int argc, char **argv) {
   double exposure = 0;
   long long width = 0, height = 0;
   int progress = -1, stats = 0, write_partial = 0, verify = 1;
+  const char *camera_arg = NULL, *frames_arg = NULL;
+  int all_cameras = 0;
+  double fps = 24.0;
   bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
 
   while (a.i < argc) {
@@ -198,6 +339,14 @@ int main(int argc, char **argv) {
       width = cli_parse_int(&a, "--width", value, 1, 16384);
     } else if (cli_option(&a, "--height", &value)) {
       height = cli_parse_int(&a, "--height", value, 1, 16384);
+    } else if (cli_option(&a, "--camera", &value)) {
+      camera_arg = value;
+    } else if (cli_flag(&a, "--all-cameras")) {
+      all_cameras = 1;
+    } else if (cli_option(&a, "--frames", &value)) {
+      frames_arg = value;
+    } else if (cli_option(&a, "--fps", &value)) {
+      fps = cli_parse_double(&a, "--fps", value, 1e-3, 1e6);
     } else if (cli_option(&a, "--light-units", &value)) {
       light_units = cli_parse_light_units(&a, "--light-units", value);
     } else if (cli_option(&a, "--method", &value)) {
@@ -293,22 +442,51 @@ int main(int argc, char **argv) {
                     : options.method == BBC_METHOD_UNIFORM   ? "uniform"
                                                              : "one-sample");
 
+  if (camera_arg && all_cameras)
+    cli_usage_error(usage, "--camera and --all-cameras exclude each other");
+  long long frame_first = 0, frame_last = 0, frame_step = 1;
+  if (frames_arg) parse_frames(&a, frames_arg, &frame_first, &frame_last, &frame_step);
+  int several = all_cameras || frames_arg;
+  if (several && reference_path)
+    cli_usage_error(usage, "--reference compares one image; not with --all-cameras or --frames");
+
   cli_catch_interrupts();
+  double load_start = cli_now();
 
   bbc_scene_options scene_options = {cli_print_message, cli_print_warning, NULL, light_units};
   bbc_scene *scene = NULL;
   if (bbc_scene_load(&scene, scene_path, &scene_options) != BBC_OK) return 1;
 
-  const bbc_camera *camera = &scene->camera;
-  if (width && !height) height = (long long)(width / camera->aspect + 0.5);
-  if (height && !width) width = (long long)(height * camera->aspect + 0.5);
-  if (!width) width = camera->width;
-  if (!height) height = camera->height;
-  if (width < 1) width = 1;
-  if (height < 1) height = 1;
+  /* The cameras to render, [first_camera, last_camera]. */
+  uint32_t first_camera = 0, last_camera = all_cameras ? scene->camera_count - 1 : 0;
+  if (camera_arg) {
+    long long index = find_camera(scene, camera_arg);
+    if (index < 0) {
+      fprintf(stderr, "bbc-render: %s: --camera: no camera '%s' (%u cameras: ", scene_path,
+              camera_arg, scene->camera_count);
+      for (uint32_t i = 0; i < scene->camera_count && i < 8; i++)
+        fprintf(stderr, "%s%u \"%s\"", i ? ", " : "", i, scene->cameras[i].name);
+      fprintf(stderr, "%s)\n", scene->camera_count > 8 ? ", ..." : "");
+      bbc_scene_free(scene);
+      return 1;
+    }
+    first_camera = last_camera = (uint32_t)index;
+  }
+  if (frames_arg) {
+    int animated = 0;
+    for (uint32_t i = first_camera; i <= last_camera; i++) animated |= scene->cameras[i].animated;
+    if (!animated) {
+      fprintf(stderr,
+              "bbc-render: %s: --frames: %s animated (no glTF animation channel moves %s node "
+              "or its ancestors)\n",
+              scene_path, all_cameras ? "no camera is" : "the camera is not",
+              all_cameras ? "a camera's" : "its");
+      bbc_scene_free(scene);
+      return 1;
+    }
+  }
 
   bbc_accel *accel = NULL;
-  bbc_image *image = NULL, *reference = NULL;
   bbc_cache *cache = NULL;
   int status = 1;
   if (cache_path && options.method != BBC_METHOD_PT) {
@@ -330,72 +508,54 @@ int main(int argc, char **argv) {
     }
     options.cache = cache;
   }
-  if (reference_path) {
-    if (bbc_image_read_exr(&reference, reference_path, cli_print_message, NULL) != BBC_OK)
-      goto done;
-    if (reference->width != (uint32_t)width || reference->height != (uint32_t)height) {
-      fprintf(stderr, "bbc-render: %s: not the size of the image (%ux%u vs %lldx%lld)\n",
-              reference_path, reference->width, reference->height, width, height);
-      goto done;
-    }
-  }
   if (bbc_accel_create(&accel, scene, cli_print_message, NULL) != BBC_OK) {
     fprintf(stderr, "bbc-render: %s: cannot build the ray-tracing structure\n", scene_path);
     goto done;
   }
-  if (bbc_image_create(&image, (uint32_t)width, (uint32_t)height) != BBC_OK) {
-    fprintf(stderr, "bbc-render: cannot allocate a %lldx%lld image\n", width, height);
-    goto done;
-  }
+  if (stats && several)
+    fprintf(stderr, "loading      %.3f s (scene, cache and ray-tracing structure, once)\n",
+            cli_now() - load_start);
 
-  progress_state state;
-  state.time_limit = options.time_limit;
-  cli_progress_begin(&state.bar, "rendering", progress);
-  options.progress = on_progress;
-  options.progress_user = &state;
-  bbc_render_stats render_stats;
-  memset(&render_stats, 0, sizeof render_stats);
-  /* A signal during loading cancels before the first pass (0 spp). */
-  bbc_result r = cli_interrupted ? BBC_ERR_CANCELLED
-                                 : bbc_render(scene, accel, &options, image, &render_stats);
-  cli_progress_end(&state.bar);
-  /* A damaged chunk (already reported in one line by the cache) ends the render with
-   * nothing written, even with --write-partial. */
-  if (r == BBC_ERR_CHECKSUM || r == BBC_ERR_CORRUPT) goto done;
-  if (r == BBC_ERR_CANCELLED || cli_interrupted) {
-    /* Only the passes completed before the signal are in the image; write them only
-     * when asked, and never an image of no pass at all. */
-    if (!write_partial || render_stats.spp == 0) {
-      fprintf(stderr, "bbc-render: interrupted; %s was not written\n", output);
-      status = 130;
-      goto done;
+  uint64_t base_seed = options.seed;
+  for (uint32_t cam = first_camera; cam <= last_camera; cam++) {
+    if (frames_arg && !scene->cameras[cam].animated) {
+      fprintf(stderr, "bbc-render: warning: camera %u (\"%s\") is not animated; no frames for it\n",
+              cam, scene->cameras[cam].name);
+      continue;
     }
-    if (bbc_image_write_exr(image, output, cli_print_message, NULL) != BBC_OK) goto done;
-    if (png && bbc_image_write_png(image, png, exposure, 1, cli_print_message, NULL) != BBC_OK)
-      goto done;
-    if (stats) print_stats(&render_stats, &options, scene, width, height);
-    fprintf(stderr, "bbc-render: interrupted after %u spp; wrote partial image %s\n",
-            render_stats.spp, output);
-    status = 130;
-    goto done;
+    for (long long frame = frame_first; frame <= frame_last; frame += frame_step) {
+      bbc_camera camera;
+      if (bbc_scene_camera_at(scene, cam, frames_arg ? (double)frame / fps : 0.0, &camera) !=
+          BBC_OK) {
+        fprintf(stderr, "bbc-render: %s: camera \"%s\" at frame %lld has a degenerate transform\n",
+                scene_path, scene->cameras[cam].name, frame);
+        goto done;
+      }
+      if (!frames_arg) camera = scene->cameras[cam];
+      long long w = width, h = height;
+      if (w && !h) h = (long long)(w / camera.aspect + 0.5);
+      if (h && !w) w = (long long)(h * camera.aspect + 0.5);
+      if (!w) w = camera.width;
+      if (!h) h = camera.height;
+      if (w < 1) w = 1;
+      if (h < 1) h = 1;
+      long long name_camera = all_cameras ? (long long)cam : -1;
+      long long name_frame = frames_arg ? frame : -1;
+      char out_name[1200], png_name[1200];
+      image_name(out_name, sizeof out_name, output, name_camera, name_frame);
+      if (png) image_name(png_name, sizeof png_name, png, name_camera, name_frame);
+      if (frames_arg) options.seed = frame_seed(base_seed, frame);
+      options.camera = &camera;
+      if (stats && several) fprintf(stderr, "image        %s (camera %u \"%s\")\n", out_name, cam,
+                                    camera.name);
+      status = render_one(scene, accel, &options, w, h, out_name, png ? png_name : NULL, exposure,
+                          reference_path, relmse_eps, reject, progress, stats, write_partial);
+      if (status != 0) goto done;
+      if (!frames_arg) break;
+    }
   }
-  if (r != BBC_OK) {
-    fprintf(stderr, "bbc-render: rendering failed: %s\n", bbc_result_string(r));
-    goto done;
-  }
-  if (bbc_image_write_exr(image, output, cli_print_message, NULL) != BBC_OK) goto done;
-  if (png && bbc_image_write_png(image, png, exposure, 1, cli_print_message, NULL) != BBC_OK)
-    goto done;
-  if (reference) {
-    double relmse;
-    if (bbc_image_relmse(image, reference, relmse_eps, reject, &relmse) != BBC_OK) goto done;
-    printf("relMSE %.6g\n", relmse);
-  }
-  if (stats) print_stats(&render_stats, &options, scene, width, height);
   status = 0;
 done:
-  bbc_image_free(image);
-  bbc_image_free(reference);
   bbc_cache_close(cache);
   bbc_accel_free(accel);
   bbc_scene_free(scene);

@@ -623,6 +623,7 @@ typedef struct options {
   double area_side; /* 0: a point light */
   double sun;       /* > 0: a directional light of this irradiance (W/m^2) instead */
   double spot;      /* > 0: a spot of this outer cone angle (radians) instead */
+  unsigned long orbit; /* 0, or the keyframes of the camera's orbit animation */
   int glb;
 } options;
 
@@ -885,8 +886,10 @@ static uint32_t write_accessor(gltf_writer *g, const void *data, size_t elem_siz
   size_t offset = g->bin.len, length = elem_size * count;
   bytes_append(&g->bin, data, length);
   bytes_pad4(&g->bin, 0);
-  bytes_printf(&g->views, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu,\"target\":%d}",
-               g->view_count ? "," : "", offset, length, target);
+  bytes_printf(&g->views, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu",
+               g->view_count ? "," : "", offset, length);
+  if (target) bytes_printf(&g->views, ",\"target\":%d", target); /* none for animation data */
+  bytes_printf(&g->views, "}");
   bytes_printf(&g->accessors,
                "%s{\"bufferView\":%u,\"componentType\":%d,\"count\":%u,"
                "\"type\":\"%s\"",
@@ -1040,8 +1043,10 @@ static void build_gltf(const scene *s, const char *uri, bytes *json, bytes *bin)
     bytes_printf(json, "}]}}");
   }
 
-  /* Nodes: one per mesh, then the point light, then the camera. */
-  int node_count = s->mesh_count + point_light + 1;
+  /* Nodes: one per mesh, then the point light, then the camera (and, with --orbit, the
+   * side camera). */
+  int orbit = o->orbit > 0;
+  int node_count = s->mesh_count + point_light + 1 + orbit;
   bytes_printf(json, ",\"scene\":0,\"scenes\":[{\"name\":\"%s\",\"nodes\":[", KINDS[o->kind].name);
   for (int i = 0; i < node_count; i++) bytes_printf(json, "%s%d", i ? "," : "", i);
   bytes_printf(json, "],\"extras\":{\"bbc\":{\"kind\":\"%s\",\"triangles\":%u}}}]",
@@ -1076,15 +1081,81 @@ static void build_gltf(const scene *s, const char *uri, bytes *json, bytes *bin)
     if (i) bytes_printf(json, ",");
     bytes_double(json, q[i]);
   }
-  bytes_printf(json, "],\"extras\":{\"bbc\":{\"width\":%lu,\"height\":%lu}}}]", o->width,
+  bytes_printf(json, "],\"extras\":{\"bbc\":{\"width\":%lu,\"height\":%lu}}}", o->width,
                o->height);
+  /* --orbit: the camera node turns about its target by 20 degrees over o->orbit keys,
+   * one per frame at 24 frames per second (LINEAR), about the axis through the target
+   * along the image's up direction; a second, static camera looks from the eye turned
+   * by 60 degrees. */
+  uint32_t orbit_accessors[3] = {0, 0, 0};
+  if (orbit) {
+    vec3 d = v_sub(s->eye, s->target);
+    vec3 axis = v_normalize(v_cross(v_cross(d, s->up), d)); /* up, orthogonal to d */
+    vec3 axis_d = v_cross(axis, d);
+#define ORBIT_EYE(a) v_add(s->target, v_add(v_scale(d, cos(a)), v_scale(axis_d, sin(a))))
+    vec3 side = ORBIT_EYE(PI / 3);
+    look_at(side, s->target, axis, q);
+    bytes_printf(json, ",{\"name\":\"side\",\"camera\":1,\"translation\":");
+    json_vec3(json, side);
+    bytes_printf(json, ",\"rotation\":[");
+    for (int i = 0; i < 4; i++) {
+      if (i) bytes_printf(json, ",");
+      bytes_double(json, q[i]);
+    }
+    bytes_printf(json, "]}");
+    uint32_t keys = (uint32_t)o->orbit;
+    float *times = xrealloc(NULL, sizeof(float) * keys);
+    float *eyes = xrealloc(NULL, sizeof(float) * 3 * keys);
+    float *rotations = xrealloc(NULL, sizeof(float) * 4 * keys);
+    for (uint32_t k = 0; k < keys; k++) {
+      double a = (20.0 * PI / 180.0) * k / (keys - 1);
+      vec3 eye = ORBIT_EYE(a);
+      double qk[4];
+      look_at(eye, s->target, axis, qk);
+      times[k] = (float)(k / 24.0);
+      eyes[3 * k] = (float)eye.x, eyes[3 * k + 1] = (float)eye.y, eyes[3 * k + 2] = (float)eye.z;
+      for (int i = 0; i < 4; i++) rotations[4 * k + i] = (float)qk[i];
+    }
+    float t0 = times[0], t1 = times[keys - 1];
+    orbit_accessors[0] =
+        write_accessor(&g, times, 4, keys, GLTF_FLOAT, "SCALAR", 0, &t0, &t1, 1);
+    orbit_accessors[1] =
+        write_accessor(&g, eyes, 12, keys, GLTF_FLOAT, "VEC3", 0, NULL, NULL, 3);
+    orbit_accessors[2] =
+        write_accessor(&g, rotations, 16, keys, GLTF_FLOAT, "VEC4", 0, NULL, NULL, 4);
+    free(times);
+    free(eyes);
+    free(rotations);
+#undef ORBIT_EYE
+  }
+  bytes_printf(json, "]");
   bytes_printf(json,
                ",\"cameras\":[{\"name\":\"camera\",\"type\":\"perspective\","
                "\"perspective\":{\"aspectRatio\":");
   bytes_double(json, (double)o->width / (double)o->height);
   bytes_printf(json, ",\"yfov\":");
   bytes_double(json, s->yfov);
-  bytes_printf(json, ",\"znear\":0.01}}]");
+  bytes_printf(json, ",\"znear\":0.01}}");
+  if (orbit) {
+    bytes_printf(json, ",{\"name\":\"side\",\"type\":\"perspective\",\"perspective\":{"
+                       "\"aspectRatio\":");
+    bytes_double(json, (double)o->width / (double)o->height);
+    bytes_printf(json, ",\"yfov\":");
+    bytes_double(json, s->yfov);
+    bytes_printf(json, ",\"znear\":0.01}}");
+  }
+  bytes_printf(json, "]");
+  if (orbit) {
+    int camera_node = s->mesh_count + point_light;
+    bytes_printf(json,
+                 ",\"animations\":[{\"name\":\"orbit\",\"channels\":["
+                 "{\"sampler\":0,\"target\":{\"node\":%d,\"path\":\"translation\"}},"
+                 "{\"sampler\":1,\"target\":{\"node\":%d,\"path\":\"rotation\"}}],"
+                 "\"samplers\":[{\"input\":%u,\"output\":%u,\"interpolation\":\"LINEAR\"},"
+                 "{\"input\":%u,\"output\":%u,\"interpolation\":\"LINEAR\"}]}]",
+                 camera_node, camera_node, orbit_accessors[0], orbit_accessors[1],
+                 orbit_accessors[0], orbit_accessors[2]);
+  }
 
   bytes_printf(json, ",\"meshes\":[");
   bytes_append(json, meshes.data, meshes.len);
@@ -1263,6 +1334,9 @@ static void print_help(FILE *f) {
           "Camera:\n"
           "  --width W             image width stored with the camera (default 320)\n"
           "  --height H            image height (default 240); aspect ratio is W/H\n"
+          "  --orbit N             animate the camera: N keys, one per frame at 24 fps,\n"
+          "                        turning it 20 degrees about the vertical axis through\n"
+          "                        its target; adds a static second camera \"side\"\n"
           "\n"
           "Other:\n"
           "  -h, --help            show this help and exit\n"
@@ -1279,7 +1353,7 @@ static int usage_error(const char *fmt, ...) {
   va_end(ap);
   fprintf(stderr, "\nusage: " TOOL
                   " KIND -o OUT.gltf [--size N] [--width W] [--height H]"
-                  " [--area-light SIDE | --sun E | --spot OUTER] [--glb]\n"
+                  " [--area-light SIDE | --sun E | --spot OUTER] [--orbit N] [--glb]\n"
                   "Try '" TOOL " --help' for the kinds and options.\n");
   return 2;
 }
@@ -1341,7 +1415,8 @@ static int parse_args(int argc, char **argv, options *o) {
     int known = strcmp(name, "-o") == 0 || strcmp(name, "--output") == 0 ||
                 strcmp(name, "--size") == 0 || strcmp(name, "--width") == 0 ||
                 strcmp(name, "--height") == 0 || strcmp(name, "--area-light") == 0 ||
-                strcmp(name, "--sun") == 0 || strcmp(name, "--spot") == 0;
+                strcmp(name, "--sun") == 0 || strcmp(name, "--spot") == 0 ||
+                strcmp(name, "--orbit") == 0;
     if (!known) return usage_error("unknown option '%s'", arg);
     if (!value) {
       if (i + 1 >= argc) return usage_error("option %s needs a value", name);
@@ -1365,6 +1440,9 @@ static int parse_args(int argc, char **argv, options *o) {
     } else if (strcmp(name, "--spot") == 0) {
       if (parse_length(value, 1.5707963267948966, &o->spot))
         return usage_error("--spot wants an outer cone angle in (0, pi/2], not '%s'", value);
+    } else if (strcmp(name, "--orbit") == 0) {
+      if (parse_count(value, 2, 10000, &o->orbit))
+        return usage_error("--orbit wants a whole number of keys from 2 to 10000, not '%s'", value);
     } else {
       if (parse_length(value, MAX_AREA_SIDE, &o->area_side))
         return usage_error("--area-light wants a side length above 0 and at most %g, not '%s'",

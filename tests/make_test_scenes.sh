@@ -41,6 +41,8 @@ scene flat-mirror --size 8 --sun 3 -o "$out/flat-mirror-sun.gltf"
 scene flat-mirror --size 8 --spot 0.5 -o "$out/flat-mirror-spot.gltf"
 scene wavy-mirror --size 200 --sun 2 -o "$out/wavy-mirror-sun.gltf"
 scene wavy-mirror --size 200 --spot 0.6 -o "$out/wavy-mirror-spot.gltf"
+# Two cameras, the first animated over five frames (--camera, --all-cameras, --frames).
+scene flat-mirror --size 8 --orbit 5 -o "$out/orbit.gltf"
 # Curved casters for single reflection, double refraction and single refraction.
 scene wavy-mirror --size 800 -o "$out/wavy-mirror.gltf"
 scene glass-sphere --size 320 -o "$out/glass-sphere.gltf"

@@ -9,6 +9,8 @@
 // any byte of a buffer is read.
 #include "gltf_shim_internal.h"
 
+#include "camera_internal.h"
+
 #include <sys/stat.h>
 
 #include <tiny_gltf.h>
@@ -57,6 +59,9 @@ struct holder {
   std::vector<bbc__gltf_material> materials;
   std::vector<bbc__gltf_light> lights;
   std::vector<const char *> notes;
+  std::vector<bbc__gltf_camera> cameras;
+  std::deque<bbc__gltf_channel> channels;
+  std::deque<std::vector<bbc__gltf_node_motion>> paths;
 
   const char *keep(const std::string &s) {
     strings.push_back(s);
@@ -250,6 +255,7 @@ class reader {
       fail(BBC_ERR_GLTF, "\"scene\" is %d but the file has %zu scenes", scene,
            model_.scenes.size());
     }
+    find_animation_targets();
     walk(model_.scenes[size_t(scene)], scene);
 
     bbc__gltf_data &v = out_.view;
@@ -259,6 +265,9 @@ class reader {
     v.materials = out_.materials.empty() ? nullptr : out_.materials.data();
     v.light_count = uint32_t(out_.lights.size());
     v.lights = out_.lights.empty() ? nullptr : out_.lights.data();
+    v.camera_count = uint32_t(out_.cameras.size());
+    v.cameras = out_.cameras.empty() ? nullptr : out_.cameras.data();
+    v.animation_count = uint32_t(model_.animations.size());
     v.note_count = uint32_t(out_.notes.size());
     v.notes = out_.notes.empty() ? nullptr : out_.notes.data();
   }
@@ -269,6 +278,86 @@ class reader {
   // Vertex data of each (mesh, primitive) already read, so a mesh placed by several
   // nodes is copied once.
   std::map<std::pair<int, int>, bbc__gltf_primitive> cache_;
+  // Each node's parent in the walk (-1 for a root), set as the walk reaches it.
+  std::vector<int> parent_;
+  // (node, path) -> (animation, channel) of the channels that move nodes, and the
+  // channels already read (only those on the way to a camera are).
+  std::map<std::pair<int, int>, std::pair<size_t, size_t>> targets_;
+  std::map<std::pair<int, int>, const bbc__gltf_channel *> channels_;
+
+  // Indexes the animation channels by the node property they move, checking their
+  // references; their data is read only for the nodes above a camera.
+  void find_animation_targets() {
+    static const char *const paths[3] = {"translation", "rotation", "scale"};
+    for (size_t a = 0; a < model_.animations.size(); a++) {
+      const tinygltf::Animation &anim = model_.animations[a];
+      for (size_t c = 0; c < anim.channels.size(); c++) {
+        const tinygltf::AnimationChannel &ch = anim.channels[c];
+        if (ch.sampler < 0 || size_t(ch.sampler) >= anim.samplers.size())
+          fail(BBC_ERR_GLTF, "animation %zu channel %zu uses sampler %d, but it has %zu", a, c,
+               ch.sampler, anim.samplers.size());
+        if (ch.target_node < 0 || size_t(ch.target_node) >= model_.nodes.size())
+          fail(BBC_ERR_GLTF, "animation %zu channel %zu targets node %d, but the file has %zu nodes",
+               a, c, ch.target_node, model_.nodes.size());
+        int path = -1;
+        for (int k = 0; k < 3; k++)
+          if (ch.target_path == paths[k]) path = k;
+        if (path < 0) continue;  // "weights" (morph targets) do not move nodes
+        auto key = std::make_pair(ch.target_node, path);
+        if (targets_.count(key)) {
+          note(label("node", size_t(ch.target_node), model_.nodes[size_t(ch.target_node)].name) +
+               ": its " + paths[path] + " is animated twice; animation " +
+               std::to_string(targets_[key].first) + " is used");
+          continue;
+        }
+        targets_[key] = std::make_pair(a, c);
+      }
+    }
+  }
+
+  // The checked data of the channel moving (node, path), or NULL.
+  const bbc__gltf_channel *channel(int node, int path) {
+    auto key = std::make_pair(node, path);
+    auto known = channels_.find(key);
+    if (known != channels_.end()) return known->second;
+    auto target = targets_.find(key);
+    if (target == targets_.end()) return channels_[key] = nullptr;
+    size_t a = target->second.first, c = target->second.second;
+    const tinygltf::Animation &anim = model_.animations[a];
+    const tinygltf::AnimationSampler &sampler =
+        anim.samplers[size_t(anim.channels[c].sampler)];
+    std::string what = "animation " + std::to_string(a) + " channel " + std::to_string(c);
+    bbc__gltf_channel g{};
+    g.path = path;
+    if (sampler.interpolation == "LINEAR")
+      g.interpolation = 0;
+    else if (sampler.interpolation == "STEP")
+      g.interpolation = 1;
+    else if (sampler.interpolation == "CUBICSPLINE")
+      g.interpolation = 2;
+    else
+      fail(BBC_ERR_GLTF, "%s: interpolation \"%s\" is not LINEAR, STEP or CUBICSPLINE",
+           what.c_str(), sampler.interpolation.c_str());
+    size_t keys = 0, values = 0;
+    int components = path == 1 ? 4 : 3;
+    g.times = floats(sampler.input, TINYGLTF_TYPE_SCALAR, 1, what + " input", &keys);
+    g.values = floats(sampler.output, path == 1 ? TINYGLTF_TYPE_VEC4 : TINYGLTF_TYPE_VEC3,
+                      components, what + " output", &values);
+    size_t per_key = g.interpolation == 2 ? 3 : 1;
+    if (keys == 0 || values != keys * per_key)
+      fail(BBC_ERR_GLTF, "%s: %zu key times need %zu values, the output has %zu", what.c_str(),
+           keys, keys * per_key, values);
+    for (size_t k = 0; k < keys; k++)
+      if (!std::isfinite(g.times[k]) || (k > 0 && !(g.times[k] > g.times[k - 1])))
+        fail(BBC_ERR_GLTF, "%s: key times must be finite and strictly increasing (key %zu)",
+             what.c_str(), k);
+    for (size_t k = 0; k < values * size_t(components); k++)
+      if (!std::isfinite(g.values[k]))
+        fail(BBC_ERR_GLTF, "%s: value %zu is not finite", what.c_str(), k / size_t(components));
+    g.key_count = uint32_t(keys);
+    out_.channels.push_back(g);
+    return channels_[key] = &out_.channels.back();
+  }
 
   void check_required_extensions() {
     // The extensions bbc reads, plus KHR_texture_transform, which only concerns
@@ -357,14 +446,20 @@ class reader {
     out_.materials.push_back(g);
   }
 
-  // The node's local matrix: its "matrix", else T * R * S (glTF 2.0, section 3.5.3).
-  static void local_matrix(const tinygltf::Node &n, size_t index, double m[16]) {
+  // The node's local transform: its "matrix" (has_matrix), else its T, R (unit
+  // quaternion x, y, z, w) and S, with the defaults of glTF 2.0, section 3.5.3.
+  static void local_transform(const tinygltf::Node &n, size_t index, bbc__gltf_node_motion *out) {
     if (!n.matrix.empty()) {
       if (n.matrix.size() != 16) fail(BBC_ERR_GLTF, "node %zu: matrix needs 16 numbers", index);
-      for (int i = 0; i < 16; i++) m[i] = n.matrix[size_t(i)];
+      out->has_matrix = 1;
+      for (int i = 0; i < 16; i++) out->matrix[i] = n.matrix[size_t(i)];
       return;
     }
-    double t[3] = {0, 0, 0}, s[3] = {1, 1, 1}, q[4] = {0, 0, 0, 1};
+    double *t = out->translation, *s = out->scale, *q = out->rotation;
+    t[0] = t[1] = t[2] = 0.0;
+    s[0] = s[1] = s[2] = 1.0;
+    q[0] = q[1] = q[2] = 0.0;
+    q[3] = 1.0;
     if (!n.translation.empty()) {
       if (n.translation.size() != 3)
         fail(BBC_ERR_GLTF, "node %zu: translation needs 3 numbers", index);
@@ -385,16 +480,15 @@ class reader {
         fail(BBC_ERR_GLTF, "node %zu: rotation is not a unit quaternion", index);
       for (int i = 0; i < 4; i++) q[i] = n.rotation[size_t(i)] / len;
     }
-    double x = q[0], y = q[1], z = q[2], w = q[3];
-    double r[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
-                      {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
-                      {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
-    for (int col = 0; col < 3; col++) {
-      for (int row = 0; row < 3; row++) m[4 * col + row] = r[row][col] * s[col];
-      m[4 * col + 3] = 0.0;
-    }
-    for (int row = 0; row < 3; row++) m[12 + row] = t[row];
-    m[15] = 1.0;
+  }
+
+  static void local_matrix(const tinygltf::Node &n, size_t index, double m[16]) {
+    bbc__gltf_node_motion t{};
+    local_transform(n, index, &t);
+    if (t.has_matrix)
+      memcpy(m, t.matrix, sizeof t.matrix);
+    else
+      bbc__trs_matrix(t.translation, t.rotation, t.scale, m);
   }
 
   // Depth first, roots in order, a node before its children, with an explicit stack so
@@ -407,6 +501,7 @@ class reader {
     };
     std::vector<item> stack;
     std::vector<char> visited(model_.nodes.size(), 0);
+    parent_.assign(model_.nodes.size(), -1);
     for (size_t i = scene.nodes.size(); i-- > 0;) {
       item it;
       it.node = scene.nodes[i];
@@ -428,6 +523,7 @@ class reader {
       if (visited[index])
         fail(BBC_ERR_GLTF, "node %zu is reached twice; the node hierarchy must be a tree", index);
       visited[index] = 1;
+      parent_[index] = it.parent;
       const tinygltf::Node &n = model_.nodes[index];
       double local[16], world[16];
       local_matrix(n, index, local);
@@ -473,7 +569,7 @@ class reader {
       if (n.camera < 0 || size_t(n.camera) >= model_.cameras.size())
         fail(BBC_ERR_GLTF, "node %zu uses camera %d, but the file has %zu cameras", index, n.camera,
              model_.cameras.size());
-      if (!out_.view.has_camera) camera(n, index, world, bbc);
+      camera(n, index, world, bbc);
     }
 
     auto ext = n.extensions.find("KHR_lights_punctual");
@@ -509,8 +605,29 @@ class reader {
   void camera(const tinygltf::Node &n, size_t index, const double world[16],
               const tinygltf::Value *bbc) {
     const tinygltf::Camera &c = model_.cameras[size_t(n.camera)];
-    bbc__gltf_camera &g = out_.view.camera;
-    out_.view.has_camera = 1;
+    if (out_.cameras.size() >= UINT32_MAX) fail(BBC_ERR_SCENE, "the scene has too many cameras");
+    out_.cameras.emplace_back();
+    bbc__gltf_camera &g = out_.cameras.back();
+    g = bbc__gltf_camera{};
+    // The nodes from the root down to this one, each with what animates it.
+    std::vector<int> chain;
+    for (int k = int(index); k >= 0; k = parent_[size_t(k)]) chain.push_back(k);
+    out_.paths.emplace_back(chain.size());
+    std::vector<bbc__gltf_node_motion> &path = out_.paths.back();
+    for (size_t k = 0; k < chain.size(); k++) {
+      int node = chain[chain.size() - 1 - k];
+      bbc__gltf_node_motion &m = path[k];
+      m.node_index = uint32_t(node);
+      local_transform(model_.nodes[size_t(node)], size_t(node), &m);
+      for (int p = 0; p < 3; p++) {
+        m.channels[p] = channel(node, p);
+        if (m.channels[p] && m.has_matrix)
+          fail(BBC_ERR_GLTF, "node %d has a matrix and is animated, which glTF forbids", node);
+        g.animated |= m.channels[p] != nullptr;
+      }
+    }
+    g.path_length = uint32_t(path.size());
+    g.path = path.data();
     g.name = out_.keep(!c.name.empty() ? c.name : n.name);
     g.type = out_.keep(c.type);
     g.node_index = uint32_t(index);

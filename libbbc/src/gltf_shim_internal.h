@@ -72,7 +72,28 @@ typedef struct bbc__gltf_light {
   double inner_cone, outer_cone; /* spot.innerConeAngle, outerConeAngle (defaults 0, pi/4) */
 } bbc__gltf_light;
 
-/* The first node with a camera reached in a depth-first walk of the default scene
+/* One animated property of a node (glTF 2.0, section 3.11), checked: key times are
+ * finite and strictly increasing, and there are as many values as the interpolation
+ * needs. */
+typedef struct bbc__gltf_channel {
+  int path;          /* 0 translation, 1 rotation (quaternion x, y, z, w), 2 scale */
+  int interpolation; /* 0 LINEAR, 1 STEP, 2 CUBICSPLINE */
+  uint32_t key_count;
+  const float *times;  /* seconds */
+  const float *values; /* key_count elements of 3 (4 for rotation) floats; for CUBICSPLINE
+                          3 elements per key: in-tangent, value, out-tangent */
+} bbc__gltf_channel;
+
+/* A node on the way from a root of the default scene to a camera. */
+typedef struct bbc__gltf_node_motion {
+  uint32_t node_index;
+  int has_matrix; /* its local transform is "matrix" (glTF forbids animating it) */
+  double matrix[16];
+  double translation[3], rotation[4], scale[3]; /* otherwise its static TRS */
+  const bbc__gltf_channel *channels[3];         /* per path; NULL when not animated */
+} bbc__gltf_node_motion;
+
+/* A node with a camera; cameras are listed in a depth-first walk of the default scene
  * (roots in order, children in order, a node before its children). */
 typedef struct bbc__gltf_camera {
   const char *name; /* never NULL; the camera's name, else the node's, else "" */
@@ -88,6 +109,10 @@ typedef struct bbc__gltf_camera {
   int has_height;
   double width;
   double height;
+  /* The nodes from the root to the camera's (last), with their animation channels. */
+  uint32_t path_length;
+  const bbc__gltf_node_motion *path;
+  int animated; /* some channel of an animation moves a node of the path */
 } bbc__gltf_camera;
 
 /* The whole view. Every pointer in it, including those inside the arrays, is owned by
@@ -102,8 +127,9 @@ typedef struct bbc__gltf_data {
   bbc__gltf_material *materials; /* all materials of the file, in file order */
   uint32_t light_count;
   bbc__gltf_light *lights; /* lights placed by nodes, in node order */
-  int has_camera;
-  bbc__gltf_camera camera; /* zero unless has_camera */
+  uint32_t camera_count;
+  bbc__gltf_camera *cameras; /* in walk order */
+  uint32_t animation_count;  /* animations in the file, whatever they move */
   /* Extras that look meant for bbc but are not read (a flat "bbc.role" key, extras.bbc
    * that is not an object, an unknown key inside it, a string where a number belongs),
    * one message each, for the loader to warn about. */

@@ -370,7 +370,8 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
           bbc_rng rng = bbc_rng_make(opts.seed, pixel, k);
           double px = x + bbc_rng_next(&rng), py = y + bbc_rng_next(&rng);
           bbc_vec3 origin, dir;
-          bbc_camera_ray(&scene->camera, width, height, px, py, &origin, &dir);
+          bbc_camera_ray(opts.camera ? opts.camera : &scene->camera, width, height, px, py,
+                         &origin, &dir);
           bbc_vec3 l = trace_path(&ctx, ct, origin, dir, &rng, &pass_rays);
           /* A non-finite sample would poison the pixel forever; it can only come from
            * a degenerate triangle, so drop it. */

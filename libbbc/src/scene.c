@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "camera_internal.h"
 #include "gltf_shim_internal.h"
 #include "media_internal.h"
 
@@ -542,14 +543,45 @@ static uint32_t film_side(double other, double ratio) {
   return v < 1.0 ? 1u : v > MAX_FILM_SIZE ? MAX_FILM_SIZE : (uint32_t)v;
 }
 
-static bbc_result load_camera(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
-  if (!g->has_camera)
-    return fail(ld, BBC_ERR_SCENE, "no camera: no node of the default scene has a camera");
-  const bbc__gltf_camera *c = &g->camera;
-  bbc_camera *out = &s->camera;
-  if (strcmp(c->type, "perspective") != 0)
-    return fail(ld, BBC_ERR_SCENE, "camera \"%s\" is %s; only perspective cameras are supported",
-                c->name, c->type);
+/* Copies the motion of a camera out of the view (which is freed after loading). */
+static bbc_result copy_motion(const bbc__gltf_camera *c, bbc__camera_motion *m) {
+  m->path = alloc(c->path_length, sizeof *m->path);
+  if (!m->path) return BBC_ERR_OUT_OF_MEMORY;
+  m->path_length = c->path_length;
+  for (uint32_t k = 0; k < c->path_length; k++) {
+    const bbc__gltf_node_motion *in = &c->path[k];
+    bbc__node_motion *out = &m->path[k];
+    out->has_matrix = in->has_matrix;
+    memcpy(out->matrix, in->matrix, sizeof out->matrix);
+    memcpy(out->translation, in->translation, sizeof out->translation);
+    memcpy(out->rotation, in->rotation, sizeof out->rotation);
+    memcpy(out->scale, in->scale, sizeof out->scale);
+    for (int p = 0; p < 3; p++) {
+      const bbc__gltf_channel *ch = in->channels[p];
+      if (!ch) continue;
+      size_t values = (size_t)ch->key_count * (ch->interpolation == 2 ? 3 : 1) * (p == 1 ? 4 : 3);
+      bbc__channel *oc = &out->channels[p];
+      oc->times = alloc(ch->key_count, sizeof(float));
+      oc->values = alloc(values, sizeof(float));
+      if (!oc->times || !oc->values) return BBC_ERR_OUT_OF_MEMORY;
+      memcpy(oc->times, ch->times, ch->key_count * sizeof(float));
+      memcpy(oc->values, ch->values, values * sizeof(float));
+      oc->path = p;
+      oc->interpolation = ch->interpolation;
+      oc->key_count = ch->key_count;
+    }
+  }
+  return BBC_OK;
+}
+
+/* One perspective camera of the file into *out (its rest placement, size, animation
+ * range). */
+static bbc_result load_camera(const loader *ld, const bbc__gltf_camera *c, uint32_t index,
+                              bbc_camera *out) {
+  if (c->name[0])
+    copy_name(out->name, c->name);
+  else
+    snprintf(out->name, sizeof out->name, "camera %u", index);
   if (!(c->yfov > 0.0 && c->yfov < PI))
     return fail(ld, BBC_ERR_SCENE, "camera \"%s\": yfov %g is not in (0, pi)", c->name, c->yfov);
   /* tinygltf reports an absent aspectRatio as 0, which the glTF schema forbids. */
@@ -579,27 +611,51 @@ static bbc_result load_camera(const loader *ld, const bbc__gltf_data *g, bbc_sce
   }
   out->yfov = c->yfov;
   out->aspect = aspect > 0.0 ? aspect : (double)out->width / (double)out->height;
-
-  /* The camera frame is the node's rotation: x right, y up, looking along -z. Any
-   * scale is removed, and a shear is squeezed out by Gram-Schmidt so u, v, w are
-   * orthonormal and right-handed whatever the matrix holds. */
-  const double *m = c->world;
-  double position[3] = {m[12], m[13], m[14]};
-  double x[3] = {m[0], m[1], m[2]}, z[3] = {m[8], m[9], m[10]}, y[3];
-  int ok = finite3(position) && normalize3(z);
-  if (ok) {
-    double d = dot3(x, z);
-    for (int k = 0; k < 3; k++) x[k] -= d * z[k];
-    ok = normalize3(x);
-  }
-  if (!ok)
+  if (!bbc__camera_frame(c->world, out))
     return fail(ld, BBC_ERR_SCENE, "camera \"%s\" (node %u) has a degenerate transform", c->name,
                 c->node_index);
-  cross3(z, x, y);
-  out->position = (bbc_vec3){position[0], position[1], position[2]};
-  out->u = (bbc_vec3){x[0], x[1], x[2]};
-  out->v = (bbc_vec3){y[0], y[1], y[2]};
-  out->w = (bbc_vec3){z[0], z[1], z[2]};
+  out->animated = c->animated;
+  if (c->animated) {
+    /* The key range over every channel that moves the camera. */
+    out->time_start = INFINITY;
+    out->time_end = -INFINITY;
+    for (uint32_t k = 0; k < c->path_length; k++)
+      for (int p = 0; p < 3; p++) {
+        const bbc__gltf_channel *ch = c->path[k].channels[p];
+        if (!ch) continue;
+        if (ch->times[0] < out->time_start) out->time_start = ch->times[0];
+        if (ch->times[ch->key_count - 1] > out->time_end)
+          out->time_end = ch->times[ch->key_count - 1];
+      }
+  }
+  return BBC_OK;
+}
+
+/* Every perspective camera; other kinds are skipped with a warning. */
+static bbc_result load_cameras(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
+  s->cameras = alloc(g->camera_count, sizeof *s->cameras);
+  s->camera_motion = alloc(g->camera_count, sizeof *s->camera_motion);
+  if (!s->cameras || !s->camera_motion) return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
+  uint32_t skipped = 0;
+  for (uint32_t i = 0; i < g->camera_count; i++) {
+    const bbc__gltf_camera *c = &g->cameras[i];
+    if (strcmp(c->type, "perspective") != 0) {
+      warn(ld, "camera \"%s\" (node %u) is %s and is skipped; only perspective cameras are "
+               "supported", c->name, c->node_index, c->type);
+      skipped++;
+      continue;
+    }
+    uint32_t k = s->camera_count;
+    bbc_result r = load_camera(ld, c, i, &s->cameras[k]);
+    if (r != BBC_OK) return r;
+    s->camera_count++; /* counted before the motion, so bbc_scene_free frees it */
+    if (c->animated && copy_motion(c, &s->camera_motion[k]) != BBC_OK)
+      return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
+  }
+  if (s->camera_count == 0)
+    return fail(ld, BBC_ERR_SCENE, "no camera: no node of the default scene has a %scamera",
+                skipped ? "perspective " : "");
+  s->camera = s->cameras[0];
   return BBC_OK;
 }
 
@@ -639,7 +695,7 @@ static bbc_result build(bbc_scene **out, const loader *ld, const bbc__gltf_data 
   snprintf(s->path, sizeof s->path, "%s", ld->path);
   bbc_result r = load_geometry(ld, g, s);
   if (r == BBC_OK) r = load_lights(ld, g, s);
-  if (r == BBC_OK) r = load_camera(ld, g, s);
+  if (r == BBC_OK) r = load_cameras(ld, g, s);
   if (r == BBC_OK) r = bbc__scene_media(s);
   if (r == BBC_OK) volume_warnings(ld, g, s);
   for (uint32_t i = 0; r == BBC_OK && i < g->note_count; i++) warn(ld, "%s", g->notes[i]);
@@ -701,5 +757,7 @@ void bbc_scene_free(bbc_scene *scene) {
   free(scene->point_lights);
   free(scene->emitters);
   free(scene->emitter_cdf);
+  bbc__camera_motion_free(scene->camera_motion, scene->camera_count);
+  free(scene->cameras);
   free(scene);
 }

@@ -202,5 +202,15 @@ test_camera_size() {
   grep -q '"aspectRatio":1.3333333333333333' "$tmp/out.gltf" || fail "aspect ratio not 4/3"
 }
 
+# --orbit adds a second camera and a LINEAR animation of the first camera's node.
+test_orbit() {
+  run flat-mirror --size 8 --orbit 3 -o "$tmp/orbit.gltf"
+  expect_status 0 "--orbit"
+  grep -q '"animations":\[{"name":"orbit"' "$tmp/orbit.gltf" || fail "no orbit animation"
+  grep -q '"name":"side","camera":1' "$tmp/orbit.gltf" || fail "no side camera"
+  expect_usage_error flat-mirror --orbit 1 -o "$tmp/out.gltf"
+  expect_usage_error flat-mirror --orbit x -o "$tmp/out.gltf"
+}
+
 command -v "test_$1" >/dev/null 2>&1 || { echo "no such test: '$1'" >&2; exit 2; }
 "test_$1"

@@ -23,6 +23,16 @@ typedef struct blender_style {
   const char *cameras;      /* cameras array; NULL: none */
   const char *camera_node_extras; /* extras of the camera node; NULL for none */
   int caster;                     /* 0: none, 1: closed octahedron, 2: its open upper half */
+  /* Animation: floats appended to the buffer as bufferView 7, accessors 7, 8, ...
+   * (anim_accessors, JSON objects without the brackets, offsets relative to the view),
+   * and the animations array. rig != 0 makes the camera node (3) a child of node 4,
+   * "Rig", at the origin. */
+  const float *anim_data;
+  size_t anim_floats;
+  const char *anim_accessors;
+  const char *animations;
+  int rig;
+  const char *more_cameras; /* further nodes after the camera's, e.g. {"camera":1,...} */
 } blender_style;
 
 typedef struct bs_text {
@@ -66,7 +76,7 @@ static char *blender_style_write(const blender_style *b) {
   /* Counter-clockwise seen from outside: upper four, then lower four. */
   static const uint16_t oct_i[24] = {0, 2, 4, 4, 2, 1, 1, 2, 5, 5, 2, 0,
                                      0, 4, 3, 4, 1, 3, 1, 5, 3, 5, 0, 3};
-  unsigned char buf[4096];
+  unsigned char buf[8192];
   size_t at = 0;
   size_t floor_at[4], caster_at[3];
 #define BS_PUT(ptr, bytes) (memcpy(buf + at, ptr, bytes), at += (bytes))
@@ -85,6 +95,9 @@ static char *blender_style_write(const blender_style *b) {
   caster_at[0] = at, BS_PUT(cp, sizeof cp);
   caster_at[1] = at, BS_PUT(cn, sizeof cn);
   caster_at[2] = at, BS_PUT(oct_i, sizeof oct_i);
+  at = (at + 3) & ~(size_t)3;
+  size_t anim_at = at;
+  if (b->anim_floats) BS_PUT(b->anim_data, b->anim_floats * sizeof(float));
 #undef BS_PUT
   int caster_triangles = b->caster == 2 ? 4 : 8;
 
@@ -93,7 +106,8 @@ static char *blender_style_write(const blender_style *b) {
   if (b->asset_extras) bs_printf(&t, ",\"extras\":%s", b->asset_extras);
   bs_printf(&t, "},\"extensionsUsed\":[\"KHR_lights_punctual\",\"KHR_materials_transmission\"],");
   if (b->lights) bs_printf(&t, "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":%s}},", b->lights);
-  bs_printf(&t, "\"scene\":0,\"scenes\":[{\"name\":\"Scene\",\"nodes\":[0,1,2,3]}],\"nodes\":[");
+  bs_printf(&t, "\"scene\":0,\"scenes\":[{\"name\":\"Scene\",\"nodes\":[0,1,2,%d%s]}],\"nodes\":[",
+            b->rig ? 4 : 3, b->more_cameras ? ",5" : "");
   bs_printf(&t, "{\"name\":\"Plane\",\"mesh\":0},");
   if (b->caster)
     bs_printf(&t, "{\"name\":\"Ico\",\"mesh\":1},");
@@ -104,9 +118,13 @@ static char *blender_style_write(const blender_style *b) {
                   "\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},");
   else
     bs_printf(&t, "{\"name\":\"NoLight\"},");
-  bs_printf(&t, "{\"name\":\"Camera\",\"translation\":[0,1,4]%s%s%s}]", b->cameras ? ",\"camera\":0" : "",
+  bs_printf(&t, "{\"name\":\"Camera\",\"translation\":[0,1,4]%s%s%s},", b->cameras ? ",\"camera\":0" : "",
             b->camera_node_extras ? ",\"extras\":" : "",
             b->camera_node_extras ? b->camera_node_extras : "");
+  bs_printf(&t, "{\"name\":\"Rig\"%s}", b->rig ? ",\"children\":[3]" : "");
+  if (b->more_cameras) bs_printf(&t, ",%s", b->more_cameras);
+  bs_printf(&t, "]");
+  if (b->animations) bs_printf(&t, ",\"animations\":%s", b->animations);
   if (b->cameras) bs_printf(&t, ",\"cameras\":%s", b->cameras);
   bs_printf(&t, ",\"materials\":%s", b->materials ? b->materials
                                                   : "[{\"name\":\"Floor\",\"pbrMetallicRoughness\":"
@@ -125,8 +143,9 @@ static char *blender_style_write(const blender_style *b) {
                 "{\"bufferView\":4,\"componentType\":5126,\"count\":6,\"type\":\"VEC3\","
                 "\"min\":[-0.5,0.5,-0.5],\"max\":[0.5,1.5,0.5]},"
                 "{\"bufferView\":5,\"componentType\":5126,\"count\":6,\"type\":\"VEC3\"},"
-                "{\"bufferView\":6,\"componentType\":5123,\"count\":%d,\"type\":\"SCALAR\"}],",
-            3 * caster_triangles);
+                "{\"bufferView\":6,\"componentType\":5123,\"count\":%d,\"type\":\"SCALAR\"}%s%s],",
+            3 * caster_triangles, b->anim_accessors ? "," : "",
+            b->anim_accessors ? b->anim_accessors : "");
   size_t views[7][2] = {{floor_at[0], 48}, {floor_at[1], 48},    {floor_at[2], 32},
                         {floor_at[3], 12}, {caster_at[0], 72},  {caster_at[1], 72},
                         {caster_at[2], 6 * (size_t)caster_triangles}};
@@ -134,6 +153,9 @@ static char *blender_style_write(const blender_style *b) {
   for (int v = 0; v < 7; v++)
     bs_printf(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", v ? "," : "",
               views[v][0], views[v][1]);
+  if (b->anim_floats)
+    bs_printf(&t, ",{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", anim_at,
+              b->anim_floats * sizeof(float));
   bs_printf(&t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,",
             at);
   bs_base64(&t, buf, at);

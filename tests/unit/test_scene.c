@@ -850,6 +850,139 @@ TEST(unreadable_bbc_extras_warn) {
   bbc_scene_free(s);
 }
 
+/* Camera animation: key times [0, 1]; translations (0,1,4) -> (2,1,4); rotations identity
+ * -> 90 degrees about y; and a cubic spline of two keys at (0,1,4) whose first out-tangent
+ * is (1,0,0), so x(u) = u^3 - 2u^2 + u. */
+static const float ANIM_DATA[] = {
+    0, 1,                                           /* 0: times */
+    0, 1, 4, 2, 1, 4,                               /* 8: translations */
+    0, 0, 0, 1, 0, 0.70710678f, 0, 0.70710678f,     /* 32: rotations */
+    0, 0, 0, 0, 1, 4, 1, 0, 0, 0, 0, 0, 0, 1, 4, 0, 0, 0, /* 64: cubic in, value, out */
+};
+#define ANIM_ACCESSORS                                                                          \
+  "{\"bufferView\":7,\"componentType\":5126,\"count\":2,\"type\":\"SCALAR\",\"min\":[0],\"max\":[1]}," \
+  "{\"bufferView\":7,\"byteOffset\":8,\"componentType\":5126,\"count\":2,\"type\":\"VEC3\"},"       \
+  "{\"bufferView\":7,\"byteOffset\":32,\"componentType\":5126,\"count\":2,\"type\":\"VEC4\"},"      \
+  "{\"bufferView\":7,\"byteOffset\":64,\"componentType\":5126,\"count\":6,\"type\":\"VEC3\"}"
+
+static bbc_scene *load_animated(const char *animations, int rig, messages *m, bbc_result *r) {
+  blender_style b = {0};
+  b.lights = "[{\"type\":\"point\",\"intensity\":5435}]";
+  b.cameras = "[{\"name\":\"Main\",\"type\":\"perspective\",\"perspective\":{\"yfov\":0.5,\"znear\":0.1}},"
+              "{\"name\":\"TopCam\",\"type\":\"perspective\",\"perspective\":{\"yfov\":0.6,\"znear\":0.1}}]";
+  b.more_cameras = "{\"name\":\"Top\",\"camera\":1,\"translation\":[0,5,0]}";
+  b.anim_data = ANIM_DATA;
+  b.anim_floats = sizeof ANIM_DATA / sizeof ANIM_DATA[0];
+  b.anim_accessors = ANIM_ACCESSORS;
+  b.animations = animations;
+  b.rig = rig;
+  return load_blender(&b, BBC_LIGHT_UNITS_FILE, m, r);
+}
+
+static void check_camera_at(const bbc_scene *s, uint32_t index, double t, double x, double y,
+                            double z, double angle) {
+  bbc_camera c;
+  CHECK_INT(bbc_scene_camera_at(s, index, t, &c), BBC_OK);
+  CHECK_NEAR(c.position.x, x, 1e-6);
+  CHECK_NEAR(c.position.y, y, 1e-6);
+  CHECK_NEAR(c.position.z, z, 1e-6);
+  /* The camera looks along -w; a turn by angle about y takes w = z to (sin, 0, cos). */
+  CHECK_NEAR(c.w.x, sin(angle), 1e-6);
+  CHECK_NEAR(c.w.y, 0.0, 1e-6);
+  CHECK_NEAR(c.w.z, cos(angle), 1e-6);
+}
+
+TEST(cameras_and_animation_channels) {
+  messages m;
+  bbc_result r;
+  bbc_scene *s = load_animated(
+      "[{\"name\":\"CameraAction\",\"channels\":[{\"sampler\":0,\"target\":{\"node\":3,"
+      "\"path\":\"translation\"}},{\"sampler\":1,\"target\":{\"node\":3,\"path\":\"rotation\"}}],"
+      "\"samplers\":[{\"input\":7,\"output\":8},{\"input\":7,\"output\":9,"
+      "\"interpolation\":\"LINEAR\"}]}]",
+      0, &m, &r);
+  CHECK_INT(r, BBC_OK);
+  REQUIRE(s != NULL);
+  CHECK_INT(s->camera_count, 2);
+  CHECK(strcmp(s->cameras[0].name, "Main") == 0);
+  CHECK(strcmp(s->cameras[1].name, "TopCam") == 0);
+  CHECK(strcmp(s->camera.name, "Main") == 0);
+  CHECK_INT(s->cameras[0].animated, 1);
+  CHECK_INT(s->cameras[1].animated, 0);
+  CHECK_NEAR(s->cameras[0].time_start, 0.0, 0.0);
+  CHECK_NEAR(s->cameras[0].time_end, 1.0, 0.0);
+  CHECK_NEAR(s->cameras[1].yfov, 0.6, 1e-15);
+  CHECK_NEAR(s->cameras[1].position.y, 5.0, 0.0);
+  check_camera_at(s, 0, 0.25, 0.5, 1, 4, 0.25 * PI / 2);
+  check_camera_at(s, 0, -1.0, 0, 1, 4, 0.0);
+  check_camera_at(s, 0, 5.0, 2, 1, 4, PI / 2);
+  check_camera_at(s, 1, 0.5, 0, 5, 0, 0.0);
+  bbc_camera c;
+  CHECK_INT(bbc_scene_camera_at(s, 2, 0.0, &c), BBC_ERR_INVALID_ARGUMENT);
+  CHECK_INT(bbc_scene_camera_at(s, 0, NAN, &c), BBC_ERR_INVALID_ARGUMENT);
+  bbc_scene_free(s);
+
+  /* STEP holds the key until the next one. */
+  s = load_animated("[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":3,\"path\":\"translation\"}}],"
+                    "\"samplers\":[{\"input\":7,\"output\":8,\"interpolation\":\"STEP\"}]}]",
+                    0, &m, &r);
+  REQUIRE(s != NULL);
+  check_camera_at(s, 0, 0.99, 0, 1, 4, 0.0);
+  check_camera_at(s, 0, 1.0, 2, 1, 4, 0.0);
+  bbc_scene_free(s);
+
+  /* CUBICSPLINE: x(1/2) = 1/8 - 1/2 + 1/2 = 0.125 (tangents scale with the key interval). */
+  s = load_animated("[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":3,\"path\":\"translation\"}}],"
+                    "\"samplers\":[{\"input\":7,\"output\":10,\"interpolation\":\"CUBICSPLINE\"}]}]",
+                    0, &m, &r);
+  REQUIRE(s != NULL);
+  check_camera_at(s, 0, 0.5, 0.125, 1, 4, 0.0);
+  bbc_scene_free(s);
+
+  /* An animated parent moves the camera: the rig's (1,1,4) at t = 1/2 plus the
+   * camera's own (0,1,4). */
+  s = load_animated("[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":4,\"path\":\"translation\"}}],"
+                    "\"samplers\":[{\"input\":7,\"output\":8}]}]",
+                    1, &m, &r);
+  REQUIRE(s != NULL);
+  CHECK_INT(s->cameras[0].animated, 1);
+  check_camera_at(s, 0, 0.5, 1, 2, 8, 0.0);
+  bbc_scene_free(s);
+}
+
+/* Broken animations are refused in one line naming the animation. */
+TEST(bad_animations_fail_cleanly) {
+  static const struct {
+    const char *animations, *message;
+  } cases[] = {
+      {"[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":9,\"path\":\"translation\"}}],"
+       "\"samplers\":[{\"input\":7,\"output\":8}]}]",
+       "animation 0 channel 0 targets node 9, but the file has 6 nodes"},
+      {"[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":3,\"path\":\"translation\"}}],"
+       "\"samplers\":[{\"input\":7,\"output\":9}]}]",
+       "animation 0 channel 0 output: accessor 9 has the wrong type"},
+      {"[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":3,\"path\":\"translation\"}}],"
+       "\"samplers\":[{\"input\":7,\"output\":10}]}]",
+       "animation 0 channel 0: 2 key times need 2 values, the output has 6"},
+      {"[{\"channels\":[{\"sampler\":0,\"target\":{\"node\":3,\"path\":\"translation\"}}],"
+       "\"samplers\":[{\"input\":8,\"output\":8}]}]",
+       "animation 0 channel 0 input: accessor 8 has the wrong type"},
+      {"[{\"channels\":[{\"sampler\":3,\"target\":{\"node\":3,\"path\":\"translation\"}}],"
+       "\"samplers\":[{\"input\":7,\"output\":8}]}]",
+       "animation 0 channel 0 uses sampler 3, but it has 1"},
+  };
+  for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+    messages m;
+    bbc_result r;
+    bbc_scene *s = load_animated(cases[i].animations, 0, &m, &r);
+    CHECK(s == NULL);
+    CHECK_INT(r, BBC_ERR_GLTF);
+    CHECK_INT(m.errors, 1);
+    CHECK_STR_CONTAINS(m.error, cases[i].message);
+    bbc_scene_free(s);
+  }
+}
+
 /* ------------------------------------------------------------------ failures */
 
 static bbc_result code_from_name(const char *name, int *known) {

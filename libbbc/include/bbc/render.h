@@ -85,6 +85,7 @@ typedef struct bbc_render_options {
   uint32_t newton_max_trials; /* BBC_SOLVER_NEWTON_STOCH: K stops at this many draws (the
                                  estimate is then biased low; stats count it); 0 =
                                  BBC_NEWTON_MAX_TRIALS_DEFAULT */
+  const bbc_camera *camera;   /* the camera to render; NULL = the scene's first */
   bbc_progress_fn progress;   /* optional; called between passes on the calling thread
                                  with samples per pixel done / planned (planned is 0
                                  under a pure time limit) */
@@ -116,7 +117,7 @@ typedef struct bbc_render_stats {
   double thread_seconds;     /* thread time rendering, for the shares above */
 } bbc_render_stats;
 
-/* Renders the scene's camera into image (whose size sets the resolution and the
+/* Renders options->camera (else the scene's first camera) into image (whose size sets the resolution and the
  * aspect ratio, see bbc_camera_ray). The image receives the mean radiance per pixel (box
  * filter). accel must have been built for scene. stats may be NULL. Deterministic:
  * with an spp budget the image is bit-identical for any thread count. Returns

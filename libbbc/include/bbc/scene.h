@@ -113,12 +113,19 @@ BBC_API double bbc_light_falloff(const bbc_light_model *model, bbc_vec3 w);
 
 /* A pinhole camera looking along -w with up v and right u (orthonormal, world space). */
 typedef struct bbc_camera {
+  char name[64]; /* the glTF camera's name, else its node's, else "camera N" */
   bbc_vec3 position;
   bbc_vec3 u, v, w;
   double yfov;   /* vertical field of view, radians */
   double aspect; /* width / height of the film */
   uint32_t width, height;
+  /* Whether a glTF animation moves the camera (its node or an ancestor), and the times
+   * (seconds) of its first and last keys; the fields above are its rest placement. */
+  int animated;
+  double time_start, time_end;
 } bbc_camera;
+
+struct bbc__camera_motion; /* internal: what moves each camera */
 
 typedef struct bbc_scene {
   char path[1024]; /* the file it was loaded from */
@@ -152,7 +159,12 @@ typedef struct bbc_scene {
   double *emitter_cdf;  /* emitter_count entries, last one 1 */
   double emitter_power; /* sum of area x mean radiance x pi */
 
-  bbc_camera camera;
+  bbc_camera camera; /* the first camera, cameras[0] */
+  /* Every node with a camera in the default scene, in a depth-first walk (roots in
+   * order, a node before its children). */
+  uint32_t camera_count;
+  bbc_camera *cameras;
+  struct bbc__camera_motion *camera_motion; /* internal, one per camera */
 
   /* The units the file's KHR_lights_punctual intensities were read in (never
    * BBC_LIGHT_UNITS_FILE); the light fields above are radiometric either way. */
@@ -173,6 +185,16 @@ typedef struct bbc_scene_options {
  * options may be NULL. */
 BBC_API bbc_result bbc_scene_load(bbc_scene **out, const char *path,
                                   const bbc_scene_options *options);
+
+/* Camera `index` (into scene->cameras) placed as its glTF animation has it at `time`
+ * seconds: translation, rotation and scale channels of its node and of the node's
+ * ancestors, LINEAR (rotations by spherical interpolation), STEP or CUBICSPLINE;
+ * before the first key and after the last one the end keys hold. A camera without
+ * animation is returned as it is. BBC_ERR_INVALID_ARGUMENT for an index out of range or
+ * a non-finite time, BBC_ERR_SCENE when the animated matrix is degenerate (a zero
+ * scale). */
+BBC_API bbc_result bbc_scene_camera_at(const bbc_scene *scene, uint32_t index, double time,
+                                       bbc_camera *out);
 
 /* Releases a scene; NULL is allowed. */
 BBC_API void bbc_scene_free(bbc_scene *scene);
