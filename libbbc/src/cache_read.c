@@ -721,7 +721,8 @@ bbc_result bbc_cache_check_scene(const bbc_cache *c, const bbc_scene *scene) {
   bbc_fingerprint_compute(scene, &c->params, &f);
   const char *what = NULL;
   if (f.geometry != c->fingerprint.geometry)
-    what = "geometry (positions, normals, uvs or indices)";
+    what = "geometry (positions, normals, uvs or indices; caches written before bbc numbered "
+           "triangles in canonical order must be recomputed)";
   else if (f.meshes != c->fingerprint.meshes)
     what = "meshes (ranges, materials or roles)";
   else if (f.materials != c->fingerprint.materials)

@@ -221,6 +221,8 @@ static const char *mode_name(int mode) {
   return mode >= 0 && mode < 7 ? names[mode] : "unknown";
 }
 
+static bbc_result canonical_order(bbc_scene *s, const bbc_mesh *mesh);
+
 /* Fills scene mesh mesh_index from one primitive: its world-space vertices and
  * triangles go at the ends of the scene arrays, whose fill levels are the counters. */
 static bbc_result add_mesh(const loader *ld, const bbc__gltf_primitive *p, bbc_scene *s,
@@ -319,9 +321,101 @@ static bbc_result add_mesh(const loader *ld, const bbc__gltf_primitive *p, bbc_s
   } else {
     mesh->vertex_count = 3 * mesh->triangle_count;
   }
+  if (canonical_order(s, mesh) != BBC_OK) return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
   *next_vertex += mesh->vertex_count;
   *next_triangle += mesh->triangle_count;
   return BBC_OK;
+}
+
+/* ------------------------------------------------------------------ canonical order */
+
+/* A stable merge sort of n indices under less(ctx, a, b); tmp holds n entries. */
+static void sort_indices(uint32_t *v, uint32_t *tmp, uint32_t n, const void *ctx,
+                         int (*less)(const void *, uint32_t, uint32_t)) {
+  for (uint32_t width = 1; width < n; width *= 2) {
+    for (uint32_t lo = 0; lo < n; lo += 2 * width) {
+      uint32_t mid = lo + width < n ? lo + width : n, hi = lo + 2 * width < n ? lo + 2 * width : n;
+      uint32_t i = lo, j = mid, k = lo;
+      while (i < mid && j < hi) tmp[k++] = less(ctx, v[j], v[i]) ? v[j++] : v[i++];
+      while (i < mid) tmp[k++] = v[i++];
+      while (j < hi) tmp[k++] = v[j++];
+    }
+    memcpy(v, tmp, n * sizeof *v);
+  }
+}
+
+typedef struct vertex_keys {
+  const float *p, *n, *uv;
+} vertex_keys;
+
+/* Vertices by position, then normal, then uv, each compared as exact floats. */
+static int vertex_less(const void *ctx, uint32_t a, uint32_t b) {
+  const vertex_keys *k = ctx;
+  for (int c = 0; c < 8; c++) {
+    float x = c < 3 ? k->p[3 * (size_t)a + c] : c < 6 ? k->n[3 * (size_t)a + c - 3] : k->uv[2 * (size_t)a + c - 6];
+    float y = c < 3 ? k->p[3 * (size_t)b + c] : c < 6 ? k->n[3 * (size_t)b + c - 3] : k->uv[2 * (size_t)b + c - 6];
+    if (x != y) return x < y;
+  }
+  return 0;
+}
+
+static int triangle_less(const void *ctx, uint32_t a, uint32_t b) {
+  const uint32_t *idx = ctx;
+  for (int c = 0; c < 3; c++)
+    if (idx[3 * (size_t)a + c] != idx[3 * (size_t)b + c])
+      return idx[3 * (size_t)a + c] < idx[3 * (size_t)b + c];
+  return 0;
+}
+
+/* Puts a mesh's vertices and triangles into an order that depends only on its geometry,
+ * not on the file's order: vertices sorted by (position, normal, uv), each triangle's
+ * corners rotated (keeping its winding) to start at its smallest vertex, triangles
+ * sorted by their corners. Exporters such as Blender's do not keep triangle or vertex
+ * order from one export to the next; in canonical order the same mesh gives the same
+ * scene arrays, hence the same fingerprint and the same tuples in a cache. */
+static bbc_result canonical_order(bbc_scene *s, const bbc_mesh *mesh) {
+  uint32_t nv = mesh->vertex_count, nt = mesh->triangle_count, base = mesh->first_vertex;
+  uint32_t *order = alloc(nv > nt ? nv : nt, sizeof *order);
+  uint32_t *tmp = alloc(nv > nt ? nv : nt, sizeof *tmp);
+  uint32_t *new_of = alloc(nv, sizeof *new_of);
+  float *copy = alloc(8 * (size_t)nv, sizeof *copy);
+  uint32_t *tri = alloc(3 * (size_t)nt, sizeof *tri);
+  bbc_result r = BBC_ERR_OUT_OF_MEMORY;
+  if (!order || !tmp || !new_of || !copy || !tri) goto done;
+  float *p = s->positions + 3 * (size_t)base, *n = s->normals + 3 * (size_t)base,
+        *uv = s->uvs + 2 * (size_t)base;
+  vertex_keys keys = {p, n, uv};
+  for (uint32_t i = 0; i < nv; i++) order[i] = i;
+  sort_indices(order, tmp, nv, &keys, vertex_less);
+  for (uint32_t i = 0; i < nv; i++) new_of[order[i]] = i;
+  memcpy(copy, p, 3 * (size_t)nv * sizeof *copy);
+  memcpy(copy + 3 * (size_t)nv, n, 3 * (size_t)nv * sizeof *copy);
+  memcpy(copy + 6 * (size_t)nv, uv, 2 * (size_t)nv * sizeof *copy);
+  for (uint32_t i = 0; i < nv; i++) {
+    uint32_t o = order[i];
+    memcpy(p + 3 * (size_t)i, copy + 3 * (size_t)o, 3 * sizeof *copy);
+    memcpy(n + 3 * (size_t)i, copy + 3 * (size_t)nv + 3 * (size_t)o, 3 * sizeof *copy);
+    memcpy(uv + 2 * (size_t)i, copy + 6 * (size_t)nv + 2 * (size_t)o, 2 * sizeof *copy);
+  }
+  uint32_t *idx = s->indices + 3 * (size_t)mesh->first_triangle;
+  for (uint32_t t = 0; t < nt; t++) {
+    uint32_t c[3];
+    for (int k = 0; k < 3; k++) c[k] = new_of[idx[3 * (size_t)t + k] - base];
+    int first = c[1] < c[0] ? (c[2] < c[1] ? 2 : 1) : (c[2] < c[0] ? 2 : 0);
+    for (int k = 0; k < 3; k++) tri[3 * (size_t)t + k] = c[(first + k) % 3];
+  }
+  for (uint32_t t = 0; t < nt; t++) order[t] = t;
+  sort_indices(order, tmp, nt, tri, triangle_less);
+  for (uint32_t t = 0; t < nt; t++)
+    for (int k = 0; k < 3; k++) idx[3 * (size_t)t + k] = base + tri[3 * (size_t)order[t] + k];
+  r = BBC_OK;
+done:
+  free(order);
+  free(tmp);
+  free(new_of);
+  free(copy);
+  free(tri);
+  return r;
 }
 
 static bbc_result parse_role(const loader *ld, const bbc__gltf_primitive *p, bbc_material_type type,

@@ -33,6 +33,12 @@ typedef struct blender_style {
   const char *animations;
   int rig;
   const char *more_cameras; /* further nodes after the camera's, e.g. {"camera":1,...} */
+  /* A re-export: 0 writes the octahedron as above; k > 0 permutes its vertices and
+   * triangles and rotates each triangle's corners (keeping the winding), as Blender's
+   * exporter does from one export to the next, differently for each k. */
+  unsigned shuffle;
+  /* > 0: moves vertex 2 (the top) up by this much, a real change. */
+  float moved;
 } blender_style;
 
 typedef struct bs_text {
@@ -87,19 +93,36 @@ static char *blender_style_write(const blender_style *b) {
   floor_at[3] = at, BS_PUT(floor_i, sizeof floor_i);
   at = (at + 3) & ~(size_t)3;
   float cp[6][3], cn[6][3];
+  uint16_t ci[24];
+  /* vertex v of the file is octahedron vertex perm[v]; file triangle t is octahedron
+   * triangle (t * step) % 8, its corners rotated by rot. */
+  int perm[6] = {0, 1, 2, 3, 4, 5}, inverse[6];
+  for (unsigned k = 0; k < b->shuffle; k++)
+    for (int v = 5; v > 0; v--) {
+      int j = (int)((k * 7 + (unsigned)v * 3 + 1) % (unsigned)(v + 1)), x = perm[v];
+      perm[v] = perm[j], perm[j] = x;
+    }
+  for (int v = 0; v < 6; v++) inverse[perm[v]] = v;
+  int ntri = b->caster == 2 ? 4 : 8;
   for (int v = 0; v < 6; v++)
     for (int c = 0; c < 3; c++) {
-      cp[v][c] = 0.5f * oct[v][c] + (c == 1 ? 1.0f : 0.0f);
-      cn[v][c] = oct[v][c];
+      int o = perm[v];
+      cp[v][c] = 0.5f * oct[o][c] + (c == 1 ? 1.0f : 0.0f) + (o == 2 && c == 1 ? b->moved : 0.0f);
+      cn[v][c] = oct[o][c];
     }
+  for (int t = 0; t < ntri; t++) {
+    int src = b->shuffle ? (int)((t * 3 + b->shuffle) % (unsigned)ntri) : t;
+    int rot = b->shuffle ? (int)((t + b->shuffle) % 3) : 0;
+    for (int k = 0; k < 3; k++) ci[3 * t + k] = (uint16_t)inverse[oct_i[3 * src + (k + rot) % 3]];
+  }
   caster_at[0] = at, BS_PUT(cp, sizeof cp);
   caster_at[1] = at, BS_PUT(cn, sizeof cn);
-  caster_at[2] = at, BS_PUT(oct_i, sizeof oct_i);
+  caster_at[2] = at, BS_PUT(ci, sizeof ci);
   at = (at + 3) & ~(size_t)3;
   size_t anim_at = at;
   if (b->anim_floats) BS_PUT(b->anim_data, b->anim_floats * sizeof(float));
 #undef BS_PUT
-  int caster_triangles = b->caster == 2 ? 4 : 8;
+  int caster_triangles = ntri;
 
   bs_text t = {0};
   bs_printf(&t, "{\"asset\":{\"generator\":\"Khronos glTF Blender I/O v3.4.50\",\"version\":\"2.0\"");

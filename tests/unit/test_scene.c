@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bbc/cache.h"
 #include "bbc/scene.h"
 #include "blender_style.h"
 #include "gltf_shim_internal.h"
@@ -162,10 +163,31 @@ static const bbc_mesh *find_mesh(const bbc_scene *s, const char *name) {
   return NULL;
 }
 
-static void check_position(const bbc_scene *s, uint32_t vertex, double x, double y, double z) {
-  CHECK_NEAR(s->positions[3 * vertex], x, 1e-5);
-  CHECK_NEAR(s->positions[3 * vertex + 1], y, 1e-5);
-  CHECK_NEAR(s->positions[3 * vertex + 2], z, 1e-5);
+static int same_position(const bbc_scene *s, uint32_t vertex, const double p[3]) {
+  for (int c = 0; c < 3; c++)
+    if (!(fabs(s->positions[3 * (size_t)vertex + c] - p[c]) <= 1e-5)) return 0;
+  return 1;
+}
+
+/* The loader numbers vertices and triangles in its canonical order (by geometry, not
+ * by file order), so tests find a triangle by its corners: the triangle of the mesh
+ * whose corners are p[0], p[1], p[2] in this cyclic (winding) order; *corner0 receives
+ * the scene vertex at p[0]'s corner offset: corners[k] is the vertex at p[k]. Returns 0
+ * (after a failed check) when there is none. */
+static int find_triangle(const bbc_scene *s, const bbc_mesh *mesh, const double p[3][3],
+                         uint32_t corners[3]) {
+  for (uint32_t t = mesh->first_triangle; t < mesh->first_triangle + mesh->triangle_count; t++)
+    for (int r = 0; r < 3; r++) {
+      int ok = 1;
+      for (int k = 0; k < 3 && ok; k++) ok = same_position(s, s->indices[3 * t + (r + k) % 3], p[k]);
+      if (!ok) continue;
+      for (int k = 0; k < 3; k++) corners[k] = s->indices[3 * t + (r + k) % 3];
+      return 1;
+    }
+  harness_fail(__FILE__, __LINE__, "mesh %s has no triangle (%g,%g,%g) (%g,%g,%g) (%g,%g,%g)",
+               mesh->name, p[0][0], p[0][1], p[0][2], p[1][0], p[1][1], p[1][2], p[2][0], p[2][1],
+               p[2][2]);
+  return 0;
 }
 
 /* Invariants every loaded scene must satisfy, whatever the file. */
@@ -320,14 +342,13 @@ static void check_transformed_triangle(const bbc_scene *s, const bbc_mesh *mesh)
   REQUIRE(mesh != NULL);
   CHECK_INT(mesh->vertex_count, 3);
   CHECK_INT(mesh->triangle_count, 1);
-  uint32_t v = mesh->first_vertex;
-  check_position(s, v, 1, 4, 3);
-  check_position(s, v + 1, -2, 2, 3);
-  check_position(s, v + 2, 1, 2, 7);
+  static const double p[3][3] = {{1, 4, 3}, {-2, 2, 3}, {1, 2, 7}};
+  uint32_t corners[3];
+  if (!find_triangle(s, mesh, p, corners)) return;
   double n[3] = {-8, 12, 6};
   vec_normalize(n);
   for (uint32_t i = 0; i < 3; i++)
-    for (int k = 0; k < 3; k++) CHECK_NEAR(s->normals[3 * (v + i) + (uint32_t)k], n[k], 1e-6);
+    for (int k = 0; k < 3; k++) CHECK_NEAR(s->normals[3 * corners[i] + (uint32_t)k], n[k], 1e-6);
   double g[3];
   triangle_normal(s, mesh->first_triangle, g);
   vec_normalize(g);
@@ -362,18 +383,15 @@ TEST(transform_mirrored_keeps_winding) {
   REQUIRE(s != NULL && s->mesh_count == 3);
   const bbc_mesh *mesh = &s->meshes[2];
   CHECK_INT(mesh->role, BBC_ROLE_CASTER);
-  uint32_t v = mesh->first_vertex;
-  check_position(s, v, -1, 0, -5);
-  check_position(s, v + 1, 0, 1, -5);
-  check_position(s, v + 2, 0, 0, -4);
+  /* The file's corners are (-1,0,-5), (0,1,-5), (0,0,-4); the second and third are
+   * swapped so the winding agrees with the normal. */
+  static const double p[3][3] = {{-1, 0, -5}, {0, 0, -4}, {0, 1, -5}};
+  uint32_t corners[3];
+  if (!find_triangle(s, mesh, p, corners)) return;
   double n[3] = {-1, 1, 1};
   vec_normalize(n);
-  for (int k = 0; k < 3; k++) CHECK_NEAR(s->normals[3 * v + (uint32_t)k], n[k], 1e-6);
-  /* The second and third corners are swapped so the winding agrees with the normal. */
+  for (int k = 0; k < 3; k++) CHECK_NEAR(s->normals[3 * corners[0] + (uint32_t)k], n[k], 1e-6);
   uint32_t t = mesh->first_triangle;
-  CHECK_INT(s->indices[3 * t], v);
-  CHECK_INT(s->indices[3 * t + 1], v + 2);
-  CHECK_INT(s->indices[3 * t + 2], v + 1);
   double g[3];
   triangle_normal(s, t, g);
   CHECK(g[0] * n[0] + g[1] * n[1] + g[2] * n[2] > 0.0);
@@ -398,13 +416,18 @@ static void check_quad_mesh(const bbc_scene *s, const char *name, int k, int exp
   CHECK_INT(mesh->triangle_count, 2);
   CHECK_INT(mesh->has_normals, 1);
   CHECK_INT(mesh->has_uvs, expect_uvs);
-  for (uint32_t c = 0; c < 6; c++) {
-    uint32_t v = s->indices[3 * mesh->first_triangle + c];
-    const double *p = quad[quad_indices[c]];
-    check_position(s, v, p[0] + 10.0 * k, p[1], p[2]);
-    CHECK_NEAR(s->normals[3 * v + 1], 1.0, 0.0);
-    CHECK_NEAR(s->uvs[2 * v], expect_uvs ? quad_uv[quad_indices[c]][0] : 0.0, 0.0);
-    CHECK_NEAR(s->uvs[2 * v + 1], expect_uvs ? quad_uv[quad_indices[c]][1] : 0.0, 0.0);
+  for (uint32_t t = 0; t < 2; t++) {
+    double p[3][3];
+    for (int c = 0; c < 3; c++)
+      for (int d = 0; d < 3; d++) p[c][d] = quad[quad_indices[3 * t + c]][d] + (d == 0 ? 10.0 * k : 0.0);
+    uint32_t corners[3];
+    if (!find_triangle(s, mesh, p, corners)) continue;
+    for (int c = 0; c < 3; c++) {
+      uint32_t v = corners[c];
+      CHECK_NEAR(s->normals[3 * v + 1], 1.0, 0.0);
+      CHECK_NEAR(s->uvs[2 * v], expect_uvs ? quad_uv[quad_indices[3 * t + c]][0] : 0.0, 0.0);
+      CHECK_NEAR(s->uvs[2 * v + 1], expect_uvs ? quad_uv[quad_indices[3 * t + c]][1] : 0.0, 0.0);
+    }
   }
 }
 
@@ -444,9 +467,20 @@ TEST(glb_file) {
   CHECK_INT(s->vertex_count, 4);
   CHECK_INT(s->triangle_count, 2);
   CHECK_INT(s->meshes[0].has_uvs, 1);
-  check_position(s, 0, -1, 0, -1);
-  check_position(s, 2, 1, 0, 1);
-  CHECK_NEAR(s->uvs[2 * 2], 1.0, 0.0);
+  /* The corners (-1,0,-1) and (1,0,1) with their uvs. */
+  static const double a[3] = {-1, 0, -1}, b[3] = {1, 0, 1};
+  int found = 0;
+  for (uint32_t v = 0; v < 4; v++) {
+    if (same_position(s, v, a)) {
+      found++;
+      CHECK_NEAR(s->uvs[2 * v], 0.0, 0.0);
+    }
+    if (same_position(s, v, b)) {
+      found++;
+      CHECK_NEAR(s->uvs[2 * v], 1.0, 0.0);
+    }
+  }
+  CHECK_INT(found, 2);
   CHECK_INT(s->camera.width, 320);
   CHECK_INT(s->camera.height, 240);
   CHECK_NEAR(s->camera.aspect, 320.0 / 240.0, 1e-15);
@@ -496,10 +530,12 @@ TEST(missing_normals_are_flat) {
     vec_cross(e1, e2, normals[t]);
     vec_normalize(normals[t]);
     CHECK(normals[t][1] > 0.0);
+    double corner[3][3];
+    for (int k = 0; k < 3; k++) memcpy(corner[k], p[quad_indices[3 * t + k]], sizeof corner[k]);
+    uint32_t corners[3];
+    if (!find_triangle(s, &s->meshes[0], (const double(*)[3])corner, corners)) continue;
     for (uint32_t k = 0; k < 3; k++) {
-      uint32_t v = s->indices[3 * t + k];
-      const double *q = p[quad_indices[3 * t + k]];
-      check_position(s, v, q[0], q[1], q[2]);
+      uint32_t v = corners[k];
       for (int c2 = 0; c2 < 3; c2++)
         CHECK_NEAR(s->normals[3 * v + (uint32_t)c2], normals[t][c2], 1e-6);
       CHECK_NEAR(s->uvs[2 * v], 0.0, 0.0);
@@ -981,6 +1017,52 @@ TEST(bad_animations_fail_cleanly) {
     CHECK_STR_CONTAINS(m.error, cases[i].message);
     bbc_scene_free(s);
   }
+}
+
+/* A re-export that permutes vertices and triangles and rotates corners (as Blender's
+ * does) loads into the same scene arrays, so its fingerprint, and the triangle indices
+ * a cache stores, are those of the first export; moving one vertex changes them. */
+TEST(shuffled_reexport_keeps_the_scene_identity) {
+  blender_style b = {0};
+  b.lights = "[{\"type\":\"point\",\"intensity\":5435}]";
+  b.cameras = BLENDER_CAMERA;
+  b.materials = BLENDER_GLASS;
+  b.caster = 1;
+  bbc_precompute_params params;
+  bbc_precompute_params_default(&params);
+  messages m;
+  bbc_result r;
+  bbc_scene *first = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(first != NULL);
+  bbc_fingerprint f0, f;
+  REQUIRE(bbc_fingerprint_compute(first, &params, &f0) == BBC_OK);
+  for (unsigned k = 1; k <= 3; k++) {
+    b.shuffle = k;
+    char *text = blender_style_write(&b);
+    char *plain = (b.shuffle = 0, blender_style_write(&b));
+    b.shuffle = k;
+    CHECK(strcmp(text, plain) != 0); /* the control: the files do differ */
+    free(text);
+    free(plain);
+    bbc_scene *s = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+    REQUIRE(s != NULL);
+    REQUIRE(s->vertex_count == first->vertex_count && s->triangle_count == first->triangle_count);
+    CHECK(memcmp(s->positions, first->positions, 12 * (size_t)s->vertex_count) == 0);
+    CHECK(memcmp(s->normals, first->normals, 12 * (size_t)s->vertex_count) == 0);
+    CHECK(memcmp(s->indices, first->indices, 12 * (size_t)s->triangle_count) == 0);
+    REQUIRE(bbc_fingerprint_compute(s, &params, &f) == BBC_OK);
+    CHECK(f.total == f0.total);
+    bbc_scene_free(s);
+  }
+  b.shuffle = 2;
+  b.moved = 1e-3f;
+  bbc_scene *s = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(s != NULL);
+  REQUIRE(bbc_fingerprint_compute(s, &params, &f) == BBC_OK);
+  CHECK(f.geometry != f0.geometry);
+  CHECK(f.total != f0.total);
+  bbc_scene_free(s);
+  bbc_scene_free(first);
 }
 
 /* ------------------------------------------------------------------ failures */

@@ -139,7 +139,9 @@ typedef struct bbc_scene {
   float *uvs;
 
   /* Triangles: 3 vertex indices each (into the scene arrays), and the mesh each one
-   * belongs to. The order is that of the file (meshes in node order). */
+   * belongs to. Meshes come in node order; within a mesh, vertices and triangles are
+   * in a canonical order that depends on the geometry only, not on the file's order
+   * (format-spec Sec. 8), so that re-exports keep the scene's identity. */
   uint32_t triangle_count;
   uint32_t *indices;
   uint32_t *triangle_mesh;
