@@ -152,7 +152,7 @@ typedef enum verdict { VERDICT_DISCARD, VERDICT_PARTIAL, VERDICT_FULL } verdict;
  * box (may be NULL) receives the (u, v) bound clipped to the triangle's range, and
  * *inside (may be NULL) whether every path provably lands inside. */
 static bbc_result ray_lands(bbc_arena *arena, const bbc_poly *up, const bbc_poly *vp,
-                            const bbc_poly *kappa, const bbc_poly *tnum, double box[4],
+                            const bbc_poly *kappa, const bbc_poly *tnum, double box[8],
                             int *partial, int *wide, int *inside) {
   bbc_poly forward, w;
   bbc_result r = bbc_poly_mul(arena, &forward, tnum, kappa);
@@ -177,7 +177,23 @@ static bbc_result ray_lands(bbc_arena *arena, const bbc_poly *up, const bbc_poly
   }
   int in = ru.kind == BBC_RANGE_BOUNDED && rv.kind == BBC_RANGE_BOUNDED &&
            rw.kind == BBC_RANGE_BOUNDED && ru.lo >= 0 && rv.lo >= 0 && rw.hi <= 1;
-  if (box) memcpy(box, b, sizeof b);
+  if (box) {
+    /* The receiver's box, then the bounds of u + v and u - v (the octagon's diagonals;
+     * u - v lies in [-1, 1] inside the triangle). */
+    memcpy(box, b, sizeof b);
+    box[4] = w_lo, box[5] = w_hi, box[6] = -1, box[7] = 1;
+    bbc_poly d;
+    bbc_range rd;
+    if ((r = bbc_poly_sub(arena, &d, up, vp)) != BBC_OK) return r;
+    if ((r = bbc_rational_bound(arena, &d, kappa, &rd)) != BBC_OK) return r;
+    if (rd.kind == BBC_RANGE_BOUNDED) {
+      if (rd.hi < -1 || rd.lo > 1) {
+        *partial = -1;
+        return BBC_OK;
+      }
+      box[6] = fmax(rd.lo, -1.0), box[7] = fmin(rd.hi, 1.0);
+    }
+  }
   if (inside) *inside = in;
   return BBC_OK;
 }
@@ -229,12 +245,13 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
       if (beta2.lo < 0) partial = 1;
     }
   }
-  double box_k[4];
+  double box_k[8];
   if ((r = ray_lands(arena, &f->up, &f->vp, &f->kappa, &f->tnum, box_k, &partial, &wide,
                      &inside)) != BBC_OK)
     return r;
   if (partial < 0) return BBC_OK;
   piece->uk_lo = box_k[0], piece->uk_hi = box_k[1], piece->vk_lo = box_k[2], piece->vk_hi = box_k[3];
+  piece->sk_lo = box_k[4], piece->sk_hi = box_k[5], piece->dk_lo = box_k[6], piece->dk_hi = box_k[7];
   /* Every path of the piece lands inside T2 and the receiver: nothing to trim off. */
   if (contained) *contained = inside && inside2;
   *out = partial || wide ? VERDICT_PARTIAL : VERDICT_FULL;
@@ -548,7 +565,8 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
   root->status = BBC_PIECE_KEPT;
   root->u_lo = lo_u, root->u_hi = hi_u, root->v_lo = lo_v, root->v_hi = hi_v;
   /* What the subdivision inherits at the root: nothing is known yet. */
-  root->uk_lo = root->vk_lo = 0, root->uk_hi = root->vk_hi = 1;
+  root->uk_lo = root->vk_lo = root->sk_lo = 0, root->uk_hi = root->vk_hi = root->sk_hi = 1;
+  root->dk_lo = -1, root->dk_hi = 1;
   root->e_lo = 0, root->e_hi = INFINITY;
   /* Levels count halvings of T1's unit box: the box's longer side is 2^-level. */
   double span = fmax(hi_u - lo_u, hi_v - lo_v);
@@ -606,7 +624,10 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     /* The parent's position bound holds every path of the piece too. */
     piece.uk_lo = fmax(piece.uk_lo, inherited.uk_lo), piece.uk_hi = fmin(piece.uk_hi, inherited.uk_hi);
     piece.vk_lo = fmax(piece.vk_lo, inherited.vk_lo), piece.vk_hi = fmin(piece.vk_hi, inherited.vk_hi);
-    if (piece.uk_lo > piece.uk_hi || piece.vk_lo > piece.vk_hi) {
+    piece.sk_lo = fmax(piece.sk_lo, inherited.sk_lo), piece.sk_hi = fmin(piece.sk_hi, inherited.sk_hi);
+    piece.dk_lo = fmax(piece.dk_lo, inherited.dk_lo), piece.dk_hi = fmin(piece.dk_hi, inherited.dk_hi);
+    if (piece.uk_lo > piece.uk_hi || piece.vk_lo > piece.vk_hi || piece.sk_lo > piece.sk_hi ||
+        piece.dk_lo > piece.dk_hi) {
       /* Two bounds of the same paths that do not meet: the piece holds none. */
       piece.status = BBC_PIECE_DISCARDED;
       local.discarded_pieces++;

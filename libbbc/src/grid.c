@@ -386,3 +386,103 @@ int bbc_grid_splat_range(const bbc_grid *grid, uint32_t triangle, double b1_lo, 
   out->y1 = hi_cell[1];
   return 1;
 }
+
+/* Sutherland-Hodgman: the part of polygon p (n vertices in barycentrics) where
+ * sign * (b1 + k b2) <= c, into q; returns its vertex count. */
+static int clip_polygon(const double (*p)[2], int n, double k, double sign, double c,
+                        double (*q)[2]) {
+  int m = 0;
+  for (int i = 0; i < n; i++) {
+    const double *a = p[i], *b = p[(i + 1) % n];
+    double fa = sign * (a[0] + k * a[1]) - c, fb = sign * (b[0] + k * b[1]) - c;
+    if (fa <= 0) q[m][0] = a[0], q[m][1] = a[1], m++;
+    if ((fa < 0 && fb > 0) || (fa > 0 && fb < 0)) {
+      double t = fa / (fa - fb);
+      if (!(t >= 0)) t = 0;
+      if (t > 1) t = 1;
+      q[m][0] = a[0] + t * (b[0] - a[0]);
+      q[m][1] = a[1] + t * (b[1] - a[1]);
+      m++;
+    }
+  }
+  return m;
+}
+
+int bbc_grid_splat_octagon(const bbc_grid *grid, uint32_t triangle, const double region[8],
+                           bbc_cell_range *out, uint32_t *x0, uint32_t *x1) {
+  if (!bbc_grid_splat_range(grid, triangle, region[0], region[1], region[2], region[3], out))
+    return 0;
+  const bbc_receiver *r = &grid->receivers[out->receiver];
+  const float *g = triangle_coords(grid, r, triangle);
+  double b1_lo = region[0], b1_hi = region[1], b2_lo = region[2], b2_hi = region[3];
+  if (!(b1_lo >= 0)) b1_lo = 0;
+  if (!(b2_lo >= 0)) b2_lo = 0;
+  if (!(b1_hi <= 1)) b1_hi = 1;
+  if (!(b2_hi <= 1)) b2_hi = 1;
+  /* The cuts, moved out by 2^-40 (barycentrics are of order 1, so this is far above the
+   * rounding of the clipping below and far below a cell); the triangle's own b1 + b2 <= 1
+   * and unknown (NaN) cuts included. */
+  const double pad = 0x1p-40;
+  double s_lo = region[4] >= 0 ? region[4] : 0, s_hi = region[5] <= 1 ? region[5] : 1;
+  double d_lo = region[6] >= -1 ? region[6] : -1, d_hi = region[7] <= 1 ? region[7] : 1;
+  double poly[12][2] = {{b1_lo, b2_lo}, {b1_hi, b2_lo}, {b1_hi, b2_hi}, {b1_lo, b2_hi}}, tmp[12][2];
+  int n = 4;
+  n = clip_polygon((const double(*)[2])poly, n, 1, 1, s_hi + pad, tmp);
+  n = clip_polygon((const double(*)[2])tmp, n, 1, -1, -(s_lo - pad), poly);
+  n = clip_polygon((const double(*)[2])poly, n, -1, 1, d_hi + pad, tmp);
+  n = clip_polygon((const double(*)[2])tmp, n, -1, -1, -(d_lo - pad), poly);
+  if (n == 0) return 0;
+  double gmax = 0;
+  for (int k = 0; k < 6; k++)
+    if (fabs(g[k]) > gmax) gmax = fabs(g[k]);
+  const double margin = ldexp(1.0, -30) * (1.0 + gmax);
+  double px[12], py[12], ylo = INFINITY, yhi = -INFINITY;
+  for (int i = 0; i < n; i++) {
+    px[i] = affine(g, 0, poly[i][0], poly[i][1]);
+    py[i] = affine(g, 1, poly[i][0], poly[i][1]);
+    ylo = fmin(ylo, py[i]);
+    yhi = fmax(yhi, py[i]);
+  }
+  /* Rows: within the box's range (itself conservative) and the polygon's. */
+  uint32_t y0 = cell_of(ylo - margin, r->height), y1 = cell_of(yhi + margin, r->height);
+  if (y0 < out->y0) y0 = out->y0;
+  if (y1 > out->y1) y1 = out->y1;
+  if (y0 > y1) return 0;
+  uint32_t bx0 = out->x0, bx1 = out->x1, ux0 = UINT32_MAX, ux1 = 0;
+  for (uint32_t y = out->y0; y <= out->y1; y++) x0[y - out->y0] = 1, x1[y - out->y0] = 0;
+  for (uint32_t y = y0; y <= y1; y++) {
+    /* The polygon's x extent within the band of the row, widened by the margin. */
+    const double lo = (double)y - margin, hi = (double)y + 1 + margin;
+    double xmin = INFINITY, xmax = -INFINITY;
+    for (int i = 0; i < n; i++) {
+      int j = (i + 1) % n;
+      double ya = py[i], yb = py[j], xa = px[i], xb = px[j];
+      if (ya >= lo && ya <= hi) xmin = fmin(xmin, xa), xmax = fmax(xmax, xa);
+      if ((ya < lo && yb > lo) || (ya > lo && yb < lo)) {
+        double x = xa + (lo - ya) / (yb - ya) * (xb - xa);
+        xmin = fmin(xmin, x), xmax = fmax(xmax, x);
+      }
+      if ((ya < hi && yb > hi) || (ya > hi && yb < hi)) {
+        double x = xa + (hi - ya) / (yb - ya) * (xb - xa);
+        xmin = fmin(xmin, x), xmax = fmax(xmax, x);
+      }
+    }
+    if (!(xmin <= xmax)) continue;
+    uint32_t c0 = cell_of(xmin - margin, r->width), c1 = cell_of(xmax + margin, r->width);
+    if (c0 < bx0) c0 = bx0;
+    if (c1 > bx1) c1 = bx1;
+    if (c0 > c1) continue;
+    x0[y - out->y0] = c0, x1[y - out->y0] = c1;
+    if (c0 < ux0) ux0 = c0;
+    if (c1 > ux1) ux1 = c1;
+  }
+  if (ux0 > ux1) return 0;
+  /* Shrink the range to the rows and columns listed. */
+  uint32_t first = y0, last = y1;
+  while (first <= last && x0[first - out->y0] > x1[first - out->y0]) first++;
+  while (last > first && x0[last - out->y0] > x1[last - out->y0]) last--;
+  if (first != out->y0) memmove(x0, x0 + (first - out->y0), (last - first + 1) * sizeof *x0),
+                        memmove(x1, x1 + (first - out->y0), (last - first + 1) * sizeof *x1);
+  out->y0 = first, out->y1 = last, out->x0 = ux0, out->x1 = ux1;
+  return 1;
+}

@@ -32,7 +32,29 @@ typedef struct coverage {
   uint32_t x0, y0, w, h; /* the receiver triangle's cell rectangle */
   uint32_t tx0, ty0, tx1, ty1;
   int touched;
+  uint32_t *row_x0, *row_x1; /* a piece's columns per row (bbc_grid_splat_octagon) */
+  size_t rows;
 } coverage;
+
+/* The octagon of a piece's position bound (bbc_grid_splat_octagon's region). */
+static void piece_region(const bbc_piece *p, double region[8]) {
+  region[0] = p->uk_lo, region[1] = p->uk_hi, region[2] = p->vk_lo, region[3] = p->vk_hi;
+  region[4] = p->sk_lo, region[5] = p->sk_hi, region[6] = p->dk_lo, region[7] = p->dk_hi;
+}
+
+/* Room for a row per cell row of the grid's tallest receiver. */
+static bbc_result rows_reserve(const bbc_grid *grid, uint32_t **x0, uint32_t **x1, size_t *rows) {
+  uint32_t height = 1;
+  for (uint32_t i = 0; i < grid->receiver_count; i++)
+    if (grid->receivers[i].height > height) height = grid->receivers[i].height;
+  if (*rows >= height) return BBC_OK;
+  free(*x0);
+  free(*x1);
+  *x0 = malloc(height * sizeof **x0);
+  *x1 = malloc(height * sizeof **x1);
+  *rows = *x0 && *x1 ? height : 0;
+  return *rows ? BBC_OK : BBC_ERR_OUT_OF_MEMORY;
+}
 
 typedef struct tuple_sink {
   piece_list *pieces;
@@ -45,6 +67,8 @@ static bbc_result coverage_begin(coverage *c, const bbc_grid *grid, uint32_t rec
   bbc_cell_range t;
   c->touched = 0;
   c->w = c->h = 0;
+  bbc_result res = rows_reserve(grid, &c->row_x0, &c->row_x1, &c->rows);
+  if (res != BBC_OK) return res;
   if (!bbc_grid_splat_range(grid, receiver, 0, 1, 0, 1, &t)) return BBC_OK;
   size_t w = (size_t)t.x1 - t.x0 + 1, h = (size_t)t.y1 - t.y0 + 1;
   if (w * h > c->capacity) {
@@ -65,18 +89,15 @@ static void coverage_end(coverage *c) {
   c->touched = 0;
 }
 
-/* The piece's cells inside the triangle's rectangle; 0 when it reaches none. */
+/* The piece's cells (rows r->y0..r->y1, columns in c->row_x0/x1); 0 when it reaches
+ * none. Splats of the triangle's points stay in its rectangle, the raster's. */
 static int coverage_range(const tuple_sink *s, const bbc_piece *p, bbc_cell_range *r) {
   const coverage *c = s->cover;
-  if (c->w == 0 ||
-      !bbc_grid_splat_range(s->grid, s->receiver, p->uk_lo, p->uk_hi, p->vk_lo, p->vk_hi, r))
+  double region[8];
+  piece_region(p, region);
+  if (c->w == 0 || !bbc_grid_splat_octagon(s->grid, s->receiver, region, r, c->row_x0, c->row_x1))
     return 0;
-  /* Splats of the triangle's points stay in its rectangle; clamp for safety. */
-  if (r->x0 < c->x0) r->x0 = c->x0;
-  if (r->y0 < c->y0) r->y0 = c->y0;
-  if (r->x1 > c->x0 + c->w - 1) r->x1 = c->x0 + c->w - 1;
-  if (r->y1 > c->y0 + c->h - 1) r->y1 = c->y0 + c->h - 1;
-  return r->x0 <= r->x1 && r->y0 <= r->y1;
+  return r->x0 >= c->x0 && r->y0 >= c->y0 && r->x1 < c->x0 + c->w && r->y1 < c->y0 + c->h;
 }
 
 static bbc_piece_need piece_need(void *user, const bbc_piece *piece) {
@@ -84,17 +105,19 @@ static bbc_piece_need piece_need(void *user, const bbc_piece *piece) {
   const coverage *c = s->cover;
   bbc_cell_range r;
   if (!coverage_range(s, piece, &r)) return BBC_NEED_NONE; /* it reaches no cell */
-  int dominated = 1;
+  int dominated = 1, cells = 0;
   for (uint32_t y = r.y0; y <= r.y1 && dominated; y++) {
     const double *row = c->cells + (size_t)(y - c->y0) * c->w - c->x0;
-    for (uint32_t x = r.x0; x <= r.x1; x++)
+    const uint32_t x0 = c->row_x0[y - r.y0], x1 = c->row_x1[y - r.y0];
+    cells += x0 <= x1 ? (int)(x1 - x0 + 1) : 0;
+    for (uint32_t x = x0; x <= x1; x++)
       if (!(row[x] > 0 && row[x] >= piece->e_hi)) {
         dominated = 0;
         break;
       }
   }
   if (dominated) return BBC_NEED_NONE;
-  return r.x0 == r.x1 && r.y0 == r.y1 ? BBC_NEED_KEEP : BBC_NEED_SPLIT;
+  return cells == 1 ? BBC_NEED_KEEP : BBC_NEED_SPLIT;
 }
 
 static int keep_piece(void *user, const bbc_piece *piece) {
@@ -106,7 +129,7 @@ static int keep_piece(void *user, const bbc_piece *piece) {
   if (coverage_range(s, piece, &r)) {
     for (uint32_t y = r.y0; y <= r.y1; y++) {
       double *row = c->cells + (size_t)(y - c->y0) * c->w - c->x0;
-      for (uint32_t x = r.x0; x <= r.x1; x++)
+      for (uint32_t x = c->row_x0[y - r.y0]; x <= c->row_x1[y - r.y0]; x++)
         if (!(row[x] >= piece->e_hi)) row[x] = piece->e_hi;
     }
     if (!c->touched) {
@@ -137,6 +160,8 @@ static int keep_piece(void *user, const bbc_piece *piece) {
 typedef struct raster {
   double *cells;
   size_t capacity;
+  uint32_t *row_x0, *row_x1;
+  size_t rows;
 } raster;
 
 /* Rasterises the kept pieces of one tuple into the cells they cover, keeping the
@@ -170,17 +195,20 @@ static bbc_result record_tuple(bbc_cache_builder *builder, const bbc_grid *grid,
     r->capacity = w * h;
   }
   memset(r->cells, 0, w * h * sizeof *r->cells);
+  bbc_result res = rows_reserve(grid, &r->row_x0, &r->row_x1, &r->rows);
+  if (res != BBC_OK) return res;
   for (size_t k = 0; k < pieces->count; k++) {
     const bbc_piece *p = &pieces->items[k];
     bbc_cell_range c;
-    if (!bbc_grid_splat_range(grid, tuple->receiver, p->uk_lo, p->uk_hi, p->vk_lo, p->vk_hi, &c))
-      continue;
+    double region[8];
+    piece_region(p, region);
+    if (!bbc_grid_splat_octagon(grid, tuple->receiver, region, &c, r->row_x0, r->row_x1)) continue;
     /* Products of non-negative doubles, pushed up by an ulp: the stored bound stays
      * above the true one. */
     double e = isfinite(p->e_hi) ? nextafter(p->e_hi * power, INFINITY) : INFINITY;
     for (uint32_t y = c.y0; y <= c.y1; y++) {
       double *row = r->cells + (y - all.y0) * w - all.x0;
-      for (uint32_t x = c.x0; x <= c.x1; x++)
+      for (uint32_t x = r->row_x0[y - c.y0]; x <= r->row_x1[y - c.y0]; x++)
         if (e > row[x]) row[x] = e;
     }
   }
@@ -323,9 +351,17 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   free(bounders);
   free(pieces);
   free(ids);
-  for (int i = 0; rasters && i < threads; i++) free(rasters[i].cells);
+  for (int i = 0; rasters && i < threads; i++) {
+    free(rasters[i].cells);
+    free(rasters[i].row_x0);
+    free(rasters[i].row_x1);
+  }
   free(rasters);
-  for (int i = 0; covers && i < threads; i++) free(covers[i].cells);
+  for (int i = 0; covers && i < threads; i++) {
+    free(covers[i].cells);
+    free(covers[i].row_x0);
+    free(covers[i].row_x1);
+  }
   free(covers);
   free(thread_stats);
   free(tuples);

@@ -326,8 +326,10 @@ bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, cons
       continue;
     }
     uint32_t kinds = 0;
+    const double sk = path.uk[0] + path.uk[1], dk = path.uk[0] - path.uk[1];
     if (!(path.uk[0] >= piece->uk_lo && path.uk[0] <= piece->uk_hi && path.uk[1] >= piece->vk_lo &&
-          path.uk[1] <= piece->vk_hi)) {
+          path.uk[1] <= piece->vk_hi && sk >= piece->sk_lo && sk <= piece->sk_hi &&
+          dk >= piece->dk_lo && dk <= piece->dk_hi)) {
       kinds |= BBC_VALIDATION_POSITION;
       acc->position_violations++;
     }
@@ -549,13 +551,14 @@ bbc_result bbc_validation_write_json(const bbc_validation *acc, FILE *out) {
     fputs("],\"irradiance\":", out);
     json_number(out, f->irradiance);
     const bbc_piece *p = &f->piece;
-    const double box[] = {p->u_lo,  p->u_hi,  p->v_lo,  p->v_hi, p->uk_lo,
-                          p->uk_hi, p->vk_lo, p->vk_hi, p->e_lo, p->e_hi};
-    static const char *const names[] = {"u_lo",  "u_hi",  "v_lo",  "v_hi", "uk_lo",
-                                        "uk_hi", "vk_lo", "vk_hi", "e_lo", "e_hi"};
+    const double box[] = {p->u_lo,  p->u_hi,  p->v_lo,  p->v_hi,  p->uk_lo, p->uk_hi, p->vk_lo,
+                          p->vk_hi, p->sk_lo, p->sk_hi, p->dk_lo, p->dk_hi, p->e_lo,  p->e_hi};
+    static const char *const names[] = {"u_lo",  "u_hi",  "v_lo",  "v_hi",  "uk_lo",
+                                        "uk_hi", "vk_lo", "vk_hi", "sk_lo", "sk_hi",
+                                        "dk_lo", "dk_hi", "e_lo",  "e_hi"};
     fprintf(out, ",\"piece\":{\"level\":%d,\"kept\":%s", p->level,
             p->status == BBC_PIECE_KEPT ? "true" : "false");
-    for (int i = 0; i < 10; i++) {
+    for (int i = 0; i < 14; i++) {
       fprintf(out, ",\"%s\":", names[i]);
       json_number(out, box[i]);
     }

@@ -103,6 +103,9 @@ typedef struct bbc_piece {
   int level;
   bbc_piece_status status;
   double uk_lo, uk_hi, vk_lo, vk_hi;
+  /* Kept pieces: bounds of u_k + v_k and u_k - v_k (clipped to [0, 1] and [-1, 1]),
+   * which cut the box's corners: the position bound is the octagon of all three. */
+  double sk_lo, sk_hi, dk_lo, dk_hi;
   double e_lo, e_hi;
 } bbc_piece;
 
