@@ -602,6 +602,15 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     bbc_piece piece = b->queue[head++];
     if (head == count) head = count = 0;
     const bbc_piece inherited = piece;
+    /* Pieces kept since the parent was judged may already cover every cell of the
+     * parent's position bound with at least its E_hi: the piece then changes nothing
+     * recorded and is kept on its inherited bounds, without a position check. */
+    if (prm.need && piece.level > root.level && prm.need(prm.need_user, &piece) == BBC_NEED_NONE) {
+      piece.status = BBC_PIECE_KEPT;
+      local.kept_pieces++;
+      if (fn && fn(user, &piece)) result = BBC_ERR_CANCELLED;
+      continue;
+    }
     double t0 = cpu_seconds();
     piece_forms pf;
     verdict v = VERDICT_PARTIAL;
