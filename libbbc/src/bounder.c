@@ -645,6 +645,8 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     }
     /* The inherited irradiance bound (the parent's) is valid for the piece as it is. */
     bbc_piece_need need = prm.need ? prm.need(prm.need_user, &piece) : BBC_NEED_SPLIT;
+    /* A partial piece in one cell may still turn out to hold no path there. */
+    if (need == BBC_NEED_KEEP && v == VERDICT_PARTIAL) need = BBC_NEED_SPLIT;
     int can_split = piece.level < max_level && need == BBC_NEED_SPLIT;
     double area = (piece.uk_hi - piece.uk_lo) * (piece.vk_hi - piece.vk_lo);
     int split = 0;
