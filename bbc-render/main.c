@@ -88,8 +88,13 @@ static const char help[] =
     "                        reflection), as the paper assumes\n"
     "\n"
     "Budget (whichever is reached first; default 16 spp):\n"
-    "  --spp N               samples per pixel\n"
+    "  --spp N               samples per pixel (powers of two stratify best; any count\n"
+    "                        works)\n"
     "  --time SECONDS        render for this long\n"
+    "  --sampler NAME        sobol (default): per pixel, Owen-scrambled Sobol points for\n"
+    "                        the film position, bounces, area-light points, Russian\n"
+    "                        roulette and the first tuple bins; independent: independent\n"
+    "                        random numbers\n"
     "\n"
     "Execution:\n"
     "  --threads N           worker threads (default: every core); the image does not\n"
@@ -382,6 +387,13 @@ int main(int argc, char **argv) {
         options.solver = BBC_SOLVER_NEWTON_DET;
       else
         cli_usage_error(usage, "--solver: unknown solver '%s' (newton-stoch, newton-det)", value);
+    } else if (cli_option(&a, "--sampler", &value)) {
+      if (strcmp(value, "sobol") == 0)
+        options.sampler = BBC_SAMPLER_SOBOL;
+      else if (strcmp(value, "independent") == 0)
+        options.sampler = BBC_SAMPLER_INDEPENDENT;
+      else
+        cli_usage_error(usage, "--sampler: unknown sampler '%s' (sobol, independent)", value);
     } else if (cli_option(&a, "--only", &value)) {
       options.components = 0;
       char buffer[256];

@@ -18,8 +18,8 @@
  *     solutions. K is capped (bbc_render_options.newton_max_trials); a capped estimate
  *     is biased low and counted in the stats. A solution of value 0 (occluded, on the
  *     wrong side) needs no K.
- * Random starts come from a stream keyed by the path's (pixel, sample) key, the
- * dimension the path had reached at this shading point and the tuple id: the image
+ * Random starts come from a stream keyed by the shading point's key (from the path's
+ * seed, pixel, sample and depth) and the tuple id: the image
  * stays a pure function of the seed, whatever thread rendered what, and the variable
  * number of draws of K does not shift the path's later random numbers. */
 #include "caustics_internal.h"
@@ -244,22 +244,20 @@ typedef struct estimate_state {
   bbc_vec3 p, ng;
   uint64_t key; /* this shading point's key for the tuples' random streams */
   bbc_vec3 sum;
-  double solving_seconds;
 } estimate_state;
 
 /* Alg. 1, line 6: the contribution of every solution of the tuple, over its P. */
 static void on_chosen(void *user, uint32_t tuple, double p) {
   estimate_state *s = user;
-  double t0 = omp_get_wtime();
   uint64_t key = bbc__mix64(s->key ^ bbc__mix64(tuple + 0xA0761D6478BD642Full));
   bbc_vec3 e = bbc__caustics_tuple(s->c, s->t, &s->c->tuples[tuple], s->p, s->ng, key);
   s->sum = v3_add(s->sum, v3_scale(e, 1.0 / p));
-  s->solving_seconds += omp_get_wtime() - t0;
 }
 
 bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t, bbc_vec3 p,
                                 bbc_vec3 ng, uint32_t triangle, double b1, double b2,
-                                int max_vertices, bbc_rng *rng) {
+                                int max_vertices, uint64_t key,
+                                const bbc__bin_uniforms *bin_u) {
   bbc_vec3 sum = v3(0, 0, 0);
   if (max_vertices < 1 || t->damage != BBC_OK) return sum;
   double t0 = omp_get_wtime();
@@ -292,19 +290,21 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
       t->candidates[m++] = entries[i];
   }
   t->candidate_count += m;
-  /* The tuples' random streams hang off the path's key and the dimension reached here,
-   * which differs between the shading points of one path. */
-  uint64_t key = bbc__mix64(rng->key ^ bbc__mix64(rng->dimension + 0xE7037ED1A0B428DBull));
-  /* Each chosen tuple is solved as it is drawn: no list, no limit on |S|. */
-  estimate_state state = {c, t, p, ng, key, v3(0, 0, 0), 0.0};
+  /* Each chosen tuple is solved as it is drawn: no list, no limit on |S|. The clock is
+   * read once per lookup, not per tuple: drawing (one uniform and a bisection per bin)
+   * counts as solving. */
+  estimate_state state = {c, t, p, ng, key, v3(0, 0, 0)};
   uint32_t drawn = 0;
   if (m > 0 && bbc__sampler_prepare(&t->sampler, t->candidates, m, &c->sampling)) {
+    double t2 = omp_get_wtime();
+    t->sampling_seconds += t2 - t1;
     t->bins += t->sampler.one_sample ? 1 : t->sampler.bins;
-    drawn = bbc__sampler_draw(&t->sampler, rng, on_chosen, &state);
+    bbc_rng rng = {key, 0};
+    drawn = bbc__sampler_draw(&t->sampler, bin_u, &rng, on_chosen, &state);
+    t->solving_seconds += omp_get_wtime() - t2;
+  } else {
+    t->sampling_seconds += omp_get_wtime() - t1;
   }
   t->sampled += drawn;
-  t->solving_seconds += state.solving_seconds;
-  t->sampling_seconds += omp_get_wtime() - t1 - state.solving_seconds;
-  sum = state.sum;
-  return sum;
+  return state.sum;
 }

@@ -58,11 +58,14 @@ void bbc__caustics_thread_free(bbc__caustics_thread *t);
  * (so the path stays within the render's depth limit). Unbiased with newton-stoch (up
  * to the cap on K): the expectation over rng is the sum over every admissible path of
  * its irradiance times visibility and Fresnel (for double scattering, every path
- * Newton reaches from some start on T1). rng is only read (its key and dimension seed
- * the tuples' own streams) and advanced by the tuple sampler. */
+ * Newton reaches from some start on T1). The expectation is over bin_u (uniforms for
+ * the tuple sampler's first bins, see bbc__sampler_draw; may be
+ * NULL) and the streams keyed by `key` (the rest of the bins, and each tuple's own stream),
+ * which the caller must make unique per shading point of each path. */
 bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t, bbc_vec3 p,
                                 bbc_vec3 ng, uint32_t triangle, double b1, double b2,
-                                int max_vertices, bbc_rng *rng);
+                                int max_vertices, uint64_t key,
+                                const bbc__bin_uniforms *bin_u);
 
 /* The contribution of one tuple at p, before division by its selection probability:
  * every solution's value for single scattering (specular polynomials); for double

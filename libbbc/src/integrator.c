@@ -20,6 +20,7 @@
 
 #include "caustics_internal.h"
 #include "rng_internal.h"
+#include "sobol_internal.h"
 #include "vec_internal.h"
 
 #define BBC_PI 3.14159265358979323846
@@ -32,6 +33,60 @@ typedef struct render_ctx {
   uint32_t components;           /* BBC_COMPONENT_* to accumulate */
   const bbc__caustics *caustics; /* NULL: plain path tracing */
 } render_ctx;
+
+/* The random decisions of one path. Each has a slot: the film position, then per path
+ * vertex (depth d) a block of VERTEX_SLOTS, so a decision's slot does not depend on how
+ * many numbers earlier ones used. With BBC_SAMPLER_SOBOL a slot's values over a pixel's
+ * samples are padded, Owen-scrambled Sobol points (sobol_internal.h); with
+ * BBC_SAMPLER_INDEPENDENT, independent hashes of (seed, pixel, sample, slot). */
+#define TUPLE_BIN_SLOTS 2
+enum {
+  SLOT_EMITTER_PICK, /* 1D: which emissive triangle */
+  SLOT_EMITTER_POINT, /* 2D: the point on it */
+  SLOT_DIRECTION,     /* 2D: the diffuse bounce */
+  SLOT_FRESNEL,       /* 1D: reflect or refract at a dielectric */
+  SLOT_ROULETTE,      /* 1D: Russian roulette */
+  SLOT_TUPLE_BINS,    /* TUPLE_BIN_SLOTS 2D slots: the caustic estimator's first bins,
+                         two per slot */
+  VERTEX_SLOTS = SLOT_TUPLE_BINS + TUPLE_BIN_SLOTS
+};
+
+typedef struct path_sampler {
+  int sobol;
+  bbc_sobol points; /* BBC_SAMPLER_SOBOL */
+  uint64_t key;     /* BBC_SAMPLER_INDEPENDENT, and the caustic estimator's own streams */
+} path_sampler;
+
+/* The first n (1 or 2) coordinates of slot `which` of vertex `depth` (depth -1: the
+ * film position). */
+static void sample_n(const path_sampler *ps, int depth, int which, int n, double out[]) {
+  uint32_t slot = depth < 0 ? 0 : 1 + (uint32_t)depth * VERTEX_SLOTS + (uint32_t)which;
+  if (ps->sobol) {
+    bbc_sobol_get(&ps->points, slot, n, out);
+    return;
+  }
+  bbc_rng r = {ps->key, 2 * (uint64_t)slot};
+  for (int c = 0; c < n; c++) out[c] = bbc_rng_next(&r);
+}
+
+static double sample(const path_sampler *ps, int depth, int which) {
+  double u;
+  sample_n(ps, depth, which, 1, &u);
+  return u;
+}
+
+/* The caustic estimator's bin uniforms j = 0, 1, ... of one vertex. */
+typedef struct vertex_bins {
+  const path_sampler *ps;
+  int depth;
+} vertex_bins;
+
+static double bin_uniform(const void *user, uint32_t j) {
+  const vertex_bins *v = user;
+  double u[2];
+  sample_n(v->ps, v->depth, SLOT_TUPLE_BINS + (int)(j / 2), 2, u);
+  return u[j % 2];
+}
 
 /* A surface point where a ray hit: normals oriented so that ns and ng agree. */
 typedef struct surface {
@@ -103,8 +158,9 @@ typedef struct vertex_light {
  * point lights' specular chains. `segments` is the number of path segments so far; a
  * light path may not make the whole exceed max_depth. */
 static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_thread *ct,
-                                         const surface *s, uint32_t segments, bbc_rng *rng,
-                                         uint64_t *rays) {
+                                         const surface *s, uint32_t segments,
+                                         const path_sampler *ps, uint64_t *rays) {
+  const int depth = (int)segments - 1;
   const bbc_scene *scene = ctx->scene;
   const float *albedo = s->material->base_color;
   bbc_vec3 sum = v3(0, 0, 0);
@@ -134,8 +190,11 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
 
   if (scene->emitter_count > 0 && segments + 1 <= ctx->max_depth) {
     double probability;
-    uint32_t e = scene->emitters[pick_emitter(scene, bbc_rng_next(rng), &probability)];
-    double r1 = sqrt(bbc_rng_next(rng)), r2 = bbc_rng_next(rng);
+    uint32_t e =
+        scene->emitters[pick_emitter(scene, sample(ps, depth, SLOT_EMITTER_PICK), &probability)];
+    double r[2];
+    sample_n(ps, depth, SLOT_EMITTER_POINT, 2, r);
+    double r1 = sqrt(r[0]), r2 = r[1];
     const uint32_t *idx = scene->indices + 3 * (size_t)e;
     bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)idx[0]);
     bbc_vec3 p1 = v3_load(scene->positions + 3 * (size_t)idx[1]);
@@ -168,8 +227,12 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
   out.caustic = v3(0, 0, 0);
   /* A caustic path of n specular vertices adds n + 1 segments to the point. */
   if (ctx->caustics && segments + 2 <= ctx->max_depth) {
+    vertex_bins vb = {ps, depth};
+    bbc__bin_uniforms bins = {bin_uniform, &vb, 2 * TUPLE_BIN_SLOTS};
     bbc_vec3 e = bbc__caustics_estimate(ctx->caustics, ct, s->p, s->ng, s->triangle, s->b1, s->b2,
-                                        (int)(ctx->max_depth - segments - 1), rng);
+                                        (int)(ctx->max_depth - segments - 1),
+                                        bbc__mix64(ps->key ^ bbc__mix64(segments + 0xE7037ED1A0B428DBull)),
+                                        &bins);
     out.caustic = v3(e.x * albedo[0] / BBC_PI, e.y * albedo[1] / BBC_PI, e.z * albedo[2] / BBC_PI);
   }
   return out;
@@ -181,7 +244,7 @@ static bbc_vec3 v3_mul(bbc_vec3 a, bbc_vec3 b) {
 
 /* The radiance arriving at the camera along one path started in direction dir. */
 static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_vec3 origin,
-                           bbc_vec3 dir, bbc_rng *rng, uint64_t *rays) {
+                           bbc_vec3 dir, const path_sampler *ps, uint64_t *rays) {
   const bbc_scene *scene = ctx->scene;
   bbc_vec3 radiance = v3(0, 0, 0);
   bbc_vec3 throughput = v3(1, 1, 1);
@@ -208,14 +271,16 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         s.ns = v3_neg(s.ns);
       }
       /* The path so far has depth + 1 segments. */
-      vertex_light light = shade_diffuse_vertex(ctx, ct, &s, depth + 1, rng, rays);
+      vertex_light light = shade_diffuse_vertex(ctx, ct, &s, depth + 1, ps, rays);
       if (ctx->components & lit_component)
         radiance = v3_add(radiance, v3_mul(throughput, light.direct));
       if (ctx->components & BBC_COMPONENT_CAUSTICS)
         radiance = v3_add(radiance, v3_mul(throughput, light.caustic));
       lit_component = BBC_COMPONENT_INDIRECT;
       /* Cosine-weighted sampling: the pdf cancels cos/pi, leaving the albedo. */
-      double r = sqrt(bbc_rng_next(rng)), phi = 2.0 * BBC_PI * bbc_rng_next(rng);
+      double u[2];
+      sample_n(ps, (int)depth, SLOT_DIRECTION, 2, u);
+      double r = sqrt(u[0]), phi = 2.0 * BBC_PI * u[1];
       bbc_vec3 t, b;
       v3_basis(s.ns, &t, &b);
       double z = sqrt(fmax(0.0, 1.0 - r * r));
@@ -246,7 +311,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       } else {
         cos_t = sqrt(1.0 - sin2_t);
         double f = ctx->no_fresnel ? 0.0 : fresnel_dielectric(cos_i, cos_t, eta);
-        reflect_it = bbc_rng_next(rng) < f;
+        reflect_it = sample(ps, (int)depth, SLOT_FRESNEL) < f;
       }
       if (reflect_it) {
         dir = reflect(dir, n);
@@ -264,7 +329,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
 
     if (depth >= 3) { /* Russian roulette */
       double q = fmin(0.95, fmax(throughput.x, fmax(throughput.y, throughput.z)));
-      if (bbc_rng_next(rng) >= q) break;
+      if (sample(ps, (int)depth, SLOT_ROULETTE) >= q) break;
       throughput = v3_scale(throughput, 1.0 / q);
     }
   }
@@ -280,6 +345,8 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
   if (!scene || !accel || !image) return BBC_ERR_INVALID_ARGUMENT;
   if (opts.time_limit < 0 || !isfinite(opts.time_limit)) return BBC_ERR_INVALID_ARGUMENT;
   if (opts.solver != BBC_SOLVER_NEWTON_STOCH && opts.solver != BBC_SOLVER_NEWTON_DET)
+    return BBC_ERR_INVALID_ARGUMENT;
+  if (opts.sampler != BBC_SAMPLER_SOBOL && opts.sampler != BBC_SAMPLER_INDEPENDENT)
     return BBC_ERR_INVALID_ARGUMENT;
   uint32_t planned = opts.spp ? opts.spp : (opts.time_limit > 0 ? UINT32_MAX : 16);
   render_ctx ctx = {scene,
@@ -367,12 +434,16 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
         size_t pixel = (size_t)y * width + x;
         double *acc = sum + 3 * pixel;
         for (uint32_t k = first; k < last; k++) {
-          bbc_rng rng = bbc_rng_make(opts.seed, pixel, k);
-          double px = x + bbc_rng_next(&rng), py = y + bbc_rng_next(&rng);
+          path_sampler ps = {opts.sampler == BBC_SAMPLER_SOBOL,
+                             bbc_sobol_make(opts.seed, pixel, k),
+                             bbc_rng_make(opts.seed, pixel, k).key};
+          double film[2];
+          sample_n(&ps, -1, 0, 2, film);
+          double px = x + film[0], py = y + film[1];
           bbc_vec3 origin, dir;
           bbc_camera_ray(opts.camera ? opts.camera : &scene->camera, width, height, px, py,
                          &origin, &dir);
-          bbc_vec3 l = trace_path(&ctx, ct, origin, dir, &rng, &pass_rays);
+          bbc_vec3 l = trace_path(&ctx, ct, origin, dir, &ps, &pass_rays);
           /* A non-finite sample would poison the pixel forever; it can only come from
            * a degenerate triangle, so drop it. */
           if (isfinite(l.x) && isfinite(l.y) && isfinite(l.z)) {

@@ -177,12 +177,18 @@ int bbc__sampler_prepare(bbc__tuple_sampler *s, const bbc_cache_entry *entries, 
   return 1;
 }
 
-uint32_t bbc__sampler_draw(const bbc__tuple_sampler *s, bbc_rng *rng,
-                           void (*emit)(void *user, uint32_t tuple, double p), void *user) {
-  uint32_t chosen = 0;
+static double next_uniform(const bbc__bin_uniforms *given, uint32_t *used, bbc_rng *rng) {
+  if (given && *used < given->count) return given->get(given->user, (*used)++);
+  return bbc_rng_next(rng);
+}
+
+uint32_t bbc__sampler_draw(const bbc__tuple_sampler *s, const bbc__bin_uniforms *given,
+                           bbc_rng *rng, void (*emit)(void *user, uint32_t tuple, double p),
+                           void *user) {
+  uint32_t chosen = 0, used = 0;
   if (s->one_sample) {
     if (s->bins > 0 && s->total > 0) {
-      double u = bbc_rng_next(rng) * s->total;
+      double u = next_uniform(given, &used, rng) * s->total;
       uint32_t lo = 0, hi = s->bins - 1;
       while (lo < hi) {
         uint32_t mid = (lo + hi) / 2;
@@ -204,7 +210,9 @@ uint32_t bbc__sampler_draw(const bbc__tuple_sampler *s, bbc_rng *rng,
     uint32_t end = s->bin_end[b];
     /* One uniform per bin: tuple j is chosen when u falls in its slice of the bin's
      * prefix sums, an event of probability exactly p[j]. */
-    double u = bbc_rng_next(rng);
+    double u = 0; /* a lone tuple with P = 1 is chosen whatever u is */
+    if (end - start > 1 || s->prefix[end - 1] < 1.0)
+      u = next_uniform(given, &used, rng);
     if (u < s->prefix[end - 1]) {
       uint32_t lo = start, hi = end - 1;
       while (lo < hi) {

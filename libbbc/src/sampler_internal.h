@@ -50,10 +50,21 @@ void bbc__sampler_free(bbc__tuple_sampler *s);
 int bbc__sampler_prepare(bbc__tuple_sampler *s, const bbc_cache_entry *entries, uint32_t n,
                          const bbc__sampling *sampling);
 
+/* Uniform numbers for the first bins whose draw is random, from the path tracer's
+ * stratified sampler: get(user, j) for j < count, called only when needed. */
+typedef struct bbc__bin_uniforms {
+  double (*get)(const void *user, uint32_t j);
+  const void *user;
+  uint32_t count;
+} bbc__bin_uniforms;
+
 /* Draws S: calls emit(user, tuple, P) for every chosen tuple, P its probability of
- * being chosen. Uses one random number per bin. Returns the number chosen. */
-uint32_t bbc__sampler_draw(const bbc__tuple_sampler *s, bbc_rng *rng,
-                           void (*emit)(void *user, uint32_t tuple, double p), void *user);
+ * being chosen. Uses one uniform number per bin but for a bin of one tuple with P = 1
+ * (ONE: one for the single draw): the first given->count come from given (may be NULL),
+ * the rest from rng. Returns the number chosen. */
+uint32_t bbc__sampler_draw(const bbc__tuple_sampler *s, const bbc__bin_uniforms *given,
+                           bbc_rng *rng, void (*emit)(void *user, uint32_t tuple, double p),
+                           void *user);
 
 /* gamma for a list of bounds from the source (bisection, Supp. 2.3); +inf when every
  * tuple must be taken. */

@@ -662,7 +662,9 @@ static void estimator_converges(const char *path, int trace_n, int n_wanted, int
       double sum = 0, sum2 = 0;
       for (int j = 0; j < ns[k]; j++) {
         bbc_rng rng = bbc_rng_make(1000 * (uint64_t)k, (uint64_t)i, (uint64_t)j);
-        double x = bbc__caustics_estimate(&c, &t, q->p, up, q->triangle, q->b1, q->b2, 2, &rng).x;
+        double x =
+            bbc__caustics_estimate(&c, &t, q->p, up, q->triangle, q->b1, q->b2, 2, rng.key, NULL)
+                .x;
         sum += x, sum2 += x * x;
       }
       double mean = sum / ns[k], var = fmax(0, sum2 / ns[k] - mean * mean) / (ns[k] - 1);

@@ -20,6 +20,11 @@ static void on_emit(void *user, uint32_t tuple, double p) {
   log->p_of[tuple] = p;
 }
 
+static double given_uniform(const void *user, uint32_t j) {
+  bbc_rng r = {*(const uint64_t *)user, j};
+  return bbc_rng_next(&r);
+}
+
 /* A cell of n tuples with bounds spread over decades, some infinite, some zero. */
 static void make_cell(bbc_cache_entry *e, double *truth, uint32_t n, uint64_t seed) {
   for (uint32_t i = 0; i < n; i++) {
@@ -62,7 +67,11 @@ static void check_method(bbc__sampling sampling, const char *name) {
   for (long d = 0; d < draws; d++) {
     bbc_rng rng = bbc_rng_make(7, (uint64_t)d, 0);
     log.estimate = 0;
-    bbc__sampler_draw(&s, &rng, on_emit, &log);
+    /* Every other draw takes its first bins' uniforms from the caller (as the path
+     * tracer's stratified sampler supplies them). */
+    uint64_t key = bbc__mix64((uint64_t)d);
+    bbc__bin_uniforms given = {given_uniform, &key, 3};
+    bbc__sampler_draw(&s, d % 2 ? &given : NULL, &rng, on_emit, &log);
     sum += log.estimate;
     sum_sq += log.estimate * log.estimate;
   }

@@ -56,6 +56,19 @@ typedef enum bbc_solver_method {
  * 1/65536 of T1; a capped estimate is biased low and counted in the stats. */
 #define BBC_NEWTON_MAX_TRIALS_DEFAULT 65536u
 
+/* Where a path's random decisions (film position, diffuse directions, points on area
+ * lights, Fresnel choices, Russian roulette, the caustic estimator's first tuple bins)
+ * come from. Either way every number is a function of (seed, pixel, sample index,
+ * decision), so images do not depend on the thread count. */
+typedef enum bbc_sampler {
+  /* Per pixel, Owen-scrambled Sobol points (padded: each decision its own scramble and
+   * sample order). Stratified over any power-of-two number of samples; other counts
+   * (and time limits) work too, a little less evenly. The default. */
+  BBC_SAMPLER_SOBOL = 0,
+  /* Independent uniform numbers (a counter-based hash). */
+  BBC_SAMPLER_INDEPENDENT = 1
+} bbc_sampler;
+
 /* Parts of the image, for comparisons; a mask, 0 = everything. */
 #define BBC_COMPONENT_CAUSTICS 1u /* the caustic estimator's contributions, at any depth */
 #define BBC_COMPONENT_DIRECT 2u   /* emission and lights seen before any diffuse bounce */
@@ -86,6 +99,7 @@ typedef struct bbc_render_options {
                                  estimate is then biased low; stats count it); 0 =
                                  BBC_NEWTON_MAX_TRIALS_DEFAULT */
   const bbc_camera *camera;   /* the camera to render; NULL = the scene's first */
+  bbc_sampler sampler;        /* default BBC_SAMPLER_SOBOL */
   bbc_progress_fn progress;   /* optional; called between passes on the calling thread
                                  with samples per pixel done / planned (planned is 0
                                  under a pure time limit) */
@@ -111,9 +125,10 @@ typedef struct bbc_render_stats {
   uint64_t newton_estimates; /* reciprocal-probability estimates made (newton-stoch) */
   uint64_t newton_trials;    /* the sum of their K: mean K = trials / estimates */
   uint64_t newton_cap_hits;  /* estimates whose K reached newton_max_trials */
-  double sampling_seconds;   /* thread time preparing and drawing (sum over threads) */
+  double sampling_seconds;   /* thread time preparing the cells' lists (sum over threads) */
   double decoding_seconds;   /* thread time decoding cells */
-  double solving_seconds;    /* thread time in the solver and the path's visibility */
+  double solving_seconds;    /* thread time drawing tuples, solving them and tracing
+                                the paths' visibility */
   double thread_seconds;     /* thread time rendering, for the shares above */
 } bbc_render_stats;
 
