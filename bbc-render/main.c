@@ -152,10 +152,12 @@ static void print_stats(const bbc_render_stats *s, const bbc_render_options *opt
     double busy = s->thread_seconds > 0 ? s->thread_seconds : 1;
     fprintf(stderr,
             "caustics     %llu lookups; mean |U| %.2f, |B| %.2f, |S| %.2f; %.3f solutions "
-            "per solved tuple\n"
+            "per sampled tuple, %.3f per solved tuple (%.1f%% excluded by the pre-test)\n"
             "time shares  sampling %.1f%%, decoding %.1f%%, solving %.1f%%\n",
             (unsigned long long)s->lookups, s->candidates / lookups, s->bins / lookups,
             s->sampled / lookups, s->sampled ? (double)s->solutions / s->sampled : 0.0,
+            s->sampled > s->excluded ? (double)s->solutions / (s->sampled - s->excluded) : 0.0,
+            s->sampled ? 100.0 * s->excluded / s->sampled : 0.0,
             100 * s->sampling_seconds / busy, 100 * s->decoding_seconds / busy,
             100 * s->solving_seconds / busy);
     if (options->cache) {

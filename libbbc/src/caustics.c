@@ -225,6 +225,10 @@ bbc_vec3 bbc__caustics_tuple(const bbc__caustics *c, bbc__caustics_thread *t,
   bbc_path_geometry g;
   if (bbc_path_geometry_init(&g, c->scene, tuple) != BBC_OK) return sum;
   if (g.length == 2) return double_contribution(c, t, tuple, &g, p, ng, key);
+  if (!bbc_solver_single_possible(&g, p, NULL)) {
+    t->excluded++;
+    return sum;
+  }
   bbc_solution solutions[BBC_SOLVER_MAX_SOLUTIONS];
   size_t count = 0;
   if (bbc_solver_single(&g, p, NULL, solutions, BBC_SOLVER_MAX_SOLUTIONS, &count) != BBC_OK)

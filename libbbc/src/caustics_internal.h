@@ -38,7 +38,7 @@ typedef struct bbc__caustics_thread {
   bbc__tuple_sampler sampler;
   bbc_cache_entry *candidates;
   uint32_t candidate_capacity;
-  uint64_t lookups, candidate_count, bins, sampled, solutions;
+  uint64_t lookups, candidate_count, bins, sampled, solutions, excluded;
   /* Newton on double-scattering tuples: runs, runs ending on an admissible path,
    * reciprocal-probability estimates, the sum of their K and those stopped at the cap. */
   uint64_t newton_solves, newton_converged, newton_estimates, newton_trials, newton_cap_hits;

@@ -497,6 +497,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
       stats->bins += t->bins;
       stats->sampled += t->sampled;
       stats->solutions += t->solutions;
+      stats->excluded += t->excluded;
       stats->newton_solves += t->newton_solves;
       stats->newton_converged += t->newton_converged;
       stats->newton_estimates += t->newton_estimates;

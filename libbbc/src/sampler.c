@@ -11,17 +11,9 @@ void bbc__sampler_free(bbc__tuple_sampler *s) {
   free(s->p);
   free(s->prefix);
   free(s->bin_end);
-  free(s->keys);
   free(s->scratch);
   memset(s, 0, sizeof *s);
 }
-
-/* Sorting keys: (probability, position in the cell list), decreasing probability and
- * then increasing position, so the order is total and deterministic. */
-typedef struct sort_key {
-  double p;
-  uint32_t i;
-} sort_key;
 
 static int reserve(bbc__tuple_sampler *s, uint32_t n) {
   if (n <= s->capacity) return 1;
@@ -35,11 +27,9 @@ static int reserve(bbc__tuple_sampler *s, uint32_t n) {
   if (prefix) s->prefix = prefix;
   uint32_t *bin_end = realloc(s->bin_end, capacity * sizeof *bin_end);
   if (bin_end) s->bin_end = bin_end;
-  void *keys = realloc(s->keys, capacity * sizeof(sort_key));
-  if (keys) s->keys = keys;
   double *scratch = realloc(s->scratch, capacity * sizeof *scratch);
   if (scratch) s->scratch = scratch;
-  if (!tuple || !p || !prefix || !bin_end || !keys || !scratch) return 0;
+  if (!tuple || !p || !prefix || !bin_end || !scratch) return 0;
   s->capacity = capacity;
   return 1;
 }
@@ -100,12 +90,6 @@ double bbc__sampler_gamma(const bbc_cache_entry *entries, uint32_t n, bbc__gamma
   return exp2(hi);
 }
 
-static int by_decreasing_p(const void *a, const void *b) {
-  const sort_key *x = a, *y = b;
-  if (x->p != y->p) return (x->p < y->p) - (x->p > y->p);
-  return (x->i > y->i) - (x->i < y->i);
-}
-
 int bbc__sampler_prepare(bbc__tuple_sampler *s, const bbc_cache_entry *entries, uint32_t n,
                          const bbc__sampling *sampling) {
   s->n = s->bins = 0;
@@ -153,17 +137,26 @@ int bbc__sampler_prepare(bbc__tuple_sampler *s, const bbc_cache_entry *entries, 
       if (!(p[i] >= 0)) p[i] = 1.0; /* inf * 0 and the like: take it */
     }
   }
-  sort_key *keys = (sort_key *)s->keys;
-  for (uint32_t i = 0; i < n; i++) keys[i] = (sort_key){p[i], i};
-  qsort(keys, n, sizeof *keys, by_decreasing_p);
-  /* Next-fit packing of the sorted list into bins of total probability <= 1. */
-  double in_bin = 0;
+  /* Bins: every tuple with P = 1 alone, then next-fit packing of the others in list
+   * order into bins of total probability <= 1. Any packing chooses each tuple with
+   * exactly its P (a tuple's slice of its bin's prefix sums has length P); next fit
+   * needs no sort and uses at most twice the bins of the best packing (two consecutive
+   * bins hold more than 1). */
   uint32_t k = 0;
-  for (uint32_t j = 0; j < n; j++) {
-    uint32_t i = keys[j].i;
-    if (p[i] <= 0) break; /* zero bounds are never chosen (they carry no light) */
-    if (k > 0 && in_bin + p[i] > 1.0) {
+  for (uint32_t i = 0; i < n; i++) {
+    if (!(p[i] >= 1.0)) continue;
+    s->tuple[k] = entries[i].tuple;
+    s->p[k] = 1.0;
+    s->prefix[k] = 1.0;
+    s->bin_end[s->bins++] = ++k;
+  }
+  double in_bin = 0;
+  uint32_t open = k;
+  for (uint32_t i = 0; i < n; i++) {
+    if (!(p[i] > 0) || p[i] >= 1.0) continue; /* zero bounds carry no light */
+    if (k > open && in_bin + p[i] > 1.0) {
       s->bin_end[s->bins++] = k;
+      open = k;
       in_bin = 0;
     }
     in_bin += p[i];
@@ -172,7 +165,7 @@ int bbc__sampler_prepare(bbc__tuple_sampler *s, const bbc_cache_entry *entries, 
     s->prefix[k] = in_bin;
     k++;
   }
-  if (k > 0) s->bin_end[s->bins++] = k;
+  if (k > open) s->bin_end[s->bins++] = k;
   s->n = k;
   return 1;
 }

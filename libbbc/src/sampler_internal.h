@@ -29,8 +29,8 @@ typedef struct bbc__sampling {
   double value; /* gamma, W or V */
 } bbc__sampling;
 
-/* A cell prepared for sampling: tuples sorted by decreasing probability and packed
- * into bins whose probabilities sum to at most 1. Owned by one thread; arrays grow as
+/* A cell prepared for sampling: tuples packed into bins whose probabilities sum to at
+ * most 1 (first the tuples with P = 1, one per bin). Owned by one thread; arrays grow as
  * needed and are reused between cells. */
 typedef struct bbc__tuple_sampler {
   uint32_t n, bins, capacity;
@@ -38,7 +38,6 @@ typedef struct bbc__tuple_sampler {
   double *p;         /* their selection probabilities */
   double *prefix;    /* running sum of p within the tuple's bin, inclusive */
   uint32_t *bin_end; /* bin b holds [bin_end[b-1], bin_end[b]) */
-  void *keys;        /* scratch for sorting */
   double *scratch;
   int one_sample; /* ONE: draw a single tuple from the whole list */
   double total;   /* ONE: sum of the weights */

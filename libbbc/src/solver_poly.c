@@ -641,6 +641,38 @@ static void try_candidate(solve_state *st, double u, double v) {
   if (st->count < BBC_SOLVER_MAX_SOLUTIONS) st->found[st->count++] = s;
 }
 
+int bbc_solver_single_possible(const bbc_path_geometry *g, bbc_vec3 xk,
+                               const bbc_solver_options *options) {
+  if (!g || g->length != 1) return 1;
+  const bbc_specular_triangle *t = &g->specular[0];
+  /* Corners of T1 grown by the verifier's tolerance (at least the root search's pad),
+   * in barycentrics: (-d, -d), (1 + 2d, -d), (-d, 1 + 2d). */
+  double d = fmax(SEARCH_PAD, opt_triangle_tol(options));
+  const double corner[3][2] = {{-d, -d}, {1 + 2 * d, -d}, {-d, 1 + 2 * d}};
+  bbc_vec3 e1 = v3_sub(t->p[1], t->p[0]), e2 = v3_sub(t->p[2], t->p[0]);
+  bbc_vec3 m1 = v3_sub(t->n[1], t->n[0]), m2 = v3_sub(t->n[2], t->n[0]);
+  bbc_vec3 w = v3_sub(xk, g->light), f[3], n[3];
+  double fmax_len = 0, nmax_len = 0;
+  for (int i = 0; i < 3; i++) {
+    double u = corner[i][0], v = corner[i][1];
+    bbc_vec3 d0 = v3_add(v3_sub(t->p[0], g->light), v3_add(v3_scale(e1, u), v3_scale(e2, v)));
+    f[i] = v3_cross(d0, w);
+    n[i] = v3_add(t->n[0], v3_add(v3_scale(m1, u), v3_scale(m2, v)));
+    fmax_len = fmax(fmax_len, v3_length(f[i]));
+    nmax_len = fmax(nmax_len, v3_length(n[i]));
+  }
+  double margin = 1e-9 * fmax_len * nmax_len;
+  if (!isfinite(margin)) return 1;
+  int positive = 1, negative = 1;
+  for (int i = 0; i < 3; i++)
+    for (int j = i; j < 3; j++) {
+      double b = 0.5 * (v3_dot(f[i], n[j]) + v3_dot(f[j], n[i]));
+      if (!(b > margin)) positive = 0;
+      if (!(b < -margin)) negative = 0;
+    }
+  return !(positive || negative);
+}
+
 /* A mirror whose three vertex normals are equal reflects with one unit normal n
  * everywhere (the normalised interpolation of equal vectors is constant), so its paths
  * have a closed form and need no polynomial. Reflection about n is H = I - 2 n n^T; with
@@ -829,6 +861,7 @@ static void add_stats(bbc_solver_stats *to, const bbc_solver_stats *from) {
   to->duplicates += from->duplicates;
   to->fallbacks += from->fallbacks;
   to->solutions += from->solutions;
+  to->excluded += from->excluded;
 }
 
 /* The general case: the constraint polynomials and their resultant (top of the file). */
@@ -958,7 +991,10 @@ bbc_result bbc_solver_single(const bbc_path_geometry *g, bbc_vec3 xk,
   st.swapped = 0;
   st.stats.solves = 1;
 
-  if ((options && options->no_closed_form) || !solve_flat_mirror(&st)) solve_polynomials(&st);
+  if (!(options && options->no_pretest) && !bbc_solver_single_possible(g, xk, options))
+    st.stats.excluded = 1;
+  else if ((options && options->no_closed_form) || !solve_flat_mirror(&st))
+    solve_polynomials(&st);
 
   /* Sorted by u1 so the output does not depend on the order roots were found in. */
   for (int i = 1; i < st.count; i++) {

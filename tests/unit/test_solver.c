@@ -441,6 +441,67 @@ TEST(flat_mirror_closed_form_agrees_with_poly) {
   CHECK_INT(mismatched, 0);
 }
 
+/* The coplanarity pre-test (bbc_solver_single_possible) never rules out a point that a
+ * path reaches, and rules out a good share of random points, all of which the solver
+ * (with the pre-test bypassed by calling it on the same geometry) confirms hold no path
+ * but at T1's edges. Curved random triangles, reflection and refraction. */
+TEST(single_pretest_is_exact) {
+  const long samples = harness_scale(20000, 400000);
+  long traced = 0, wrongly_excluded = 0, random_points = 0, excluded = 0, solved_excluded = 0;
+  for (long i = 0; i < samples; i++) {
+    bbc_path_geometry g;
+    memset(&g, 0, sizeof g);
+    g.length = 1;
+    g.intensity = 1;
+    bbc_specular_triangle *t = &g.specular[0];
+    double size = pow(10.0, -3 + 3 * rnd());
+    for (int j = 0; j < 3; j++) t->p[j] = rnd_vec(size);
+    bbc_vec3 ng = v3_normalize(v3_cross(v3_sub(t->p[1], t->p[0]), v3_sub(t->p[2], t->p[0])));
+    for (int j = 0; j < 3; j++) t->n[j] = v3_normalize(v3_add(ng, rnd_vec(0.3)));
+    t->refract = i % 2;
+    t->ior = 1.2 + 0.8 * rnd();
+    g.light = rnd_vec(3);
+    bbc_vec3 rn = v3_normalize(rnd_vec(1)), rp = rnd_vec(2), a, b;
+    v3_basis(rn, &a, &b);
+    g.receiver[0] = v3_add(rp, v3_scale(a, -50));
+    g.receiver[1] = v3_add(rp, v3_add(v3_scale(a, 50), v3_scale(b, -50)));
+    g.receiver[2] = v3_add(rp, v3_scale(b, 50));
+    double u, v;
+    rnd_bary(&u, &v);
+    bbc_specular_path p;
+    REQUIRE(bbc_specular_path_trace(&g, u, v, &p) == BBC_OK);
+    if (p.complete && !(p.flags & BBC_PATH_REJECT)) {
+      traced++;
+      if (!bbc_solver_single_possible(&g, p.xk, NULL)) wrongly_excluded++;
+    }
+    /* A random point near where the path lands (or near the receiver's centre). */
+    bbc_vec3 xk = v3_add(p.complete ? p.xk : rp,
+                         v3_add(v3_scale(a, 2 * rnd() - 1), v3_scale(b, 2 * rnd() - 1)));
+    random_points++;
+    if (bbc_solver_single_possible(&g, xk, NULL)) continue;
+    excluded++;
+    /* The polynomial solve itself, without the pre-test: a solution far from T1's
+     * edges would mean the pre-test was wrong. */
+    bbc_solver_options opts;
+    memset(&opts, 0, sizeof opts);
+    opts.no_pretest = 1;
+    opts.no_closed_form = 1;
+    bbc_solution sol[BBC_SOLVER_MAX_SOLUTIONS];
+    size_t n;
+    REQUIRE(bbc_solver_single(&g, xk, &opts, sol, BBC_SOLVER_MAX_SOLUTIONS, &n) == BBC_OK);
+    for (size_t k = 0; k < n; k++) solved_excluded += edge_distance(sol[k].u1) > 1e-7;
+  }
+  fprintf(stderr,
+          "%ld traced paths, %ld wrongly excluded; %ld random points, %ld excluded (%.1f %%), "
+          "%ld of them with a solution\n",
+          traced, wrongly_excluded, random_points, excluded, 100.0 * excluded / random_points,
+          solved_excluded);
+  CHECK(traced > samples / 10);
+  CHECK_INT(wrongly_excluded, 0);
+  CHECK_INT(solved_excluded, 0);
+  CHECK(excluded > random_points / 10);
+}
+
 /* ------------------------------------------------------------------------------------ */
 
 TEST(no_path_returns_zero) {

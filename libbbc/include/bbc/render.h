@@ -119,6 +119,9 @@ typedef struct bbc_render_stats {
   uint64_t sampled;    /* sum of |S| */
   uint64_t solutions;  /* admissible paths found in sampled tuples (for newton-stoch,
                           the first start's solution of each tuple) */
+  uint64_t excluded;   /* sampled single-scattering tuples that the exact pre-test
+                          (bbc_solver_single_possible) showed to hold no path at the
+                          point, so they were not solved */
   /* Newton's method on double-scattering tuples. */
   uint64_t newton_solves;    /* Newton runs: every start, those drawn for K included */
   uint64_t newton_converged; /* runs that ended on an admissible path */

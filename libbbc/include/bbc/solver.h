@@ -69,6 +69,7 @@ typedef struct bbc_solver_stats {
   uint64_t duplicates;             /* converged onto an already accepted solution */
   uint64_t fallbacks;              /* degenerate resultant: Newton from seeds instead */
   uint64_t solutions;
+  uint64_t excluded; /* calls bbc_solver_single_possible answered without a solve */
 } bbc_solver_stats;
 
 /* Options; a zero-initialised struct (or NULL) means the defaults. */
@@ -83,6 +84,9 @@ typedef struct bbc_solver_options {
   int no_closed_form;        /* bbc_solver_single: solve a mirror with three equal vertex
                                 normals by the polynomials too, not in closed form (for
                                 comparisons) */
+  int no_pretest;            /* bbc_solver_single: solve even where
+                                bbc_solver_single_possible says no path exists (for
+                                tests) */
 } bbc_solver_options;
 
 /* Traces the exact path through u1 = (u, v) and decides whether it is an admissible
@@ -106,6 +110,16 @@ BBC_API int bbc_solver_verify(const bbc_path_geometry *g, bbc_vec3 xk, double u,
 BBC_API bbc_result bbc_solver_single(const bbc_path_geometry *g, bbc_vec3 xk,
                                      const bbc_solver_options *options, bbc_solution *out,
                                      size_t capacity, size_t *count);
+
+/* A cheap exact test run by bbc_solver_single before it solves: returns 0 when no
+ * single-scattering path from g->light through T1 can reach xk, 1 when one may (also
+ * for length 2). Every specular path is coplanar with the normal at x1, so
+ * C(u1) = ((x1 - x0) x (xk - x0)) . n(u1), a quadratic on T1 (a product of two affine
+ * functions), vanishes at its x1; when the six Bernstein coefficients of C on T1 (grown
+ * by the triangle tolerance) share a sign beyond a rounding margin, C has no root there
+ * and no path exists. Exact up to that margin (1e-9 of the coefficients' scale). */
+BBC_API int bbc_solver_single_possible(const bbc_path_geometry *g, bbc_vec3 xk,
+                                       const bbc_solver_options *options);
 
 /* Newton's method on the chain from the start u1_init (barycentrics on T1; later vertices
  * are traced, so they need no start). On convergence to an admissible path that reaches
