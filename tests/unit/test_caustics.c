@@ -47,7 +47,7 @@ static void teardown(fixture *f) {
 }
 
 static bbc_image *render(const fixture *f, bbc_method method, uint32_t spp, uint64_t seed,
-                         uint32_t w, uint32_t h, bbc_render_stats *stats) {
+                         uint32_t w, uint32_t h, uint32_t max_depth, bbc_render_stats *stats) {
   bbc_image *image = NULL;
   if (bbc_image_create(&image, w, h) != BBC_OK) return NULL;
   bbc_render_options o;
@@ -58,6 +58,7 @@ static bbc_image *render(const fixture *f, bbc_method method, uint32_t spp, uint
   o.seed = seed;
   o.components = BBC_COMPONENT_CAUSTICS;
   o.gamma_value = 2; /* P < 1 for most tuples, so sampling really happens */
+  o.max_depth = max_depth;
   if (bbc_render(f->scene, f->accel, &o, image, stats) != BBC_OK) {
     bbc_image_free(image);
     return NULL;
@@ -88,7 +89,7 @@ TEST(flat_mirror_caustic_is_the_mirrored_light) {
   REQUIRE(setup(&f, TEST_SCENE("flat-mirror.gltf"), 6));
   const uint32_t w = 40, h = 30;
   bbc_render_stats stats;
-  bbc_image *image = render(&f, BBC_METHOD_ENUMERATE, 2, 1, w, h, &stats);
+  bbc_image *image = render(&f, BBC_METHOD_ENUMERATE, 2, 1, w, h, 0, &stats);
   REQUIRE(image);
   const bbc_point_light *light = &f.scene->point_lights[0];
   bbc_vec3 image_light = v3(-light->position.x, light->position.y, light->position.z);
@@ -140,17 +141,17 @@ static double mean_of(const bbc_image *a) {
 /* On a curved caster, images of the bound-driven sampler (gamma small enough that most
  * tuples have P < 1) converge to the enumeration: the relMSE against it falls like
  * 1/spp, and the image means agree within their noise. */
-static void converges_to_enumeration(const char *path, int max_level) {
+static void converges_to_enumeration(const char *path, int max_level, uint32_t max_depth) {
   fixture f;
   REQUIRE(setup(&f, path, max_level));
   const uint32_t w = 48, h = 36;
-  bbc_image *reference = render(&f, BBC_METHOD_ENUMERATE, 64, 99, w, h, NULL);
+  bbc_image *reference = render(&f, BBC_METHOD_ENUMERATE, 64, 99, w, h, max_depth, NULL);
   REQUIRE(reference);
   double errors[3];
   const uint32_t spps[3] = {4, 16, 64};
   bbc_render_stats stats;
   for (int k = 0; k < 3; k++) {
-    bbc_image *image = render(&f, BBC_METHOD_BBC, spps[k], 7 + k, w, h, &stats);
+    bbc_image *image = render(&f, BBC_METHOD_BBC, spps[k], 7 + k, w, h, max_depth, &stats);
     REQUIRE(image);
     bbc_image_relmse(image, reference, 1e-2, 0, &errors[k]);
     fprintf(stderr, "%s: %u spp: relMSE %.5g, mean %.6g vs enumeration %.6g; |U| %.2f |S| %.2f\n",
@@ -172,10 +173,15 @@ static void converges_to_enumeration(const char *path, int max_level) {
 }
 
 TEST(bbc_converges_to_enumeration_reflection) {
-  converges_to_enumeration(TEST_SCENE("wavy-mirror.gltf"), 5);
+  /* Caustics at the first diffuse vertex only (3 segments): on the wavy mirror deeper
+   * ones add the path tracer's own noise (random bounces, shared by both methods), with
+   * which the image means at 64 spp scatter by about 3 % over seeds (seen: 0.96 to 1.05
+   * of the enumeration's) and the comparison shows nothing; at 3 segments they agree to
+   * 0.3-2 % (4 seeds). */
+  converges_to_enumeration(TEST_SCENE("wavy-mirror.gltf"), 5, 3);
 }
 TEST(bbc_converges_to_enumeration_refraction) {
-  converges_to_enumeration(TEST_SCENE("pool.glb"), 3);
+  converges_to_enumeration(TEST_SCENE("pool.glb"), 3, 0);
 }
 
 /* Every candidate tuple of a precomputed cache against true paths: for a stored tuple,
