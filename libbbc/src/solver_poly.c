@@ -651,12 +651,16 @@ int bbc_solver_single_possible(const bbc_path_geometry *g, bbc_vec3 xk,
   const double corner[3][2] = {{-d, -d}, {1 + 2 * d, -d}, {-d, 1 + 2 * d}};
   bbc_vec3 e1 = v3_sub(t->p[1], t->p[0]), e2 = v3_sub(t->p[2], t->p[0]);
   bbc_vec3 m1 = v3_sub(t->n[1], t->n[0]), m2 = v3_sub(t->n[2], t->n[0]);
+  /* A sun's light arrives along the constant D: its plane of incidence holds D and
+   * x_k - x1 (solve_polynomials does the same). */
+  const int sun = g->light_model.kind == BBC_LIGHT_DIRECTIONAL;
   bbc_vec3 w = v3_sub(xk, g->light), f[3], n[3];
   double fmax_len = 0, nmax_len = 0;
   for (int i = 0; i < 3; i++) {
     double u = corner[i][0], v = corner[i][1];
-    bbc_vec3 d0 = v3_add(v3_sub(t->p[0], g->light), v3_add(v3_scale(e1, u), v3_scale(e2, v)));
-    f[i] = v3_cross(d0, w);
+    bbc_vec3 x1 = v3_add(t->p[0], v3_add(v3_scale(e1, u), v3_scale(e2, v)));
+    f[i] = sun ? v3_cross(g->light_model.direction, v3_sub(xk, x1))
+               : v3_cross(v3_sub(x1, g->light), w);
     n[i] = v3_add(t->n[0], v3_add(v3_scale(m1, u), v3_scale(m2, v)));
     fmax_len = fmax(fmax_len, v3_length(f[i]));
     nmax_len = fmax(nmax_len, v3_length(n[i]));

@@ -444,10 +444,12 @@ TEST(flat_mirror_closed_form_agrees_with_poly) {
 /* The coplanarity pre-test (bbc_solver_single_possible) never rules out a point that a
  * path reaches, and rules out a good share of random points, all of which the solver
  * (with the pre-test bypassed by calling it on the same geometry) confirms hold no path
- * but at T1's edges. Curved random triangles, reflection and refraction. */
+ * but at T1's edges. Curved random triangles, reflection and refraction, point lights
+ * and suns. */
 TEST(single_pretest_is_exact) {
   const long samples = harness_scale(20000, 400000);
-  long traced = 0, wrongly_excluded = 0, random_points = 0, excluded = 0, solved_excluded = 0;
+  long traced = 0, suns = 0, wrongly_excluded = 0, random_points = 0, excluded = 0,
+       solved_excluded = 0;
   for (long i = 0; i < samples; i++) {
     bbc_path_geometry g;
     memset(&g, 0, sizeof g);
@@ -461,6 +463,10 @@ TEST(single_pretest_is_exact) {
     t->refract = i % 2;
     t->ior = 1.2 + 0.8 * rnd();
     g.light = rnd_vec(3);
+    if (i % 3 == 2) { /* a sun */
+      g.light_model.kind = BBC_LIGHT_DIRECTIONAL;
+      g.light_model.direction = v3_normalize(rnd_vec(1));
+    }
     bbc_vec3 rn = v3_normalize(rnd_vec(1)), rp = rnd_vec(2), a, b;
     v3_basis(rn, &a, &b);
     g.receiver[0] = v3_add(rp, v3_scale(a, -50));
@@ -472,6 +478,7 @@ TEST(single_pretest_is_exact) {
     REQUIRE(bbc_specular_path_trace(&g, u, v, &p) == BBC_OK);
     if (p.complete && !(p.flags & BBC_PATH_REJECT)) {
       traced++;
+      suns += i % 3 == 2;
       if (!bbc_solver_single_possible(&g, p.xk, NULL)) wrongly_excluded++;
     }
     /* A random point near where the path lands (or near the receiver's centre). */
@@ -492,11 +499,11 @@ TEST(single_pretest_is_exact) {
     for (size_t k = 0; k < n; k++) solved_excluded += edge_distance(sol[k].u1) > 1e-7;
   }
   fprintf(stderr,
-          "%ld traced paths, %ld wrongly excluded; %ld random points, %ld excluded (%.1f %%), "
-          "%ld of them with a solution\n",
-          traced, wrongly_excluded, random_points, excluded, 100.0 * excluded / random_points,
+          "%ld traced paths (%ld from suns), %ld wrongly excluded; %ld random points, %ld "
+          "excluded (%.1f %%), %ld of them with a solution\n",
+          traced, suns, wrongly_excluded, random_points, excluded, 100.0 * excluded / random_points,
           solved_excluded);
-  CHECK(traced > samples / 10);
+  CHECK(traced > samples / 10 && suns > samples / 50);
   CHECK_INT(wrongly_excluded, 0);
   CHECK_INT(solved_excluded, 0);
   CHECK(excluded > random_points / 10);

@@ -114,8 +114,9 @@ BBC_API bbc_result bbc_solver_single(const bbc_path_geometry *g, bbc_vec3 xk,
 /* A cheap exact test run by bbc_solver_single before it solves: returns 0 when no
  * single-scattering path from g->light through T1 can reach xk, 1 when one may (also
  * for length 2). Every specular path is coplanar with the normal at x1, so
- * C(u1) = ((x1 - x0) x (xk - x0)) . n(u1), a quadratic on T1 (a product of two affine
- * functions), vanishes at its x1; when the six Bernstein coefficients of C on T1 (grown
+ * C(u1) = ((x1 - x0) x (xk - x0)) . n(u1) (for a sun of direction D,
+ * (D x (xk - x1)) . n(u1)), a quadratic on T1 (a product of two affine functions),
+ * vanishes at its x1; when the six Bernstein coefficients of C on T1 (grown
  * by the triangle tolerance) share a sign beyond a rounding margin, C has no root there
  * and no path exists. Exact up to that margin (1e-9 of the coefficients' scale). */
 BBC_API int bbc_solver_single_possible(const bbc_path_geometry *g, bbc_vec3 xk,
