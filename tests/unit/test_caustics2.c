@@ -341,7 +341,7 @@ TEST(rr_corner_is_the_double_image) {
     bbc_image *image =
         render(variant == 2 ? &pre : &f, BBC_METHOD_ENUMERATE, solver, 2, 3, 0, w, h, &stats);
     REQUIRE(image);
-    int lit = 0, dark = 0, bad = 0;
+    int lit = 0, dark = 0, bad = 0, low = 0;
     for (uint32_t y = 0; y < h; y++) {
       for (uint32_t x = 0; x < w; x++) {
         double lo, hi;
@@ -350,6 +350,13 @@ TEST(rr_corner_is_the_double_image) {
         if (!usable || (lo == 0) != (hi == 0)) continue;
         double got = image->rgb[3 * ((size_t)y * w + x)];
         hi == 0 ? dark++ : lit++;
+        /* newton-stoch: a sample whose random start on T1 does not reach the path gives 0
+         * for it (unbiased over starts, not exact): such a pixel of 2 samples lies below
+         * the range, and must be rare. */
+        if (variant > 0 && got < lo * (1 - 1e-4) && got >= 0.5 * lo * (1 - 1e-4)) {
+          low++;
+          continue;
+        }
         if (!(got >= lo * (1 - 1e-4) && got <= hi * (1 + 1e-4)) && bad++ < 5)
           fprintf(stderr, "%s: pixel (%u,%u): %.9g not in [%.9g, %.9g]\n", names[variant], x, y,
                   got, lo, hi);
@@ -361,9 +368,12 @@ TEST(rr_corner_is_the_double_image) {
             names[variant], lit, dark, stats.candidates / (double)stats.lookups,
             (unsigned long long)stats.newton_solves, (unsigned long long)stats.newton_converged,
             stats.newton_estimates ? stats.newton_trials / (double)stats.newton_estimates : 0.0);
+    if (low) fprintf(stderr, "%s: %d pixels with one sample's start missing the path\n",
+                     names[variant], low);
     CHECK(lit > 300);
     CHECK(dark > 5);
     CHECK_INT(bad, 0);
+    CHECK(low <= lit / 100);
     CHECK_INT(stats.newton_cap_hits, 0);
     bbc_image_free(image);
   }
