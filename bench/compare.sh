@@ -267,38 +267,51 @@ scenes_part() {
   d=$work/scenes
   w=$scene_width
   : > "$d/summary.dat"
-  for spec in plane1k:R::128 plane7k:R::128 pool4k:T::512 ball320:TT:3:2048; do
+  # scene:chain:level:reference spp (bbc):check spp (enumerate)
+  for spec in plane1k:R::256:128 plane7k:R::256:128 pool4k:T::256:256 ball320:TT:3:2048:2048; do
     s=${spec%%:*}
     rest=${spec#*:}
     chain=${rest%%:*}
     rest=${rest#*:}
     level=${rest%%:*}
-    refspp=$(n "${rest#*:}")
+    rest=${rest#*:}
+    refspp=$(n "${rest%%:*}")
+    chkspp=$(n "${rest#*:}")
     gltf=$scenes/$s.gltf
     [ -f "$gltf" ] || { echo "compare.sh: $gltf is missing, skipped" >&2; continue; }
     pc=$(cpu "$d/$s-pre.log" "$pre" "$gltf" -o "$d/$s.bbc" --chains "$chain" ${level:+--max-level $level} \
       --threads 2 --no-progress --json "$d/$s-pre.json")
     common="$gltf --cache $d/$s.bbc --only caustics --max-depth 3 --width $w --threads 2 --no-progress"
-    # The references: enumerations with two seeds, cached by scene content and options.
+    # The reference: two long bbc renders with other seeds (bbc converges several times
+    # faster than the enumeration), and an enumeration to check them against; cached by
+    # scene content and options in bench/work/refs (delete them when the renderer's
+    # expected image changes).
     sum=$(cat "$gltf" "${gltf%.gltf}.bin" 2> /dev/null | md5sum | cut -c1-8)
-    for seed in 1001 1002; do
-      ref=$work/refs/$s-$sum-w$w-enumerate-$refspp-$seed.exr
+    for job in bbc:$refspp:1001 bbc:$refspp:1002 enumerate:$chkspp:1001; do
+      m=${job%%:*}
+      rest=${job#*:}
+      ref=$work/refs/$s-$sum-w$w-$m-${rest%%:*}-${rest#*:}.exr
       if [ ! -f "$ref" ]; then
-        c=$(cpu "$d/$s-ref-$seed.log" "$ren" $common --method enumerate --spp "$refspp" --seed $seed -o "$ref.tmp.exr")
+        c=$(cpu "$d/$s-ref.log" "$ren" $common --method $m --spp "${rest%%:*}" --seed "${rest#*:}" -o "$ref.tmp.exr")
         mv "$ref.tmp.exr" "$ref"
         echo "$c" > "$ref.cpu"
       fi
     done
-    refa=$work/refs/$s-$sum-w$w-enumerate-$refspp-1001.exr
-    refb=$work/refs/$s-$sum-w$w-enumerate-$refspp-1002.exr
+    refa=$work/refs/$s-$sum-w$w-bbc-$refspp-1001.exr
+    refb=$work/refs/$s-$sum-w$w-bbc-$refspp-1002.exr
+    check=$work/refs/$s-$sum-w$w-enumerate-$chkspp-1001.exr
     set -- $(err "$refa" "$refb")
     agree=$2
+    set -- $(err "$refa" "$check")
+    check_err=$2
+    check_lit=$4
     refcpu=$(cat "$refa.cpu" "$refb.cpu" | awk '{ s += $1 } END { printf "%.0f", s }')
+    chkcpu=$(cat "$check.cpu")
     : > "$d/$s.dat"
     for m in bbc uniform enumerate; do
       : > "$d/$s-$m.xy"
-      list="1 2 4 8 16"
-      [ $m = enumerate ] && list="1 2 4"
+      list="1 2 4 8"
+      [ $m = enumerate ] && list="1 2"
       for spp in $list; do
         spp=$(n $spp)
         c=$(cpu "$d/$s-$m-$spp.log" "$ren" $common --method $m --spp "$spp" --seed 7 --stats -o "$d/$s-$m-$spp.exr")
@@ -315,14 +328,17 @@ scenes_part() {
     ee=$(interpolate "$d/$s-enumerate.xy" "$bc")
     smallest=$(awk '{ print $4 }' "$d/$s.dat" | sort -g | head -1)
     lit=$(awk '$1 == "bbc" { q = $5 } END { print q }' "$d/$s.dat")
+    # The check's own expected error: the enumeration's curve extrapolated to its CPU-s.
+    chk_own=$(interpolate "$d/$s-enumerate.xy" "$chkcpu")
     echo "$s $chain ${level:--} $pc $refspp $refcpu $agree $smallest $bc $be $ue $ee $lit" \
-      "$(slope "$d/$s-bbc.xy") $(slope "$d/$s-uniform.xy") $(slope "$d/$s-enumerate.xy")" >> "$d/summary.dat"
+      "$(slope "$d/$s-bbc.xy") $(slope "$d/$s-uniform.xy") $(slope "$d/$s-enumerate.xy")" \
+      "$chkspp $chkcpu $check_err $chk_own $check_lit" >> "$d/summary.dat"
   done
 
   gnuplot <<EOF
 set terminal pngcairo size 1100,800 font ",10"
 set output "$out/scenes.png"
-set multiplot layout 2,2 title "Caustic only, $w px wide, relMSE against enumeration ($commit)"
+set multiplot layout 2,2 title "Caustic only, $w px wide, relMSE against the reference ($commit)"
 set logscale xy
 set format y "%.0e"
 set xlabel "render CPU-seconds (user + sys)"
@@ -343,26 +359,30 @@ EOF
     echo
     echo "\`bbc-precompute SCENE -o C.bbc --chains CHAIN [--max-level L] --threads 2\`, then"
     echo "\`bbc-render SCENE --cache C.bbc --only caustics --max-depth 3 --width $w --threads 2"
-    echo "--method M --spp N --seed 7\`. Reference: \`--method enumerate\` with seeds 1001 and 1002"
-    echo "(cached in bench/work/refs); errors are against the first; the two agree to the"
-    echo "\"refs agree\" relMSE, which must be ten times below the smallest relMSE reported."
+    echo "--method M --spp N --seed 7\`. Reference: \`--method bbc\` at many spp with seeds 1001"
+    echo "and 1002 (cached in bench/work/refs); errors are against the first; the two agree to the"
+    echo "\"refs agree\" relMSE, which must be ten times below the smallest relMSE reported. Check:"
+    echo "an enumeration (seed 1001) against the first reference: its relMSE should be about the"
+    echo "enumeration's own error (its budget curve extrapolated to its CPU-s), and the lit-mean"
+    echo "ratio (reference / enumeration) 1 within that noise, if bbc converges to the enumeration."
     echo
-    echo "| scene | chain | level | precompute CPU-s | ref spp | ref CPU-s (both) | refs agree | smallest reported | ok |"
-    echo "|---|---|---|---|---|---|---|---|---|"
+    echo "| scene | chain | level | precompute CPU-s | ref spp | ref CPU-s (both) | refs agree | smallest reported | ok | check: enumerate spp | CPU-s | relMSE vs ref | its own expected | lit-mean ratio |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     awk '{ ok = ($7 * 10 <= $8) ? "yes" : "**no**"
-           printf "| %s | %s | %s | %s | %s | %s | %.2g | %.2g | %s |\n", $1, $2, $3, $4, $5, $6, $7, $8, ok }' \
+           printf "| %s | %s | %s | %s | %s | %s | %.2g | %.2g | %s | %s | %s | %.2g | %.2g | %.4f |\n", $1, $2, $3, $4, $5, $6, $7, $8, ok, $17, $18, $19, $20, $21 }' \
       "$d/summary.dat"
     echo
-    echo "At equal render CPU (uniform and enumerate interpolated log-log at bbc's largest budget):"
+    echo "At equal render CPU (uniform and enumerate interpolated log-log at bbc's largest budget,"
+    echo "extrapolated along 1/CPU beyond their ends):"
     echo
-    echo "| scene | CPU-s | bbc | uniform | enumerate | uniform / bbc | enumerate / bbc | bbc lit-mean vs enumeration | slopes bbc, uniform, enumerate |"
+    echo "| scene | CPU-s | bbc | uniform | enumerate | uniform / bbc | enumerate / bbc | bbc lit-mean ratio | slopes bbc, uniform, enumerate |"
     echo "|---|---|---|---|---|---|---|---|---|"
     awk '{ printf "| %s | %s | %.3g | %.3g | %.3g | %.2f | %.2f | %.4f | %s, %s, %s |\n", $1, $9, $10, $11, $12, $11 / $10, $12 / $10, $13, $14, $15, $16 }' \
       "$d/summary.dat"
     echo
     echo "Slopes: of log relMSE against log CPU-s over the budgets (-1: unbiased Monte Carlo with"
-    echo "independent samples; a bias or a floor flattens it). bbc converges to the enumeration"
-    echo "when its slope stays near -1 (or steeper) and its lit-mean ratio near 1."
+    echo "independent samples; a bias or a floor flattens it); bbc's lit-mean ratio at its largest"
+    echo "budget."
     echo
     echo "All runs:"
     echo
