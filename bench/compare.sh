@@ -177,7 +177,7 @@ flat() {
   pre_cpu=$(cpu "$d/pre.log" "$pre" "$scene" -o "$d/flat.bbc" --threads 2 --no-progress --json "$d/pre.json")
   tuples=$(sed -n 's/.*"tuples": \([0-9]*\).*/\1/p' "$d/pre.json" | head -1)
   : > "$d/bbc.dat"
-  for spp in 1 2 4 8 16 32 64 128; do
+  for spp in 1 2 4 8 16 32 64 128 256; do
     spp=$(n $spp)
     c=$(cpu "$d/bbc-$spp.log" "$ren" "$scene" --cache "$d/flat.bbc" --only caustics --width $w \
       --height $h --threads 2 --spp "$spp" --seed 7 --stats --no-progress -o "$d/bbc-$spp.exr")
@@ -282,12 +282,12 @@ scenes_part() {
     pc=$(cpu "$d/$s-pre.log" "$pre" "$gltf" -o "$d/$s.bbc" --chains "$chain" ${level:+--max-level $level} \
       --threads 2 --no-progress --json "$d/$s-pre.json")
     common="$gltf --cache $d/$s.bbc --only caustics --max-depth 3 --width $w --threads 2 --no-progress"
-    # The reference: two long bbc renders with other seeds (bbc converges several times
-    # faster than the enumeration), and an enumeration to check them against; cached by
-    # scene content and options in bench/work/refs (delete them when the renderer's
-    # expected image changes).
+    # The references: long renders by bbc and by the enumeration, two seeds each, cached
+    # by scene content and options in bench/work/refs (delete them when the renderer's
+    # expected image changes). Reference 1 is the mean of the seed-1001 pair, reference 2
+    # that of the seed-1002 pair: independent, and each half bbc, half enumeration.
     sum=$(cat "$gltf" "${gltf%.gltf}.bin" 2> /dev/null | md5sum | cut -c1-8)
-    for job in bbc:$refspp:1001 bbc:$refspp:1002 enumerate:$chkspp:1001; do
+    for job in bbc:$refspp:1001 bbc:$refspp:1002 enumerate:$chkspp:1001 enumerate:$chkspp:1002; do
       m=${job%%:*}
       rest=${job#*:}
       ref=$work/refs/$s-$sum-w$w-$m-${rest%%:*}-${rest#*:}.exr
@@ -297,16 +297,22 @@ scenes_part() {
         echo "$c" > "$ref.cpu"
       fi
     done
-    refa=$work/refs/$s-$sum-w$w-bbc-$refspp-1001.exr
-    refb=$work/refs/$s-$sum-w$w-bbc-$refspp-1002.exr
-    check=$work/refs/$s-$sum-w$w-enumerate-$chkspp-1001.exr
-    set -- $(err "$refa" "$refb")
+    r=$work/refs/$s-$sum-w$w
+    "$bin/bench/image_mean" "$r-bbc-$refspp-1001.exr" "$r-enumerate-$chkspp-1001.exr" -o "$d/$s-ref1.exr"
+    "$bin/bench/image_mean" "$r-bbc-$refspp-1002.exr" "$r-enumerate-$chkspp-1002.exr" -o "$d/$s-ref2.exr"
+    refa=$d/$s-ref1.exr
+    set -- $(err "$refa" "$d/$s-ref2.exr")
     agree=$2
-    set -- $(err "$refa" "$check")
+    # bbc against the enumeration: a bbc reference against the other seed's enumeration,
+    # beside the two enumerations against each other (their noise).
+    set -- $(err "$r-bbc-$refspp-1001.exr" "$r-enumerate-$chkspp-1002.exr")
     check_err=$2
     check_lit=$4
-    refcpu=$(cat "$refa.cpu" "$refb.cpu" | awk '{ s += $1 } END { printf "%.0f", s }')
-    chkcpu=$(cat "$check.cpu")
+    set -- $(err "$r-enumerate-$chkspp-1001.exr" "$r-enumerate-$chkspp-1002.exr")
+    enum_err=$2
+    enum_lit=$4
+    refcpu=$(cat "$r-bbc-$refspp-1001.exr.cpu" "$r-bbc-$refspp-1002.exr.cpu" | awk '{ s += $1 } END { printf "%.0f", s }')
+    chkcpu=$(cat "$r-enumerate-$chkspp-1001.exr.cpu" "$r-enumerate-$chkspp-1002.exr.cpu" | awk '{ s += $1 } END { printf "%.0f", s }')
     : > "$d/$s.dat"
     for m in bbc uniform enumerate; do
       : > "$d/$s-$m.xy"
@@ -328,11 +334,10 @@ scenes_part() {
     ee=$(interpolate "$d/$s-enumerate.xy" "$bc")
     smallest=$(awk '{ print $4 }' "$d/$s.dat" | sort -g | head -1)
     lit=$(awk '$1 == "bbc" { q = $5 } END { print q }' "$d/$s.dat")
-    # The check's own expected error: the enumeration's curve extrapolated to its CPU-s.
-    chk_own=$(interpolate "$d/$s-enumerate.xy" "$chkcpu")
+    spp_slope() { awk -v m="$1" '$1 == m { print $2, $4 }' "$d/$s.dat" > "$d/slope.xy"; slope "$d/slope.xy"; }
     echo "$s $chain ${level:--} $pc $refspp $refcpu $agree $smallest $bc $be $ue $ee $lit" \
-      "$(slope "$d/$s-bbc.xy") $(slope "$d/$s-uniform.xy") $(slope "$d/$s-enumerate.xy")" \
-      "$chkspp $chkcpu $check_err $chk_own $check_lit" >> "$d/summary.dat"
+      "$(spp_slope bbc) $(spp_slope uniform) $(spp_slope enumerate)" \
+      "$chkspp $chkcpu $check_err $enum_err $check_lit $enum_lit" >> "$d/summary.dat"
   done
 
   gnuplot <<EOF
@@ -359,17 +364,19 @@ EOF
     echo
     echo "\`bbc-precompute SCENE -o C.bbc --chains CHAIN [--max-level L] --threads 2\`, then"
     echo "\`bbc-render SCENE --cache C.bbc --only caustics --max-depth 3 --width $w --threads 2"
-    echo "--method M --spp N --seed 7\`. Reference: \`--method bbc\` at many spp with seeds 1001"
-    echo "and 1002 (cached in bench/work/refs); errors are against the first; the two agree to the"
-    echo "\"refs agree\" relMSE, which must be ten times below the smallest relMSE reported. Check:"
-    echo "an enumeration (seed 1001) against the first reference: its relMSE should be about the"
-    echo "enumeration's own error (its budget curve extrapolated to its CPU-s), and the lit-mean"
-    echo "ratio (reference / enumeration) 1 within that noise, if bbc converges to the enumeration."
+    echo "--method M --spp N --seed 7\`. References: long renders by \`--method bbc\` and"
+    echo "\`--method enumerate\`, seeds 1001 and 1002 each (cached in bench/work/refs); reference 1"
+    echo "is the mean of the two seed-1001 images, reference 2 that of the seed-1002 ones. Errors"
+    echo "are against reference 1; the two agree to the \"refs agree\" relMSE, which must be ten"
+    echo "times below the smallest relMSE reported. bbc against the enumeration: the bbc image of"
+    echo "seed 1001 against the enumeration of seed 1002, beside the two enumerations against each"
+    echo "other (their own noise): if bbc converges to the enumeration the two figures match and"
+    echo "the lit-mean ratios are 1 within that noise."
     echo
-    echo "| scene | chain | level | precompute CPU-s | ref spp | ref CPU-s (both) | refs agree | smallest reported | ok | check: enumerate spp | CPU-s | relMSE vs ref | its own expected | lit-mean ratio |"
-    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    echo "| scene | chain | level | precompute CPU-s | ref spp bbc, enumerate | ref CPU-s bbc, enumerate | refs agree | smallest reported | ok | bbc vs enumeration: relMSE, lit-mean | enumeration vs enumeration: relMSE, lit-mean |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|"
     awk '{ ok = ($7 * 10 <= $8) ? "yes" : "**no**"
-           printf "| %s | %s | %s | %s | %s | %s | %.2g | %.2g | %s | %s | %s | %.2g | %.2g | %.4f |\n", $1, $2, $3, $4, $5, $6, $7, $8, ok, $17, $18, $19, $20, $21 }' \
+           printf "| %s | %s | %s | %s | %s, %s | %s, %s | %.2g | %.2g | %s | %.2g, %.4f | %.2g, %.4f |\n", $1, $2, $3, $4, $5, $17, $6, $18, $7, $8, ok, $19, $21, $20, $22 }' \
       "$d/summary.dat"
     echo
     echo "At equal render CPU (uniform and enumerate interpolated log-log at bbc's largest budget,"
@@ -380,7 +387,7 @@ EOF
     awk '{ printf "| %s | %s | %.3g | %.3g | %.3g | %.2f | %.2f | %.4f | %s, %s, %s |\n", $1, $9, $10, $11, $12, $11 / $10, $12 / $10, $13, $14, $15, $16 }' \
       "$d/summary.dat"
     echo
-    echo "Slopes: of log relMSE against log CPU-s over the budgets (-1: unbiased Monte Carlo with"
+    echo "Slopes: of log relMSE against log spp over the budgets (-1: unbiased Monte Carlo with"
     echo "independent samples; a bias or a floor flattens it); bbc's lit-mean ratio at its largest"
     echo "budget."
     echo
