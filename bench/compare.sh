@@ -281,7 +281,9 @@ scenes_part() {
     [ -f "$gltf" ] || { echo "compare.sh: $gltf is missing, skipped" >&2; continue; }
     pc=$(cpu "$d/$s-pre.log" "$pre" "$gltf" -o "$d/$s.bbc" --chains "$chain" ${level:+--max-level $level} \
       --threads 2 --no-progress --json "$d/$s-pre.json")
-    common="$gltf --cache $d/$s.bbc --only caustics --max-depth 3 --width $w --threads 2 --no-progress"
+    # The camera path, the diffuse vertex and the chain's segments: 2 + its length.
+    depth=$((2 + ${#chain}))
+    common="$gltf --cache $d/$s.bbc --only caustics --max-depth $depth --width $w --threads 2 --no-progress"
     # The references: long renders by bbc and by the enumeration, two seeds each, cached
     # by scene content and options in bench/work/refs (delete them when the renderer's
     # expected image changes). Reference 1 is the mean of the seed-1001 pair, reference 2
@@ -290,14 +292,14 @@ scenes_part() {
     for job in bbc:$refspp:1001 bbc:$refspp:1002 enumerate:$chkspp:1001 enumerate:$chkspp:1002; do
       m=${job%%:*}
       rest=${job#*:}
-      ref=$work/refs/$s-$sum-w$w-$m-${rest%%:*}-${rest#*:}.exr
+      ref=$work/refs/$s-$sum-w$w-d$depth-$m-${rest%%:*}-${rest#*:}.exr
       if [ ! -f "$ref" ]; then
         c=$(cpu "$d/$s-ref.log" "$ren" $common --method $m --spp "${rest%%:*}" --seed "${rest#*:}" -o "$ref.tmp.exr")
         mv "$ref.tmp.exr" "$ref"
         echo "$c" > "$ref.cpu"
       fi
     done
-    r=$work/refs/$s-$sum-w$w
+    r=$work/refs/$s-$sum-w$w-d$depth
     "$bin/bench/image_mean" "$r-bbc-$refspp-1001.exr" "$r-enumerate-$chkspp-1001.exr" -o "$d/$s-ref1.exr"
     "$bin/bench/image_mean" "$r-bbc-$refspp-1002.exr" "$r-enumerate-$chkspp-1002.exr" -o "$d/$s-ref2.exr"
     refa=$d/$s-ref1.exr
@@ -363,8 +365,8 @@ EOF
     echo "## bbc, uniform and enumerate on the shared scenes"
     echo
     echo "\`bbc-precompute SCENE -o C.bbc --chains CHAIN [--max-level L] --threads 2\`, then"
-    echo "\`bbc-render SCENE --cache C.bbc --only caustics --max-depth 3 --width $w --threads 2"
-    echo "--method M --spp N --seed 7\`. References: long renders by \`--method bbc\` and"
+    echo "\`bbc-render SCENE --cache C.bbc --only caustics --max-depth D --width $w --threads 2"
+    echo "--method M --spp N --seed 7\` (D = 2 + the chain's length: the caustic path's segments). References: long renders by \`--method bbc\` and"
     echo "\`--method enumerate\`, seeds 1001 and 1002 each (cached in bench/work/refs); reference 1"
     echo "is the mean of the two seed-1001 images, reference 2 that of the seed-1002 ones. Errors"
     echo "are against reference 1; the two agree to the \"refs agree\" relMSE, which must be ten"
