@@ -2,6 +2,7 @@
 # The comparison benchmark: quality against CPU time of the caustic alone.
 #
 #   sh bench/compare.sh [--scale K] [--part all|flat|scenes] [--scenes DIR] [--width W]
+#   (BBC_BENCH_SCENES="plane1k pool4k" limits the shared scenes to those named)
 #
 # 1. flat mirror (bbc-scenegen flat-mirror, 100 triangles, 160x120, 2 threads): the exact
 #    image (bench/flat_mirror_exact), POV-Ray 3.7 photon mapping of the scene translated
@@ -270,6 +271,7 @@ scenes_part() {
   # scene:chain:level:reference spp (bbc):check spp (enumerate)
   for spec in plane1k:R::256:128 plane7k:R::256:128 pool4k:T::256:256 ball320:TT:3:2048:2048; do
     s=${spec%%:*}
+    case " ${BBC_BENCH_SCENES:-$s} " in *" $s "*) ;; *) continue ;; esac
     rest=${spec#*:}
     chain=${rest%%:*}
     rest=${rest#*:}
@@ -279,8 +281,14 @@ scenes_part() {
     chkspp=$(n "${rest#*:}")
     gltf=$scenes/$s.gltf
     [ -f "$gltf" ] || { echo "compare.sh: $gltf is missing, skipped" >&2; continue; }
-    pc=$(cpu "$d/$s-pre.log" "$pre" "$gltf" -o "$d/$s.bbc" --chains "$chain" ${level:+--max-level $level} \
-      --threads 2 --no-progress --json "$d/$s-pre.json")
+    # The precompute, reused while the cache is newer than bbc-precompute and the scene.
+    if [ -f "$d/$s-pre.cpu" ] && [ "$d/$s.bbc" -nt "$pre" ] && [ "$d/$s.bbc" -nt "$gltf" ]; then
+      pc=$(cat "$d/$s-pre.cpu")
+    else
+      pc=$(cpu "$d/$s-pre.log" "$pre" "$gltf" -o "$d/$s.bbc" --chains "$chain" ${level:+--max-level $level} \
+        --threads 2 --no-progress --json "$d/$s-pre.json")
+      echo "$pc" > "$d/$s-pre.cpu"
+    fi
     # The camera path, the diffuse vertex and the chain's segments: 2 + its length.
     depth=$((2 + ${#chain}))
     common="$gltf --cache $d/$s.bbc --only caustics --max-depth $depth --width $w --threads 2 --no-progress"
@@ -352,7 +360,7 @@ set xlabel "render CPU-seconds (user + sys)"
 set ylabel "relMSE"
 set grid
 set key top right
-do for [s in "plane1k plane7k pool4k ball320"] {
+do for [s in "$(awk '{ printf "%s ", $1 }' "$d/summary.dat")"] {
   set title s
   plot "$d/".s."-bbc.xy" with linespoints lw 2 lc rgb "#c00000" title "bbc", \
        "$d/".s."-uniform.xy" with linespoints lc rgb "#0060c0" title "uniform", \
