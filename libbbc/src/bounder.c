@@ -410,6 +410,25 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
     bbc_poly *flat[9] = {&qq, &pp, &rr, &qs, &qt, &ps, &pt, &rs, &rt};
     for (int i = 0; i < 9; i++) TRY(bbc__flatten(arena, space, flat[i], in[i], REDUCED_DEGREE));
     q = &qq, p = &pp, r = &rr;
+    /* (p, r) -> (p - u0 q, r - v0 q) with constants u0, v0 (the hit at the piece's
+     * centre): the same Jacobian exactly, as a determinant is unchanged by adding a
+     * multiple of one column to another (and u_s = (p_s q - p q_s) / q^2 likewise), but
+     * the shifted forms are small where p/q is near u0, so the error radii that multiply
+     * them no longer swamp the cancelling terms. */
+    double centre[BBC_POLY_MAX_AXES];
+    for (int j = 0; j < BBC_POLY_MAX_AXES; j++) centre[j] = 0.5;
+    double qc = bbc_poly_eval(q, centre);
+    double shift[2] = {bbc_poly_eval(p, centre) / qc, bbc_poly_eval(r, centre) / qc};
+    bbc_poly *cols[2][3] = {{&pp, &ps, &pt}, {&rr, &rs, &rt}};
+    const bbc_poly *base[3] = {&qq, &qs, &qt};
+    for (int k = 0; k < 2; k++) {
+      if (!isfinite(shift[k])) continue;
+      const double alpha[2] = {1.0, -shift[k]};
+      for (int i = 0; i < 3; i++) {
+        const bbc_poly *terms[2] = {cols[k][i], base[i]};
+        TRY(bbc_poly_lincomb(arena, cols[k][i], 2, alpha, terms));
+      }
+    }
   } else {
     TRY(bbc_poly_derivative(arena, &qs, q, s_axis));
     TRY(bbc_poly_derivative(arena, &qt, q, t_axis));

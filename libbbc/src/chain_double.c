@@ -23,7 +23,8 @@
  *
  * Square roots (Eq. 10-11): the value is the primal linearisation with its remainder
  * axis (Supp. Eq. 6-12), flattened at once; the derivative is sqrt'(beta) beta' with
- * sqrt'(beta) = 1 / (2 sqrt(beta)) enclosed by the interval over beta's range. */
+ * sqrt'(beta) = 1 / (2 sqrt(beta)) enclosed by a linear function of beta plus an interval
+ * over beta's range (slope_linear). */
 #include <float.h>
 #include <math.h>
 #include <string.h>
@@ -234,10 +235,48 @@ static bbc_result dv_affine(const dual_ctx *c, dvec *out, bbc_vec3 base, bbc_vec
   return BBC_OK;
 }
 
+/* e(x) = 1 / (2 sqrt(x)) - a x - b for x in the interval X, outward rounded. */
+static bbc_interval slope_error(bbc_interval x, double a, double b) {
+  bbc_interval f = bbc_interval_div(bbc_interval_point(0.5), bbc_interval_sqrt(x));
+  return bbc_interval_sub(bbc_interval_sub(f, bbc_interval_scale(x, a)), bbc_interval_point(b));
+}
+
+/* 1 / (2 sqrt(x)) on [l, r] (0 < l <= r) as a x + b + e, e in *err: the chord. The
+ * function is convex, so e is convex too: its maximum is at an end, and it lies above its
+ * tangent at any x0 (taken where e' is about 0), whose minimum over [l, r] is at an end.
+ * Every value is enclosed in interval arithmetic, whatever a, b and x0 are; they only
+ * decide how tight. The error is second order in r - l, where a constant interval
+ * [1 / (2 sqrt(r)), 1 / (2 sqrt(l))] is first order. */
+static void slope_linear(double l, double r, double *a, double *b, bbc_interval *err) {
+  double fl = 0.5 / sqrt(l), fr = 0.5 / sqrt(r);
+  double A = r > l ? (fr - fl) / (r - l) : 0.0;
+  if (!isfinite(A)) A = 0.0;
+  double B = fl - A * l;
+  bbc_interval el = slope_error(bbc_interval_point(l), A, B);
+  bbc_interval er = slope_error(bbc_interval_point(r), A, B);
+  double x0 = A < 0 ? pow(-0.25 / A, 2.0 / 3.0) : l;
+  if (!(x0 >= l)) x0 = l;
+  if (!(x0 <= r)) x0 = r;
+  bbc_interval X0 = bbc_interval_point(x0);
+  bbc_interval e0 = slope_error(X0, A, B);
+  /* e'(x0) = -1 / (4 x0^1.5) - a */
+  bbc_interval d0 = bbc_interval_sub(
+      bbc_interval_neg(bbc_interval_div(bbc_interval_point(0.25),
+                                        bbc_interval_mul(X0, bbc_interval_sqrt(X0)))),
+      bbc_interval_point(A));
+  bbc_interval tl = bbc_interval_add(e0, bbc_interval_mul(d0, bbc_interval_sub(bbc_interval_point(l), X0)));
+  bbc_interval tr = bbc_interval_add(e0, bbc_interval_mul(d0, bbc_interval_sub(bbc_interval_point(r), X0)));
+  *a = A;
+  *b = B;
+  err->lo = fmin(tl.lo, tr.lo);
+  err->hi = fmax(el.hi, er.hi);
+}
+
 /* sqrt(beta) with beta >= 0 where it matters: the value by the primal linearisation and
  * its remainder axis, flattened so the axis is free again; the derivatives beta' times
- * the interval of 1 / (2 sqrt(beta)) over beta's range. *slope_enclosed is cleared when
- * beta's range reaches down to 0, where that interval is unbounded. */
+ * 1 / (2 sqrt(beta)), linearised in beta over beta's range (slope_linear).
+ * *slope_enclosed is cleared when beta's range reaches down to 0, where that slope is
+ * unbounded. */
 static bbc_result ds_sqrt(const dual_ctx *c, dscal *out, const dscal *beta, int *slope_enclosed) {
   bbc_poly root;
   int axis = -1;
@@ -246,18 +285,27 @@ static bbc_result ds_sqrt(const dual_ctx *c, dscal *out, const dscal *beta, int 
   if (axis >= 0) bbc_space_release_axis(c->space, axis);
   if (r != BBC_OK || !c->derivatives) return r;
   bbc_interval range = bbc_poly_bound(&beta->v);
-  bbc_interval slope;
+  bbc_poly k;
   if (!(range.lo > 0) || !isfinite(range.hi)) {
     *slope_enclosed = 0;
-    slope = bbc_interval_make(0, 0);
+    TRY(zero(c->arena, &k));
   } else {
-    bbc_interval two_root = bbc_interval_scale(bbc_interval_sqrt(range), 2.0);
-    slope = bbc_interval_div(bbc_interval_point(1.0), two_root);
+    double a, b;
+    bbc_interval e;
+    slope_linear(range.lo, range.hi, &a, &b, &e);
+    if (!(e.lo <= e.hi) || !isfinite(e.lo) || !isfinite(e.hi)) {
+      *slope_enclosed = 0;
+      TRY(zero(c->arena, &k));
+    } else {
+      double mid = 0.5 * e.lo + 0.5 * e.hi;
+      bbc_poly ab;
+      TRY(bbc_poly_scale(c->arena, &ab, &beta->v, a));
+      TRY(bbc_poly_add_scalar(c->arena, &k, &ab, b + mid));
+      /* b + mid is rounded once more: an ulp of it. */
+      bbc_poly_widen(&k, fmax(e.hi - mid, mid - e.lo) * (1 + 4 * DBL_EPSILON) +
+                             DBL_EPSILON * fabs(b + mid) + DBL_MIN);
+    }
   }
-  bbc_poly k;
-  double mid = 0.5 * slope.lo + 0.5 * slope.hi;
-  TRY(bbc_poly_constant(c->arena, &k, mid));
-  bbc_poly_widen(&k, fmax(slope.hi - mid, mid - slope.lo) * (1 + 4 * DBL_EPSILON) + DBL_MIN);
   TRY(bbc_poly_mul(c->arena, &out->s, &k, &beta->s));
   return bbc_poly_mul(c->arena, &out->t, &k, &beta->t);
 }
