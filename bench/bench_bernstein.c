@@ -257,6 +257,27 @@ int main(int argc, char **argv) {
   row("rational bound p/q (elevates q)", "(4,4) / (3,3)", do_rational, &small, &arena);
   row("polynomial bound", "(4,4)", do_bound, &small, &arena);
 
+  /* The products the two-bounce forms spend their time in (degree-3 intermediates, the
+   * 4D implicit forms). */
+  {
+    static const unsigned char shapes[][2][4] = {
+        {{3, 3, 0, 0}, {3, 3, 0, 0}}, {{3, 3, 0, 0}, {6, 6, 0, 0}}, {{6, 6, 0, 0}, {6, 6, 0, 0}},
+        {{0, 0, 0, 0}, {3, 3, 0, 0}}, {{3, 3, 1, 1}, {3, 3, 1, 1}}, {{6, 6, 0, 0}, {3, 3, 2, 2}}};
+    for (size_t k = 0; k < sizeof shapes / sizeof shapes[0]; k++) {
+      ctx2 c;
+      memset(&c, 0, sizeof c);
+      unsigned char da[NAX] = {0}, db[NAX] = {0};
+      const int ax[4] = {sx, sy, NAX - 3, NAX - 4};
+      for (int j = 0; j < 4; j++) da[ax[j]] = shapes[k][0][j], db[ax[j]] = shapes[k][1][j];
+      c.p = random_poly(&arena, da, -1.0, 1.0);
+      c.q = random_poly(&arena, db, 0.5, 2.0);
+      char name[64];
+      snprintf(name, sizeof name, "(%d,%d,%d,%d) x (%d,%d,%d,%d)", da[ax[0]], da[ax[1]], da[ax[2]],
+               da[ax[3]], db[ax[0]], db[ax[1]], db[ax[2]], db[ax[3]]);
+      row("product (two-bounce shapes)", name, do_mul, &c, &arena);
+    }
+  }
+
   /* Large: two geometric axes of degree 15 and two remainder axes. */
   ctx2 big;
   memset(&big, 0, sizeof big);

@@ -593,6 +593,7 @@ typedef enum kind {
   KIND_TWO_MIRRORS,
   KIND_MIRROR_POOL,
   KIND_WAVY_CORNER,
+  KIND_GLASS_BOX,
   KIND_COUNT
 } kind;
 
@@ -612,6 +613,7 @@ static const kind_info KINDS[KIND_COUNT] = {
     {"two-mirrors", 8, "two flat mirror walls in a right-angled corner (double reflection)"},
     {"mirror-pool", 2000, "the pool with a mirror above the water and one under it (RT, TR)"},
     {"wavy-corner", 200, "two-mirrors with bumpy walls (double reflection, curved)"},
+    {"glass-box", 12, "glass-slab with a flat top: flat parallel faces, finite caustic"},
 };
 
 typedef struct options {
@@ -710,6 +712,19 @@ static void build_scene(scene *s, const options *o) {
       /* The slab floats 0.5 above the floor and its caustic falls mostly under it, within
        * about 1.3 of the centre; a low camera off the corner sees it through the gap as
        * well as through the glass. */
+      s->light = v3(0, 3, 0.5), s->intensity = 20;
+      s->eye = v3(3, 2.2, 3.5), s->target = v3(0, 0.25, 0);
+      break;
+    }
+    case KIND_GLASS_BOX: {
+      /* The glass slab's box with a flat top: every face flat with flat normals, so the
+       * light it transmits is smooth and finite everywhere (no focus), a case for the
+       * two-bounce irradiance bounds to stay finite. Same light, floor and camera. */
+      mesh *box = scene_add_mesh(s, "glass_box", MAT_GLASS, ROLE_CASTER);
+      slab_params q = {0.0, 1.0, 0.8};
+      add_slab(box, slab_grid_side(size), &q);
+      mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
+      add_plane(floor, -3, 3, -3, 3, 0, 1, 1);
       s->light = v3(0, 3, 0.5), s->intensity = 20;
       s->eye = v3(3, 2.2, 3.5), s->target = v3(0, 0.25, 0);
       break;

@@ -65,3 +65,5 @@ for kind in pool two-mirrors glass-slab; do
   scene $kind --size $size --sun 2 -o "$out/$kind-sun.gltf"
   scene $kind --size $size --spot 0.6 -o "$out/$kind-spot.gltf"
 done
+# Finite double refraction: the closed glass box with flat parallel faces (12 triangles).
+scene glass-box -o "$out/glass-box.gltf"

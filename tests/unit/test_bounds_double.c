@@ -129,6 +129,18 @@ TEST(glass_slab_tt) {
   expect_valid(&acc, 1000);
 }
 
+/* The closed glass box with flat parallel faces: the light it transmits twice is smooth
+ * and finite everywhere, so at the paper's level 3 every admissible path must lie in a
+ * piece with a finite irradiance bound. (Control: with the slope of sqrt(beta) enclosed by
+ * a constant interval, 44 of the 5,134 admissible paths here were in unbounded pieces.) */
+TEST(glass_box_tt_bounded) {
+  const scene_case c = {TEST_SCENE("glass-box.gltf"), TT, 3, 1, 100, 3000, 1, 30000};
+  bbc_validation acc;
+  validate_scene(&c, "glass-box TT", &acc);
+  expect_valid(&acc, 1000);
+  CHECK_INT(acc.unbounded, 0);
+}
+
 /* The shared scenes of the issue, in the paper's set-ups. */
 TEST(ball80_tt) {
   const scene_case c = {SHARED_SCENE("ball80.gltf"), TT, 4, 1, 12, 3000, 1, 2000};
