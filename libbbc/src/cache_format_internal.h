@@ -137,6 +137,28 @@ void bbc__xxh64_update(bbc__xxh64_state *s, const void *data, size_t size);
 uint64_t bbc__xxh64_final(const bbc__xxh64_state *s);
 uint64_t bbc__xxh64(const void *data, size_t size);
 
+/* R-INF-1: INFO is well-formed UTF-8 (RFC 3629: shortest form, no surrogates, at most
+ * U+10FFFF) without control characters (U+0000-U+001F, U+007F-U+009F). */
+static inline int bbc__info_text_valid(const uint8_t *p, size_t n) {
+  for (size_t i = 0; i < n;) {
+    uint32_t c = p[i], len = c < 0x80 ? 1 : c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3
+                                       : c >= 0xF0 && c <= 0xF4                   ? 4
+                                                                                  : 0;
+    if (len == 0 || len > n - i) return 0;
+    if (len > 1) c &= 0x3Fu >> (len - 1);
+    for (uint32_t k = 1; k < len; k++) {
+      if ((p[i + k] & 0xC0) != 0x80) return 0;
+      c = (c << 6) | (p[i + k] & 0x3Fu);
+    }
+    static const uint32_t least[5] = {0, 0, 0x80, 0x800, 0x10000};
+    if (c < least[len] || c > 0x10FFFF || (c >= 0xD800 && c <= 0xDFFF) || c < 0x20 ||
+        (c >= 0x7F && c <= 0x9F))
+      return 0;
+    i += len;
+  }
+  return 1;
+}
+
 /* The 64-byte PARM encoding of parameters (Sec. 5.1). */
 void bbc__params_encode(const bbc_precompute_params *p, uint8_t out[BBC__PARM_SIZE]);
 /* 1 if the parameters satisfy R-PAR-1. */

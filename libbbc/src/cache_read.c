@@ -149,14 +149,18 @@ static bbc_result check_header_and_directory(bbc_cache *c) {
     return fail(c, BBC_ERR_TRUNCATED, "header", 16,
                 "file has %llu bytes, its header says %llu (R-HDR-7)", (unsigned long long)size,
                 (unsigned long long)file_size);
-  if (size > file_size || file_size % BBC__ALIGN != 0)
+  if (file_size % BBC__ALIGN != 0)
+    return fail(c, BBC_ERR_CORRUPT, "header", 16,
+                "file size %llu in the header is not a multiple of 64 (R-HDR-7)",
+                (unsigned long long)file_size);
+  if (size > file_size)
     return fail(c, BBC_ERR_CORRUPT, "header", 16,
                 "file has %llu bytes, its header says %llu (R-HDR-7)", (unsigned long long)size,
                 (unsigned long long)file_size);
   uint64_t dir_end = BBC__HEADER_SIZE + (uint64_t)BBC__DIR_ENTRY_SIZE * n;
   if (dir_end > file_size)
     return fail(c, BBC_ERR_CORRUPT, "directory", BBC__HEADER_SIZE,
-                "%u entries do not fit in the file (R-LAY-1)", n);
+                "%u entries run past the end of the file (R-HDR-9)", n);
   if (CHECKSUM_DIFFERS(crc_of(p + BBC__HEADER_SIZE, dir_end - BBC__HEADER_SIZE), bbc__ld32(p + 28)))
     return fail(c, BBC_ERR_CHECKSUM, "directory", BBC__HEADER_SIZE,
                 "directory checksum mismatch (R-DIR-1)");
@@ -176,6 +180,10 @@ static bbc_result check_header_and_directory(bbc_cache *c) {
     if ((s->flags & ~BBC__SECTION_REQUIRED) != 0 || bbc__ld32(e + 28) != 0)
       return fail(c, BBC_ERR_CORRUPT, "directory", at + 4,
                   "section %s: reserved flag bits or field not zero (R-DIR-2)", s->name);
+    for (int k = 0; k < 4; k++)
+      if (e[k] < 0x21 || e[k] > 0x7E)
+        return fail(c, BBC_ERR_CORRUPT, "directory", at,
+                    "section type byte 0x%02x is not printable ASCII (R-DIR-7)", e[k]);
     /* R-LAY-1: the one placement allowed, which also rules out overlaps and sections
      * outside the file. */
     if (s->offset != bbc__align64(end + BBC__MIN_PADDING))
@@ -287,8 +295,11 @@ static bbc_result check_params_and_fingerprint(bbc_cache *c) {
   q->grid_resolution = bbc__ld32(p + 40);
   uint32_t flags = bbc__ld32(p + 44);
   q->remainder = flags & 1u;
+  if ((q->chains & ~BBC_CHAIN_MASK_ALL) != 0)
+    return fail(c, BBC_ERR_CORRUPT, "PARM", at, "reserved chain bits 0x%x not zero (R-FILE-2)",
+                q->chains & ~BBC_CHAIN_MASK_ALL);
   if ((flags & ~1u) != 0 || !all_zero(p + 48, 16))
-    return fail(c, BBC_ERR_CORRUPT, "PARM", at + 44, "reserved bits not zero (R-PAR-1)");
+    return fail(c, BBC_ERR_CORRUPT, "PARM", at + 44, "reserved bits not zero (R-FILE-2)");
   if (!bbc__params_valid(q))
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "parameter out of its range (R-PAR-1)");
 
@@ -375,6 +386,16 @@ static bbc_result check_receivers(bbc_cache *c) {
       return fail(c, BBC_ERR_CORRUPT, "RCVR", at + 40,
                   "receiver %llu: domain or axes not finite or inverted (R-RCV-4)",
                   (unsigned long long)i);
+    /* R-RCV-5: TEXCOORD_0 has no axes; a projection has two non-zero ones. */
+    int axes_zero = all_zero(e + 72, 24) + all_zero(e + 96, 24);
+    if (r->parameterisation == BBC_PARAM_TEXCOORD
+            ? axes_zero != 2
+            : (r->axis_u[0] == 0 && r->axis_u[1] == 0 && r->axis_u[2] == 0) ||
+                  (r->axis_v[0] == 0 && r->axis_v[1] == 0 && r->axis_v[2] == 0))
+      return fail(c, BBC_ERR_CORRUPT, "RCVR", at + 72,
+                  "receiver %llu: axes %s for parameterisation %u (R-RCV-5)",
+                  (unsigned long long)i, axes_zero == 2 ? "zero" : "not zero",
+                  r->parameterisation);
     if (!all_zero(e + 120, 8))
       return fail(c, BBC_ERR_CORRUPT, "RCVR", at + 120,
                   "receiver %llu: reserved bytes not zero (R-FILE-2)", (unsigned long long)i);
@@ -387,14 +408,14 @@ static bbc_result check_receivers(bbc_cache *c) {
   c->grid.cell_count = cells;
   c->grid.uv_triangle_count = uvs;
 
-  /* R-SEC-1 with the counts now known, then R-UV-1. */
+  /* R-SEC-2: the sizes the verified RCVR implies, then R-UV-1. */
   if (c->sec_size[K_TRUV] != (uint64_t)BBC__TRUV_SIZE * uvs)
     return fail(c, BBC_ERR_CORRUPT, "TRUV", c->sec_offset[K_TRUV],
-                "%llu bytes for %llu receiver triangles (R-SEC-1)",
+                "%llu bytes for %llu receiver triangles (R-SEC-2)",
                 (unsigned long long)c->sec_size[K_TRUV], (unsigned long long)uvs);
   if (c->sec_size[K_CIDX] != (uint64_t)BBC__CIDX_SIZE * cells)
     return fail(c, BBC_ERR_CORRUPT, "CIDX", c->sec_offset[K_CIDX],
-                "%llu bytes for %llu cells (R-SEC-1)", (unsigned long long)c->sec_size[K_CIDX],
+                "%llu bytes for %llu cells (R-SEC-2)", (unsigned long long)c->sec_size[K_CIDX],
                 (unsigned long long)cells);
   /* 64-byte aligned section of a 64-byte aligned base: the floats are aligned. */
   const float *uv = (const float *)(const void *)c->sec[K_TRUV];
@@ -555,7 +576,11 @@ static bbc_result open_bytes(bbc_cache *c) {
   if (!c->chunk_verified) return fail(c, BBC_ERR_OUT_OF_MEMORY, "CHNK", 0, "out of memory");
   if (c->sec[K_INFO]) {
     size_t n = (size_t)c->sec_size[K_INFO];
+    if (!bbc__info_text_valid(c->sec[K_INFO], n))
+      return fail(c, BBC_ERR_CORRUPT, "INFO", c->sec_offset[K_INFO],
+                  "not UTF-8 text without control characters (R-INF-1)");
     if (n > sizeof c->writer - 1) n = sizeof c->writer - 1;
+    while (n < c->sec_size[K_INFO] && (c->sec[K_INFO][n] & 0xC0) == 0x80) n--; /* whole chars */
     memcpy(c->writer, c->sec[K_INFO], n);
     c->writer[n] = '\0';
   }
@@ -802,6 +827,12 @@ static bbc_result decode_chunk(const reporter *rp, ZSTD_DCtx *dctx, uint32_t k, 
       return rfail(rp, BBC_ERR_CHECKSUM, "CDAT", at, "chunk %u checksum mismatch (R-CHK-3)", k);
     atomic_store_explicit(&c->chunk_verified[k], 1, memory_order_relaxed);
   }
+  /* R-CHK-6: a zstd data frame (not skippable, not a legacy format) without dictionary. */
+  if (csize < 4 || bbc__ld32(src) != ZSTD_MAGICNUMBER)
+    return rfail(rp, BBC_ERR_CORRUPT, "CDAT", at,
+                 "chunk %u does not start with the zstd frame magic (R-CHK-6)", k);
+  if (ZSTD_getDictID_fromFrame(src, csize) != 0)
+    return rfail(rp, BBC_ERR_CORRUPT, "CDAT", at, "chunk %u needs a zstd dictionary (R-CHK-6)", k);
   /* R-CHK-4: one frame, declaring and holding exactly 6N bytes. */
   size_t want = (size_t)n * BBC__ENTRY_BYTES;
   unsigned long long declared = ZSTD_getFrameContentSize(src, csize);

@@ -476,7 +476,8 @@ bbc_result bbc__cache_builder_set_candidate(bbc_cache_builder *b, uint32_t id, u
 }
 
 bbc_result bbc__cache_builder_set_info(bbc_cache_builder *b, const void *text, size_t size) {
-  if (!b || (text && size > BBC__MAX_INFO)) return BBC_ERR_INVALID_ARGUMENT;
+  if (!b || (text && (size > BBC__MAX_INFO || !bbc__info_text_valid(text, size))))
+    return BBC_ERR_INVALID_ARGUMENT;
   char *copy = NULL;
   if (text) {
     copy = malloc(size ? size : 1);

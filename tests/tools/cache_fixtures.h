@@ -321,15 +321,12 @@ static uint64_t fx_section_offset(const uint8_t *bytes, const char *name, uint64
   return 0;
 }
 
-/* Replaces the chunk data of a one-chunk file by one frame of the given planes (n
- * entries, declared as `declared` bytes of content). */
-static uint8_t *fx_with_chunk(const uint8_t *bytes, const void *planes, size_t planes_size,
+/* Replaces the chunk data of a one-chunk file by the given bytes, as a chunk of
+ * `entries` entries with a valid checksum. */
+static uint8_t *fx_with_frame(const uint8_t *bytes, const uint8_t *frame, size_t n,
                               uint32_t entries, size_t *size) {
   fx_file f;
   fx_parse(bytes, &f);
-  size_t cap = ZSTD_compressBound(planes_size);
-  uint8_t *frame = malloc(cap);
-  size_t n = ZSTD_compress(frame, cap, planes, planes_size, 3);
   fx_replace(fx_find(&f, "CDAT"), frame, n);
   uint8_t rec[24] = {0};
   fx_st64(rec, 0);
@@ -337,10 +334,44 @@ static uint8_t *fx_with_chunk(const uint8_t *bytes, const void *planes, size_t p
   fx_st32(rec + 12, entries);
   fx_st32(rec + 16, fx_crc(frame, n));
   fx_replace(fx_find(&f, "CHNK"), rec, 24);
-  free(frame);
   uint8_t *out = fx_serialize(&f, size);
   fx_free(&f);
   return out;
+}
+
+/* The same with one frame of the given planes (n entries), compressed at level 3 with
+ * the content checksum flag `checksum`. */
+static uint8_t *fx_with_chunk_flags(const uint8_t *bytes, const void *planes, size_t planes_size,
+                                    uint32_t entries, int checksum, size_t *size) {
+  size_t cap = ZSTD_compressBound(planes_size);
+  uint8_t *frame = malloc(cap);
+  ZSTD_CCtx *cctx = ZSTD_createCCtx();
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_compressionLevel, 3);
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_checksumFlag, checksum);
+  size_t n = ZSTD_compress2(cctx, frame, cap, planes, planes_size);
+  ZSTD_freeCCtx(cctx);
+  uint8_t *out = fx_with_frame(bytes, frame, n, entries, size);
+  free(frame);
+  return out;
+}
+
+static uint8_t *fx_with_chunk(const uint8_t *bytes, const void *planes, size_t planes_size,
+                              uint32_t entries, size_t *size) {
+  return fx_with_chunk_flags(bytes, planes, planes_size, entries, 0, size);
+}
+
+/* The one frame of the minimal file (Appendix A: single segment, 1-byte content size)
+ * with a Dictionary_ID field of one byte holding `id` inserted after the frame header
+ * descriptor; *n is its size. */
+static uint8_t *fx_minimal_frame_with_dict_id(const uint8_t *mini, uint8_t id, size_t *n) {
+  uint64_t csize = 0, off = fx_section_offset(mini, "CDAT", &csize, NULL);
+  uint8_t *frame = malloc(csize + 1);
+  memcpy(frame, mini + off, 5);
+  frame[4] |= 1; /* Dictionary_ID_flag 1: a 1-byte field */
+  frame[5] = id;
+  memcpy(frame + 6, mini + off + 5, csize - 5);
+  *n = csize + 1;
+  return frame;
 }
 
 /* ------------------------------------------------------------------ invalid corpus */
@@ -579,6 +610,113 @@ static int fx_invalid_corpus(fx_case *cases) {
     fx_add(cases, &n, BBC_ERR_CORRUPT, "bound-code-nan", b, s);
     b = fx_with_chunk(mini, planes, 12, 1, &s); /* 12 bytes for 1 entry */
     fx_add(cases, &n, BBC_ERR_CORRUPT, "frame-size-mismatch", b, s);
+  }
+  /* R-CHK-4 and R-CHK-6: zstd frame details, on the minimal file's chunk of 4 entries. */
+  {
+    uint64_t csize = 0, off = fx_section_offset(mini, "CDAT", &csize, NULL);
+    uint8_t frame[256], planes[24] = {0, 0, 0, 0, 0, 0x7F, 0, 0, 0, 0, 0, 0x7F,
+                                      0, 0, 0, 0, 0, 0x7F, 0, 0, 0, 0, 0, 0x7F};
+    size_t fn;
+    /* A skippable frame (magic 0x184D2A50) holding the 24 bytes. */
+    fx_st32(frame, 0x184D2A50u);
+    fx_st32(frame + 4, 24);
+    memcpy(frame + 8, planes, 24);
+    fx_add(cases, &n, BBC_ERR_CORRUPT, "chunk-skippable-frame", fx_with_frame(mini, frame, 32, 4, &s),
+           s);
+    /* The frame followed by an empty skippable frame, and by one stray byte. */
+    memcpy(frame, mini + off, csize);
+    fx_st32(frame + csize, 0x184D2A5Fu);
+    fx_st32(frame + csize + 4, 0);
+    fx_add(cases, &n, BBC_ERR_CORRUPT, "chunk-frame-then-skippable-frame",
+           fx_with_frame(mini, frame, csize + 8, 4, &s), s);
+    frame[csize] = 0;
+    fx_add(cases, &n, BBC_ERR_CORRUPT, "chunk-frame-then-trailing-byte",
+           fx_with_frame(mini, frame, csize + 1, 4, &s), s);
+    /* Two frames of 12 bytes each (each declares half the chunk). */
+    size_t h = ZSTD_compress(frame, 128, planes, 12, 3);
+    h += ZSTD_compress(frame + h, 128, planes + 12, 12, 3);
+    fx_add(cases, &n, BBC_ERR_CORRUPT, "chunk-two-frames", fx_with_frame(mini, frame, h, 4, &s), s);
+    /* No Frame_Content_Size field (a non-single-segment frame with FCS flag 0). */
+    {
+      ZSTD_CCtx *cctx = ZSTD_createCCtx();
+      ZSTD_CCtx_setParameter(cctx, ZSTD_c_contentSizeFlag, 0);
+      fn = ZSTD_compress2(cctx, frame, sizeof frame, planes, 24);
+      ZSTD_freeCCtx(cctx);
+      fx_add(cases, &n, BBC_ERR_CORRUPT, "chunk-frame-without-content-size",
+             fx_with_frame(mini, frame, fn, 4, &s), s);
+    }
+    /* A frame that names dictionary 7. */
+    uint8_t *d = fx_minimal_frame_with_dict_id(mini, 7, &fn);
+    fx_add(cases, &n, BBC_ERR_CORRUPT, "chunk-frame-needs-dictionary",
+           fx_with_frame(mini, d, fn, 4, &s), s);
+    free(d);
+    /* The zstd magic with a legacy (v0.7) magic instead. */
+    memcpy(frame, mini + off, csize);
+    fx_st32(frame, 0xFD2FB527u);
+    fx_add(cases, &n, BBC_ERR_CORRUPT, "chunk-legacy-zstd-magic",
+           fx_with_frame(mini, frame, csize, 4, &s), s);
+    /* A content checksum that does not match the content. */
+    b = fx_with_chunk_flags(mini, planes, 24, 4, 1, &s);
+    {
+      uint64_t o2 = fx_section_offset(b, "CDAT", &csize, NULL);
+      memcpy(frame, b + o2, csize);
+      free(b);
+      frame[csize - 1] ^= 0x55;
+      fx_add(cases, &n, BBC_ERR_CORRUPT, "chunk-frame-content-checksum-mismatch",
+             fx_with_frame(mini, frame, csize, 4, &s), s);
+    }
+  }
+  /* R-HDR-7: file_size not a multiple of 64, for a file as long as it says and for a
+   * shorter one (truncation is told first). */
+  b = calloc(1, size + 13);
+  memcpy(b, base, size);
+  fx_st64(b + 16, size + 13);
+  fx_fix_crcs(b);
+  fx_add(cases, &n, BBC_ERR_CORRUPT, "file-size-not-multiple-of-64", b, size + 13);
+  b = fx_copy(base, size);
+  fx_st64(b + 16, size + 13);
+  fx_fix_crcs(b);
+  fx_add(cases, &n, BBC_ERR_TRUNCATED, "short-and-file-size-not-multiple-of-64", b, size);
+  /* R-HDR-9: a directory that runs past the end of the file (40 entries, 1344 bytes, in
+   * the 1152-byte minimal file). */
+  b = fx_copy(mini, min_size);
+  fx_st32(b + 12, 40);
+  fx_fix_crcs(b);
+  fx_add(cases, &n, BBC_ERR_CORRUPT, "directory-past-end", b, min_size);
+  {
+    fx_file f;
+    fx_section *sec;
+#define FX_EDIT2(code, label, section, stmt) \
+  do {                                       \
+    fx_parse(base, &f);                      \
+    sec = fx_find(&f, section);              \
+    stmt;                                    \
+    b = fx_serialize(&f, &s);                \
+    fx_free(&f);                             \
+    fx_add(cases, &n, code, label, b, s);    \
+  } while (0)
+    /* R-DIR-7 */
+    FX_EDIT2(BBC_ERR_CORRUPT, "non-ascii-section-type", "INFO", memcpy(&sec->type, "\xC9NFO", 4));
+    FX_EDIT2(BBC_ERR_CORRUPT, "section-type-with-space", "INFO", memcpy(&sec->type, "IN O", 4));
+    /* R-INF-1 */
+    FX_EDIT2(BBC_ERR_CORRUPT, "info-invalid-utf8", "INFO", sec->data[1] = 0xC0);
+    FX_EDIT2(BBC_ERR_CORRUPT, "info-control-character", "INFO", sec->data[1] = '\n');
+    /* R-RCV-5 */
+    FX_EDIT2(BBC_ERR_CORRUPT, "texcoord-receiver-with-axes", "RCVR", {
+      double one = 1.0;
+      memcpy(sec->data + 72, &one, 8);
+    });
+    /* R-DIR-6 covers unknown optional sections too. */
+    fx_parse(base, &f);
+    memcpy(&fx_find(&f, "INFO")->type, "ZZZZ", 4);
+    b = fx_serialize(&f, &s);
+    fx_free(&f);
+    {
+      uint64_t zs = 0, zo = fx_section_offset(b, "ZZZZ", &zs, NULL);
+      b[zo + zs / 2] ^= 0x20;
+    }
+    fx_add(cases, &n, BBC_ERR_CHECKSUM, "flipped-byte-in-unknown-optional-section", b, s);
+#undef FX_EDIT2
   }
   free(base_v);
   free(min_v);

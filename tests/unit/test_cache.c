@@ -911,6 +911,56 @@ TEST(unknown_optional_section_and_newer_minor_accepted) {
   free(base);
 }
 
+/* R-CHK-6: what a reader accepts of the zstd frame beyond what bbc-precompute writes: a
+ * content checksum, a Dictionary_ID field holding 0, a frame without the single-segment
+ * form; INFO in UTF-8 beyond ASCII (R-INF-1). The controls are the corpus files
+ * chunk-frame-content-checksum-mismatch, chunk-frame-needs-dictionary and
+ * info-invalid-utf8. */
+TEST(frame_variants_and_utf8_info_accepted) {
+  void *mini_v = NULL;
+  size_t mini_size = 0, s = 0, fn = 0;
+  REQUIRE(fx_minimal_cache(&mini_v, &mini_size) == BBC_OK);
+  const uint8_t *mini = mini_v;
+  uint8_t planes[24] = {0, 0, 0, 0, 0, 0x7F, 0, 0, 0, 0, 0, 0x7F,
+                        0, 0, 0, 0, 0, 0x7F, 0, 0, 0, 0, 0, 0x7F};
+  messages m = {0};
+  uint8_t *b = fx_with_chunk_flags(mini, planes, 24, 4, 1, &s);
+  CHECK_INT(open_and_validate(b, s, &m), BBC_OK);
+  free(b);
+  uint8_t *frame = fx_minimal_frame_with_dict_id(mini, 0, &fn);
+  b = fx_with_frame(mini, frame, fn, 4, &s);
+  CHECK_INT(open_and_validate(b, s, &m), BBC_OK);
+  free(b);
+  free(frame);
+  /* A frame with a window descriptor and an 8-byte content size (hand-made header). */
+  uint64_t csize = 0, off = fx_section_offset(mini, "CDAT", &csize, NULL);
+  frame = malloc(csize + 8);
+  memcpy(frame, mini + off, 4);
+  frame[4] = 0xC0; /* FCS flag 3 (8 bytes), not single segment */
+  frame[5] = 0x00; /* window 1 KiB */
+  uint64_t content = 24;
+  memcpy(frame + 6, &content, 8);
+  memcpy(frame + 14, mini + off + 6, csize - 6); /* the blocks */
+  b = fx_with_frame(mini, frame, csize + 8, 4, &s);
+  CHECK_INT(open_and_validate(b, s, &m), BBC_OK);
+  free(b);
+  free(frame);
+  /* INFO with a two-, three- and four-byte character. */
+  void *base = NULL;
+  size_t size = 0;
+  REQUIRE(fx_base_cache(&base, &size) == BBC_OK);
+  fx_file f;
+  fx_parse(base, &f);
+  static const char text[] = "bbc \xC3\xA9t\xC3\xA9 \xE2\x82\xAC \xF0\x9F\x98\x80";
+  fx_replace(fx_find(&f, "INFO"), text, sizeof text - 1);
+  b = fx_serialize(&f, &s);
+  fx_free(&f);
+  CHECK_INT(open_and_validate(b, s, &m), BBC_OK);
+  free(b);
+  free(base);
+  free(mini_v);
+}
+
 TEST(validate_reports_every_damaged_chunk) {
   void *base = NULL;
   size_t size = 0;

@@ -125,6 +125,18 @@ static void check_loaded(bbc_scene *s, uint32_t chains, long rays, const long *m
   bbc_tuple *tuples = NULL;
   size_t count = 0;
   REQUIRE(bbc_tuples_find(s, chains, &tuples, &count) == BBC_OK);
+  /* The candidate order of the spec (Sec. 5.10, R-CAN-1): strictly increasing in
+   * (light, T1, T2 + 1 mod 2^32, receiver). */
+  long out_of_order = 0;
+  for (size_t i = 1; i < count; i++) {
+    const bbc_tuple *a = &tuples[i - 1], *b = &tuples[i];
+    uint32_t ka[4] = {a->light, a->specular[0], a->specular[1] + 1u, a->receiver};
+    uint32_t kb[4] = {b->light, b->specular[0], b->specular[1] + 1u, b->receiver};
+    int k = 0;
+    while (k < 4 && ka[k] == kb[k]) k++;
+    if (k == 4 || ka[k] > kb[k]) out_of_order++;
+  }
+  CHECK_INT(out_of_order, 0);
   qsort(tuples, count, sizeof *tuples, compare_tuple);
   /* Cumulative areas of the casters. */
   double *cdf = malloc(s->triangle_count * sizeof *cdf), total = 0;
