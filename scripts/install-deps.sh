@@ -1,9 +1,13 @@
 #!/bin/sh
 # Installs the Debian packages bbc needs to build and test (run as root). Skips apt
-# entirely when everything is already there.
+# entirely when everything is already there. With --fuzz, also clang with libFuzzer
+# and the sanitizer runtimes, for tests/fuzz/run.sh.
 set -eu
 PACKAGES="build-essential cmake libembree-dev libopenexr-dev libzstd-dev libtinygltf-dev \
 zlib1g-dev"
+if [ "${1:-}" = "--fuzz" ]; then
+  PACKAGES="$PACKAGES clang libclang-rt-dev llvm"
+fi
 missing=""
 for p in $PACKAGES; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
