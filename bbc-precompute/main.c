@@ -239,6 +239,11 @@ int main(int argc, char **argv) {
   bbc_scene_options scene_options = {cli_print_message, cli_print_warning, NULL, light_units};
   bbc_scene *scene = NULL;
   if (bbc_scene_load(&scene, scene_path, &scene_options) != BBC_OK) return 1;
+  if (bbc_cache_check_resources(scene, &options.params, output, cli_print_message, NULL) !=
+      BBC_OK) {
+    bbc_scene_free(scene);
+    return 1;
+  }
 
   cli_progress bar;
   cli_progress_begin(&bar, "bounding", progress);

@@ -44,6 +44,8 @@ bbc_result bbc__cache_builder_from_cache(bbc_cache_builder **out, const bbc_cach
 
 /* The INFO text the builder writes instead of "bbc <version>": `size` bytes of `text`
  * (at most 4096), or no INFO section when text is NULL. */
+/* Bytes the builder keeps per cell before any entry (for bbc_cache_check_resources). */
+size_t bbc__cache_builder_cell_bytes(void);
 bbc_result bbc__cache_builder_set_info(bbc_cache_builder *b, const void *text, size_t size);
 
 /* Adds entries (tuple id, bound code) to cell `cell`, keeping the maximum code per

@@ -281,6 +281,10 @@ typedef struct cell_list {
   uint32_t count, cap;
 } cell_list;
 
+size_t bbc__cache_builder_cell_bytes(void) {
+  return sizeof(cell_list);
+}
+
 /* Splats lock one row of cells at a time; rows map to a fixed set of mutexes. */
 #define BUILDER_LOCKS 256
 
