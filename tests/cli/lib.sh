@@ -1,7 +1,8 @@
 # Shared by the tests/cli/test_*.sh scripts (sourced, not a test itself): a scratch
 # directory removed on exit, and the two checks every script uses.
 TMP=$(mktemp -d)
-trap 'rm -rf "$TMP"' EXIT
+# The trap keeps the script's exit status (a missing test function must not pass).
+trap 'status=$?; rm -rf "$TMP"; exit $status' EXIT
 
 fail() { echo "FAILED: $*" >&2; exit 1; }
 

@@ -12,42 +12,8 @@ POOL="$BBC_TEST_SCENES/pool.glb"
 # checked before the rename). A receiver whose three vertices are one point gets the
 # 1 x 1 grid of a single-point domain (format-spec 6.3, R-RCV-2).
 test_degenerate_receiver_cache_is_valid() {
-  python3 - "$TMP/d.gltf" <<'PY' || fail "cannot write the scene"
-import json, struct, base64, sys
-# mirror triangle (x=0 wall), floor quad, and a receiver whose vertices are one point
-mirror = [(0,0,-1),(0,2,-1),(0,0,1)]
-floor = [(-2,0,-2),(2,0,-2),(2,0,2),(-2,0,2)]
-dot = [(1,0.5,0.5)]*3
-pos = mirror+floor+dot
-idx = [0,1,2, 0,2,1, 0,3,2, 0,1,2]
-blob = b''.join(struct.pack('<3f',*p) for p in pos) + struct.pack('<12I',*idx)
-nb = len(pos)*12
-uri = 'data:application/octet-stream;base64,' + base64.b64encode(blob).decode()
-def acc(bv, count, typ, comp, mn=None, mx=None):
-    a={"bufferView":bv,"componentType":comp,"count":count,"type":typ}
-    if mn: a["min"]=mn; a["max"]=mx
-    return a
-g = {"asset":{"version":"2.0","extras":{"bbc":{"light_units":"radiometric"}}},
- "extensionsUsed":["KHR_lights_punctual"],
- "extensions":{"KHR_lights_punctual":{"lights":[{"type":"point","color":[1,1,1],"intensity":10}]}},
- "scene":0,"scenes":[{"nodes":[0,1,2,3,4]}],
- "nodes":[{"mesh":0},{"mesh":1},{"mesh":2,"extras":{"bbc":{"role":"receiver"}}},
-          {"translation":[1,1,0],"extensions":{"KHR_lights_punctual":{"light":0}}},
-          {"camera":0,"translation":[2,6,0],"rotation":[-0.7071067811865475,0,0,0.7071067811865476]}],
- "cameras":[{"type":"perspective","perspective":{"aspectRatio":1.333,"yfov":0.7,"znear":0.01}}],
- "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":3,"material":0}]},
-           {"primitives":[{"attributes":{"POSITION":1},"indices":4,"material":1}]},
-           {"primitives":[{"attributes":{"POSITION":2},"indices":5,"material":1}]}],
- "materials":[{"pbrMetallicRoughness":{"baseColorFactor":[1,1,1,1],"metallicFactor":1,"roughnessFactor":0}},
-              {"pbrMetallicRoughness":{"baseColorFactor":[0.8,0.8,0.8,1],"metallicFactor":0}}],
- "buffers":[{"byteLength":len(blob),"uri":uri}],
- "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":48},
-                {"buffer":0,"byteOffset":84,"byteLength":36},{"buffer":0,"byteOffset":nb,"byteLength":12},
-                {"buffer":0,"byteOffset":nb+12,"byteLength":24},{"buffer":0,"byteOffset":nb+36,"byteLength":12}],
- "accessors":[acc(0,3,"VEC3",5126,[0,0,-1],[0,2,1]),acc(1,4,"VEC3",5126,[-2,0,-2],[2,0,2]),
-              acc(2,3,"VEC3",5126,[1,0.5,0.5],[1,0.5,0.5]),acc(3,3,"SCALAR",5125),acc(4,6,"SCALAR",5125),acc(5,3,"SCALAR",5125)]}
-json.dump(g, open(sys.argv[1],'w'))
-PY
+  python3 "$BBC_SOURCE_DIR/tests/cli/edge_scene.py" "$TMP/d.gltf" point ||
+    fail "cannot write the scene"
   expect_status 0 "$PRECOMPUTE" "$TMP/d.gltf" -o "$TMP/d.bbc" --chains R --max-level 4 \
     --resolution 64 --no-progress
   expect_status 0 "$BBC_BIN/bbc-inspect/bbc-inspect" info "$TMP/d.bbc"
@@ -152,6 +118,60 @@ test_render_caustics_with_cache_and_reference() {
   expect_status 1 "$RENDER" "$MIRROR" --cache "$TMP/m.bbc" -o "$TMP/x.exr" --spp 1 \
     --width 20 --reference "$TMP/e.exr"
   grep -q "not the size" "$TMP/err" || fail "size mismatch not reported"
+}
+
+# Writer edge cases (tests/cli/edge_scene.py): one-triangle receivers, receivers of
+# zero-area triangles (alone, or beside proper ones in one mesh), a receiver mesh without
+# triangles, coordinates scaled by 1e30 and 1e-30. Every cache is written (the save
+# path validates it before the rename) and validates again; a scene without light is
+# refused with one line.
+test_writer_edge_cases_give_valid_caches() {
+  for kind in one-triangle zero-area mixed-zero-area empty-receiver huge tiny; do
+    python3 "$BBC_SOURCE_DIR/tests/cli/edge_scene.py" "$TMP/$kind.gltf" $kind ||
+      fail "cannot write $kind"
+    expect_status 0 "$PRECOMPUTE" "$TMP/$kind.gltf" -o "$TMP/$kind.bbc" --max-level 4 \
+      --resolution 32 --no-progress
+    expect_status 0 "$BBC_BIN/bbc-inspect/bbc-inspect" validate "$TMP/$kind.bbc"
+    expect_status 0 "$BBC_BIN/bbc-inspect/bbc-inspect" info "$TMP/$kind.bbc"
+    grep -Eq "^tuples +[1-9]" "$TMP/out" || fail "$kind: no tuple: $(cat "$TMP/out")"
+  done
+  python3 "$BBC_SOURCE_DIR/tests/cli/edge_scene.py" "$TMP/dark.gltf" dark || fail "cannot write dark"
+  expect_status 1 "$PRECOMPUTE" "$TMP/dark.gltf" -o "$TMP/dark.bbc" --no-progress
+  [ "$(wc -l <"$TMP/err")" -eq 1 ] || fail "dark: not one line: $(cat "$TMP/err")"
+  [ ! -e "$TMP/dark.bbc" ] || fail "dark: an output was written"
+}
+
+# Resource limits: a grid that cannot fit in memory is refused before anything large is
+# allocated, with the estimate (65536^2 cells of at least 28 bytes: 112 GiB).
+test_refuses_a_grid_that_does_not_fit_in_memory() {
+  expect_status 1 "$PRECOMPUTE" "$MIRROR" -o "$TMP/m.bbc" --resolution 65536 --no-progress
+  grep -q "GiB of memory" "$TMP/err" || fail "no memory estimate: $(cat "$TMP/err")"
+  [ "$(wc -l <"$TMP/err")" -eq 1 ] || fail "more than one line: $(cat "$TMP/err")"
+  [ ! -e "$TMP/m.bbc" ] || fail "an output was written"
+}
+
+# The same for the disk: 4096 cells need a file of at least 50,672 bytes; the shim reports
+# 1000 bytes free.
+test_refuses_a_cache_that_does_not_fit_on_disk() {
+  expect_status 1 env LD_PRELOAD="$BBC_BIN/tests/libfull_disk_shim.so" BBC_DISK_FREE=1000 \
+    ASAN_OPTIONS=verify_asan_link_order=0 "$PRECOMPUTE" "$MIRROR" -o "$TMP/d.bbc" --resolution 64 --no-progress
+  grep -q "at least 50672 bytes .* has 1000 bytes free" "$TMP/err" ||
+    fail "no disk estimate: $(cat "$TMP/err")"
+  [ ! -e "$TMP/d.bbc" ] || fail "an output was written"
+}
+
+# A disk that fills up during the write: one line naming the error, no file left (not
+# even the temporary one). The control without the shim writes the cache.
+test_full_disk_during_write_leaves_no_file() {
+  expect_status 1 env LD_PRELOAD="$BBC_BIN/tests/libfull_disk_shim.so" BBC_DISK_FULL_AFTER=2000 \
+    ASAN_OPTIONS=verify_asan_link_order=0 "$PRECOMPUTE" "$MIRROR" -o "$TMP/f.bbc" --max-level 2 --resolution 16 \
+    --no-progress
+  grep -q "No space left on device" "$TMP/err" || fail "does not say why: $(cat "$TMP/err")"
+  [ "$(wc -l <"$TMP/err")" -eq 1 ] || fail "more than one line: $(cat "$TMP/err")"
+  [ "$(ls "$TMP" | tr '\n' ' ')" = "err out " ] || fail "files left behind: $(ls "$TMP")"
+  expect_status 0 "$PRECOMPUTE" "$MIRROR" -o "$TMP/f.bbc" --max-level 2 --resolution 16 \
+    --no-progress
+  [ -s "$TMP/f.bbc" ] || fail "control: no cache written"
 }
 
 "test_$1"
