@@ -59,6 +59,9 @@ static const char help[] =
     "Execution:\n"
     "  --threads N           worker threads (default: every core); the cache is\n"
     "                        byte-identical for any thread count\n"
+    "  --entry-memory MB     memory for grid entries (default 16); beyond it they are\n"
+    "                        spilled to a temporary file in $TMPDIR (or /tmp), deleted\n"
+    "                        on any exit; the cache does not depend on it\n"
     "  --shard I/N           bound only the candidate tuples k with k % N == I\n"
     "                        (0 <= I < N) and write a shard cache; the N shards, run\n"
     "                        anywhere, merge with 'bbc-inspect merge OUT.bbc SHARD...'\n"
@@ -215,6 +218,9 @@ int main(int argc, char **argv) {
       light_units = cli_parse_light_units(&a, "--light-units", value);
     } else if (cli_option(&a, "--threads", &value)) {
       options.threads = (int)cli_parse_int(&a, "--threads", value, 1, 1024);
+    } else if (cli_option(&a, "--entry-memory", &value)) {
+      double mb = cli_parse_double(&a, "--entry-memory", value, 1e-6, 1e6);
+      options.entry_memory = (size_t)(mb * 1048576.0);
     } else if (cli_option(&a, "--shard", &value)) {
       parse_shard(value, &options.shard_index, &options.shard_count);
     } else if (cli_flag(&a, "--progress")) {
@@ -335,7 +341,7 @@ int main(int argc, char **argv) {
             "tuples            %llu stored of %llu candidates (%s)%s\n"
             "second triangles  %.2f per first (two bounces, candidates)\n"
             "pieces per tuple  position %.2f, irradiance %.2f, kept %.2f\n"
-            "grid entries      %llu\n"
+            "grid entries      %llu (%u runs, %.1f MB spilled to a temporary file)\n"
             "file              %lld bytes (%.2f MB)\n"
             "peak memory       %.1f MB\n",
             total, st.construction_seconds, st.bounding_seconds, 100 * pos_share,
@@ -346,7 +352,7 @@ int main(int argc, char **argv) {
             (unsigned long long)st.candidate_tuples, per_chain, shard_text, st.second_per_first,
             st.position_pieces / tuples,
             st.irradiance_pieces / tuples, st.kept_pieces / tuples, (unsigned long long)st.entries,
-            file_size, file_size / 1e6, peak_mb);
+            st.spill_runs, st.spill_bytes / 1e6, file_size, file_size / 1e6, peak_mb);
   }
   if (json) {
     FILE *f = fopen(json, "w");
@@ -360,12 +366,13 @@ int main(int argc, char **argv) {
             "  \"writing_seconds\": %.6f,\n  \"threads\": %d,\n  \"candidate_tuples\": %llu,\n"
             "  \"tuples\": %llu,\n%s  \"second_per_first\": %.4f,\n"
             "  \"position_pieces_per_tuple\": %.4f,\n  \"irradiance_pieces_per_tuple\": %.4f,\n"
-            "  \"entries\": %llu,\n  \"file_bytes\": %lld,\n  \"peak_memory_mb\": %.1f\n}\n",
+            "  \"entries\": %llu,\n  \"spill_bytes\": %llu,\n  \"file_bytes\": %lld,\n  \"peak_memory_mb\": %.1f\n}\n",
             total, st.construction_seconds, st.bounding_seconds, st.position_cpu_seconds,
             st.irradiance_cpu_seconds, st.recording_seconds, write_seconds, st.threads,
             (unsigned long long)st.candidate_tuples, (unsigned long long)st.tuples, json_chains,
             st.second_per_first, st.position_pieces / tuples,
-            st.irradiance_pieces / tuples, (unsigned long long)st.entries, file_size, peak_mb);
+            st.irradiance_pieces / tuples, (unsigned long long)st.entries,
+            (unsigned long long)st.spill_bytes, file_size, peak_mb);
     if (fclose(f) != 0) cli_fail("%s: cannot write the statistics", json);
   }
   return 0;

@@ -398,6 +398,33 @@ static void pool_surface(const void *params, uint32_t i, uint32_t ni, uint32_t j
   *n = v3(-dy_dx, 1.0, -dy_dz);
 }
 
+/* The wavy mirror plane of the shared plane scenes (the paper's Plane): z = -0.5 + h over
+ * x in [0.9, 1.9], y in [0.0005, 1.0005], facing +z, h a sum of plane waves of amplitude
+ * 0.02-0.03 and wavelengths 0.35-0.6 (the shared meshes' bumps have about that size). */
+static const wave PLANE_WAVES[] = {
+    {0.03, 0.6, 0.4, 0.0},
+    {0.025, 0.45, 2.0, 1.1},
+    {0.02, 0.35, 3.7, 2.3},
+};
+
+static void wavy_plane_surface(const void *params, uint32_t i, uint32_t ni, uint32_t j,
+                               uint32_t nj, vec3 *p, vec3 *n) {
+  (void)params;
+  double x = 0.9 + (double)i / ni, y = 0.0005 + (double)j / nj;
+  double z = -0.5, dz_dx = 0, dz_dy = 0;
+  for (size_t w = 0; w < sizeof PLANE_WAVES / sizeof PLANE_WAVES[0]; w++) {
+    const wave *q = &PLANE_WAVES[w];
+    double k = 2 * PI / q->wavelength;
+    double dx = cos(q->direction), dy = sin(q->direction);
+    double arg = k * (x * dx + y * dy) + q->phase;
+    z += q->amplitude * sin(arg);
+    dz_dx += q->amplitude * k * dx * cos(arg);
+    dz_dy += q->amplitude * k * dy * cos(arg);
+  }
+  *p = v3(x, y, z);
+  *n = v3(-dz_dx, -dz_dy, 1.0);
+}
+
 /* ------------------------------------------------------------------------------------ */
 /* Tessellation counts. Each picks the grid closest to the requested triangle count. */
 
@@ -594,6 +621,7 @@ typedef enum kind {
   KIND_MIRROR_POOL,
   KIND_WAVY_CORNER,
   KIND_GLASS_BOX,
+  KIND_WAVY_PLANE,
   KIND_COUNT
 } kind;
 
@@ -614,6 +642,7 @@ static const kind_info KINDS[KIND_COUNT] = {
     {"mirror-pool", 2000, "the pool with a mirror above the water and one under it (RT, TR)"},
     {"wavy-corner", 200, "two-mirrors with bumpy walls (double reflection, curved)"},
     {"glass-box", 12, "glass-slab with a flat top: flat parallel faces, finite caustic"},
+    {"wavy-plane", 7000, "a wavy mirror plane in the set-up of the shared planes (paper's Plane)"},
 };
 
 typedef struct options {
@@ -776,6 +805,19 @@ static void build_scene(scene *s, const options *o) {
       add_plane(floor, 0, 4, 0, 4, 0, 1, 1);
       s->light = v3(1.0, 1.0, 0.7), s->intensity = 10;
       s->eye = v3(2, 7, 2), s->target = v3(2, 0, 2), s->up = v3(0, 0, -1);
+      break;
+    }
+    case KIND_WAVY_PLANE: {
+      /* The shared planes' set-up: light (3, 1, 4) of 50 W/sr in front of the mirror,
+       * receiver [-3, 3]^2 at y = 0, the shared scenes' camera position. An n x n grid,
+       * 2 n^2 triangles (--size 458000: the paper's largest plane, n = 479). */
+      mesh *plane = scene_add_mesh(s, "wavy_plane", MAT_MIRROR, ROLE_CASTER);
+      uint32_t n = square_grid_side(size);
+      mesh_add_grid(plane, n, n, wavy_plane_surface, NULL);
+      mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
+      add_plane(floor, -3, 3, -3, 3, 0, 1, 1);
+      s->light = v3(3, 1, 4), s->intensity = 50;
+      s->eye = v3(2.709, 4.605, 1.895), s->target = v3(0.981, 1.433, 0.177);
       break;
     }
     default:

@@ -67,3 +67,5 @@ for kind in pool two-mirrors glass-slab; do
 done
 # Finite double refraction: the closed glass box with flat parallel faces (12 triangles).
 scene glass-box -o "$out/glass-box.gltf"
+# The shared planes' set-up (the paper's Plane), small: its footprints cover many cells.
+scene wavy-plane --size 200 -o "$out/wavy-plane.gltf"

@@ -248,6 +248,8 @@ bbc_result bbc_cache_merge(bbc_cache_builder **out, const bbc_cache *const *shar
   for (uint64_t begin = 0; begin < cells && r == BBC_OK; begin += MERGE_BATCH_CELLS) {
     uint64_t end = cells - begin < MERGE_BATCH_CELLS ? cells : begin + MERGE_BATCH_CELLS;
     r = merge_cells(b, refs, shard_count, begin, end, threads);
+    if (r == BBC_OK && (r = bbc__cache_builder_spill_if_full(b)) == BBC_ERR_IO)
+      r = bbc__report(o->error_fn, o->user, r, "merge: %s", bbc__cache_builder_error(b));
     if (r == BBC_ERR_OUT_OF_MEMORY) r = out_of_memory(o);
     /* A cancellation is the caller's own request: no message. */
     if (r == BBC_OK && o->progress_fn && o->progress_fn(o->progress_user, end, cells) != 0)

@@ -54,6 +54,20 @@ bbc_result bbc__cache_builder_set_info(bbc_cache_builder *b, const void *text, s
 bbc_result bbc__cache_builder_add_codes(bbc_cache_builder *b, uint64_t cell, const uint32_t *tuples,
                                         const uint16_t *codes, uint32_t n);
 
+/* Bounded memory (spill_internal.h): past `bytes` of entry arrays in its cells (0: the
+ * default), bbc__cache_builder_spill_if_full writes the builder's lists to its spill
+ * store as a sorted run and frees them; writing merges the runs back. Call it only
+ * where nothing else uses the builder (between batches of splats). BBC_ERR_IO when the
+ * spill file cannot be written: bbc__cache_builder_error says why, and the builder then
+ * refuses to write. */
+#define BBC__DEFAULT_ENTRY_MEMORY ((size_t)16 << 20)
+void bbc__cache_builder_set_entry_memory(bbc_cache_builder *b, size_t bytes);
+bbc_result bbc__cache_builder_spill_if_full(bbc_cache_builder *b);
+/* Whether the lists are over the budget (safe to call during splats). */
+int bbc__cache_builder_full(const bbc_cache_builder *b);
+void bbc__cache_builder_spill_stats(const bbc_cache_builder *b, uint32_t *runs, uint64_t *bytes);
+const char *bbc__cache_builder_error(const bbc_cache_builder *b);
+
 /* The path (or "(memory)") a cache was opened from. */
 const char *bbc__cache_path(const bbc_cache *c);
 

@@ -4,6 +4,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,10 +12,13 @@
 #include <zlib.h>
 #include <zstd.h>
 
+#include <omp.h>
+
 #include "bbc/cache.h"
 #include "cache_format_internal.h"
 #include "cache_shard_internal.h"
 #include "report_internal.h"
+#include "spill_internal.h"
 
 _Static_assert(sizeof(bbc_tuple) == BBC__TUPL_SIZE, "bbc_tuple is the TUPL record");
 
@@ -267,15 +271,11 @@ float bbc_cache_quantize_bound(double bound) {
 
 /* ------------------------------------------------------------------ builder */
 
-/* One (tuple, bound code) pair of a cell: 8 bytes. */
-typedef struct cell_entry {
-  uint32_t tuple;
-  uint32_t code;
-} cell_entry;
+typedef bbc__cell_entry cell_entry;
 
-/* A cell's entries: appended as splats come, sorted and merged (maximum per tuple)
- * whenever the array fills up and once before writing, so memory stays within about
- * twice the distinct entries. 16 bytes per cell. */
+/* A cell's entries in memory: appended as splats come, sorted and merged (maximum per
+ * tuple) whenever the array fills up and once before spilling or writing, so memory
+ * stays within about twice the distinct entries. 16 bytes per cell. */
 typedef struct cell_list {
   cell_entry *e;
   uint32_t count, cap;
@@ -297,6 +297,11 @@ struct bbc_cache_builder {
   uint32_t tuple_count, tuple_cap;
   cell_list *cells;
   pthread_mutex_t locks[BUILDER_LOCKS];
+  /* Bytes of entry arrays held by the cells; past entry_budget, the lists go to the
+   * spill store as a sorted run (bbc__cache_builder_spill_if_full). */
+  atomic_size_t entry_bytes;
+  size_t entry_budget;
+  bbc__spill *spill;
   /* A shard cache (SHRD, spec Sec. 5.10) when shard_count > 0. */
   uint32_t shard_index, shard_count;
   uint64_t candidate_count, candidates_hash;
@@ -317,6 +322,8 @@ static bbc_result builder_finish(bbc_cache_builder *b) {
     return BBC_ERR_OUT_OF_MEMORY;
   }
   for (int i = 0; i < BUILDER_LOCKS; i++) pthread_mutex_init(&b->locks[i], NULL);
+  atomic_init(&b->entry_bytes, 0);
+  b->entry_budget = BBC__DEFAULT_ENTRY_MEMORY;
   return BBC_OK;
 }
 
@@ -394,6 +401,7 @@ void bbc_cache_builder_free(bbc_cache_builder *b) {
   if (b->cells)
     for (uint64_t i = 0; i < b->grid->cell_count; i++) free(b->cells[i].e);
   free(b->cells);
+  bbc__spill_free(b->spill);
   for (int i = 0; i < BUILDER_LOCKS; i++) pthread_mutex_destroy(&b->locks[i]);
   bbc_grid_free(b->grid);
   free(b->tuples);
@@ -538,7 +546,7 @@ static void cell_compact(cell_list *c) {
   c->count = n;
 }
 
-static bbc_result cell_add(cell_list *c, uint32_t tuple, uint32_t code) {
+static bbc_result cell_add(bbc_cache_builder *b, cell_list *c, uint32_t tuple, uint32_t code) {
   /* Pieces of one tuple usually arrive together, so most repeats hit the last entry. */
   if (c->count > 0 && c->e[c->count - 1].tuple == tuple) {
     if (code > c->e[c->count - 1].code) c->e[c->count - 1].code = code;
@@ -551,6 +559,8 @@ static bbc_result cell_add(cell_list *c, uint32_t tuple, uint32_t code) {
       uint32_t cap = c->cap ? c->cap * 2 : 4;
       cell_entry *n = realloc(c->e, sizeof *n * (size_t)cap);
       if (!n) return BBC_ERR_OUT_OF_MEMORY;
+      atomic_fetch_add_explicit(&b->entry_bytes, sizeof *n * (size_t)(cap - c->cap),
+                                memory_order_relaxed);
       c->e = n;
       c->cap = cap;
     }
@@ -582,7 +592,7 @@ bbc_result bbc_cache_builder_splat(bbc_cache_builder *b, uint32_t tuple_id,
     pthread_mutex_lock(lock);
     bbc_result res = BBC_OK;
     for (uint32_t x = range.x0; x <= range.x1 && res == BBC_OK; x++)
-      res = cell_add(&b->cells[row + x], tuple_id, code);
+      res = cell_add(b, &b->cells[row + x], tuple_id, code);
     pthread_mutex_unlock(lock);
     if (res != BBC_OK) return res;
   }
@@ -608,7 +618,7 @@ bbc_result bbc_cache_builder_splat_cells(bbc_cache_builder *b, uint32_t tuple_id
     for (uint32_t x = range->x0; x <= range->x1 && res == BBC_OK; x++) {
       double e = in[x - range->x0];
       if (isnan(e) || e < 0) res = BBC_ERR_INVALID_ARGUMENT;
-      else if (e > 0) res = cell_add(&b->cells[row + x], tuple_id, bbc__bound_encode(e));
+      else if (e > 0) res = cell_add(b, &b->cells[row + x], tuple_id, bbc__bound_encode(e));
     }
     pthread_mutex_unlock(lock);
     if (res != BBC_OK) return res;
@@ -622,7 +632,7 @@ bbc_result bbc__cache_builder_add_codes(bbc_cache_builder *b, uint64_t cell, con
   bbc_result r = BBC_OK;
   for (uint32_t i = 0; i < n && r == BBC_OK; i++) {
     if (tuples[i] >= b->tuple_count || codes[i] > BBC__CODE_INF) return BBC_ERR_INVALID_ARGUMENT;
-    r = cell_add(&b->cells[cell], tuples[i], codes[i]);
+    r = cell_add(b, &b->cells[cell], tuples[i], codes[i]);
   }
   return r;
 }
@@ -633,10 +643,117 @@ static void compact_all(bbc_cache_builder *b) {
   for (int64_t i = 0; i < n; i++) cell_compact(&b->cells[i]);
 }
 
-uint64_t bbc_cache_builder_entry_count(bbc_cache_builder *b) {
+void bbc__cache_builder_set_entry_memory(bbc_cache_builder *b, size_t bytes) {
+  b->entry_budget = bytes ? bytes : BBC__DEFAULT_ENTRY_MEMORY;
+}
+
+const char *bbc__cache_builder_error(const bbc_cache_builder *b) {
+  return bbc__spill_error(b->spill);
+}
+
+void bbc__cache_builder_spill_stats(const bbc_cache_builder *b, uint32_t *runs, uint64_t *bytes) {
+  *runs = bbc__spill_run_count(b->spill);
+  *bytes = bbc__spill_bytes(b->spill);
+}
+
+int bbc__cache_builder_full(const bbc_cache_builder *b) {
+  return atomic_load_explicit(&b->entry_bytes, memory_order_relaxed) > b->entry_budget;
+}
+
+bbc_result bbc__cache_builder_spill_if_full(bbc_cache_builder *b) {
+  if (!bbc__cache_builder_full(b)) return BBC_OK;
+  if (!b->spill && bbc__spill_create(&b->spill) != BBC_OK) return BBC_ERR_OUT_OF_MEMORY;
   compact_all(b);
-  uint64_t total = 0;
-  for (uint64_t i = 0; i < b->grid->cell_count; i++) total += b->cells[i].count;
+  bbc_result r = BBC_OK;
+  for (uint64_t i = 0; i < b->grid->cell_count && r == BBC_OK; i++) {
+    cell_list *c = &b->cells[i];
+    if (c->count) r = bbc__spill_put(b->spill, i, c->e, c->count);
+    free(c->e);
+    c->e = NULL;
+    c->count = c->cap = 0;
+  }
+  atomic_store_explicit(&b->entry_bytes, 0, memory_order_relaxed);
+  if (r == BBC_OK) r = bbc__spill_end_run(b->spill);
+  return r;
+}
+
+/* The final lists, cell by cell in increasing order: each cell's list in memory merged
+ * with its lists in the spill store's runs (sorted by tuple, maximum code per tuple). */
+typedef struct list_walk {
+  bbc_cache_builder *b;
+  bbc__spill_reader *reader;
+  cell_list scratch;
+  uint64_t cell; /* the next cell to look at */
+} list_walk;
+
+static bbc_result walk_open(list_walk *w, bbc_cache_builder *b) {
+  memset(w, 0, sizeof *w);
+  w->b = b;
+  compact_all(b);
+  /* A store that failed refuses to open, so a builder that lost entries never writes. */
+  if (b->spill && (bbc__spill_run_count(b->spill) || bbc__spill_error(b->spill)))
+    return bbc__spill_reader_open(&w->reader, b->spill);
+  return BBC_OK;
+}
+
+static void walk_close(list_walk *w) {
+  bbc__spill_reader_free(w->reader);
+  free(w->scratch.e);
+}
+
+/* The next non-empty cell and its list (borrowed until the next call); *cell is
+ * UINT64_MAX at the end. */
+static bbc_result walk_next(list_walk *w, uint64_t *cell, const cell_entry **e, uint32_t *n) {
+  const uint64_t cells = w->b->grid->cell_count;
+  uint64_t spilled = w->reader ? bbc__spill_reader_next_cell(w->reader) : UINT64_MAX;
+  for (; w->cell < cells; w->cell++) {
+    uint64_t i = w->cell;
+    const cell_list *c = &w->b->cells[i];
+    if (spilled != i) {
+      if (c->count == 0) continue;
+      w->cell++;
+      *cell = i, *e = c->e, *n = c->count;
+      return BBC_OK;
+    }
+    /* Runs hold disjoint, increasing tuple ranges in the precompute's order, so the
+     * joined list is usually sorted already; otherwise sort and merge it. */
+    cell_list *s = &w->scratch;
+    s->count = 0;
+    int sources = 0;
+    bbc_result r = bbc__spill_reader_take(w->reader, i, &s->e, &s->count, &s->cap, &sources);
+    if (r == BBC_OK && c->count) {
+      sources++;
+      if (s->count + c->count > s->cap) {
+        cell_entry *m = realloc(s->e, sizeof *m * ((size_t)s->count + c->count));
+        if (!m) return BBC_ERR_OUT_OF_MEMORY;
+        s->e = m;
+        s->cap = s->count + c->count;
+      }
+      memcpy(s->e + s->count, c->e, sizeof *c->e * c->count);
+      s->count += c->count;
+    }
+    if (r != BBC_OK) return r;
+    if (sources > 1) {
+      uint32_t k = 1;
+      while (k < s->count && s->e[k - 1].tuple < s->e[k].tuple) k++;
+      if (k < s->count) cell_compact(s);
+    }
+    w->cell++;
+    *cell = i, *e = s->e, *n = s->count;
+    return BBC_OK;
+  }
+  *cell = UINT64_MAX, *e = NULL, *n = 0;
+  return BBC_OK;
+}
+
+uint64_t bbc_cache_builder_entry_count(bbc_cache_builder *b) {
+  list_walk w;
+  uint64_t total = 0, cell;
+  const cell_entry *e;
+  uint32_t n;
+  if (walk_open(&w, b) == BBC_OK)
+    while (walk_next(&w, &cell, &e, &n) == BBC_OK && cell != UINT64_MAX) total += n;
+  walk_close(&w);
   return total;
 }
 
@@ -739,71 +856,143 @@ static bbc_result write_zeros(sink *s, uint64_t from, uint64_t to) {
   return BBC_OK;
 }
 
-/* The chunk layout: which cells go into which chunk (Sec. 7.3). */
-typedef struct chunking {
-  uint32_t count;
-  uint64_t *first_cell; /* first non-empty cell of each chunk */
-  uint32_t *entries;
-  uint8_t *cidx; /* the CIDX section */
-} chunking;
+/* CDAT and CHNK (Sec. 7.2-7.3), streamed: the final lists come cell by cell (list_walk)
+ * and are cut greedily into chunks; each batch of chunks is compressed in parallel and
+ * written in chunk order, so the bytes do not depend on the number of threads. Memory:
+ * one batch of decoded and compressed chunks, whatever the number of entries. */
+typedef struct chunk_slot {
+  uint8_t *raw, *out; /* decoded records (Sec. 7.2), the zstd frame */
+  size_t raw_cap, out_cap, out_size;
+  uint32_t entries;
+} chunk_slot;
 
-static bbc_result make_chunking(const bbc_cache_builder *b, uint32_t target, chunking *ch) {
-  uint64_t cells = b->grid->cell_count;
-  uint32_t cap = 64;
-  memset(ch, 0, sizeof *ch);
-  ch->first_cell = malloc(sizeof *ch->first_cell * cap);
-  ch->entries = malloc(sizeof *ch->entries * cap);
-  ch->cidx = calloc(cells ? cells : 1, BBC__CIDX_SIZE);
-  if (!ch->first_cell || !ch->entries || !ch->cidx) return BBC_ERR_OUT_OF_MEMORY;
-  for (uint64_t i = 0; i < cells; i++) {
-    uint32_t n = b->cells[i].count;
-    if (n == 0) continue;
-    if (n > BBC__MAX_CHUNK_ENTRIES) return BBC_ERR_UNSUPPORTED;
-    if (ch->count == 0 || (uint64_t)ch->entries[ch->count - 1] + n > target) {
-      if (ch->count == cap) {
-        cap *= 2;
-        uint64_t *f = realloc(ch->first_cell, sizeof *f * cap);
-        if (f) ch->first_cell = f;
-        uint32_t *e = realloc(ch->entries, sizeof *e * cap);
-        if (e) ch->entries = e;
-        if (!f || !e) return BBC_ERR_OUT_OF_MEMORY;
-      }
-      if (ch->count == UINT32_MAX) return BBC_ERR_UNSUPPORTED;
-      ch->first_cell[ch->count] = i;
-      ch->entries[ch->count] = 0;
-      ch->count++;
-    }
-    uint8_t *rec = ch->cidx + BBC__CIDX_SIZE * i;
-    bbc__st32(rec, ch->count - 1);
-    bbc__st32(rec + 4, ch->entries[ch->count - 1]);
-    bbc__st32(rec + 8, n);
-    ch->entries[ch->count - 1] += n;
+typedef struct chunk_stream {
+  sink *s;
+  uint64_t offset, size; /* CDAT's start in the file, bytes written */
+  uint32_t crc;
+  uint8_t *chnk; /* CHNK records of the chunks written */
+  uint32_t chunks, cap, started;
+  chunk_slot *slots;
+  int slot_count, filled, open; /* open: slots[filled] is the chunk being filled */
+  ZSTD_CCtx **cctx;
+  int threads, level;
+} chunk_stream;
+
+static int grow(uint8_t **p, size_t *cap, size_t need) {
+  if (need <= *cap) return 1;
+  size_t c = *cap ? *cap : 4096;
+  while (c < need) c *= 2;
+  uint8_t *n = realloc(*p, c);
+  if (!n) return 0;
+  *p = n;
+  *cap = c;
+  return 1;
+}
+
+static bbc_result stream_init(chunk_stream *cs, sink *s, uint64_t offset, int level) {
+  memset(cs, 0, sizeof *cs);
+  cs->s = s;
+  cs->offset = offset;
+  cs->crc = (uint32_t)crc32_z(0, NULL, 0);
+  cs->level = level;
+  cs->threads = omp_get_max_threads();
+  cs->slot_count = 8 * cs->threads < 16 ? 16 : 8 * cs->threads > 64 ? 64 : 8 * cs->threads;
+  cs->slots = calloc((size_t)cs->slot_count, sizeof *cs->slots);
+  cs->cctx = calloc((size_t)cs->threads, sizeof *cs->cctx);
+  return cs->slots && cs->cctx ? BBC_OK : BBC_ERR_OUT_OF_MEMORY;
+}
+
+static void stream_free(chunk_stream *cs) {
+  for (int i = 0; cs->slots && i < cs->slot_count; i++) {
+    free(cs->slots[i].raw);
+    free(cs->slots[i].out);
   }
+  for (int i = 0; cs->cctx && i < cs->threads; i++) ZSTD_freeCCtx(cs->cctx[i]);
+  free(cs->slots);
+  free(cs->cctx);
+  free(cs->chnk);
+}
+
+/* Compresses the filled slots in parallel and appends them to CDAT in order. */
+static bbc_result stream_flush(chunk_stream *cs) {
+  int n = cs->filled, failed = 0;
+  for (int i = 0; i < n; i++) {
+    chunk_slot *k = &cs->slots[i];
+    if (!grow(&k->out, &k->out_cap, ZSTD_compressBound((size_t)k->entries * BBC__ENTRY_BYTES)))
+      return BBC_ERR_OUT_OF_MEMORY;
+  }
+  if (cs->chunks + (uint32_t)n > cs->cap) {
+    uint32_t cap = cs->cap ? 2 * cs->cap : 64;
+    while (cap < cs->chunks + (uint32_t)n) cap *= 2;
+    uint8_t *c = realloc(cs->chnk, (size_t)cap * BBC__CHNK_SIZE);
+    if (!c) return BBC_ERR_OUT_OF_MEMORY;
+    cs->chnk = c;
+    cs->cap = cap;
+  }
+#pragma omp parallel for schedule(dynamic, 1) num_threads(cs->threads) reduction(| : failed)
+  for (int i = 0; i < n; i++) {
+    ZSTD_CCtx **ctx = &cs->cctx[omp_get_thread_num()];
+    chunk_slot *k = &cs->slots[i];
+    if (!*ctx) *ctx = ZSTD_createCCtx();
+    size_t size = *ctx ? ZSTD_compressCCtx(*ctx, k->out, k->out_cap, k->raw,
+                                           (size_t)k->entries * BBC__ENTRY_BYTES, cs->level)
+                       : 0;
+    k->out_size = *ctx && !ZSTD_isError(size) ? size : 0;
+    if (k->out_size == 0) failed = 1;
+  }
+  if (failed) return BBC_ERR_OUT_OF_MEMORY;
+  bbc_result r = BBC_OK;
+  for (int i = 0; i < n && r == BBC_OK; i++) {
+    const chunk_slot *k = &cs->slots[i];
+    uint8_t *rec = cs->chnk + BBC__CHNK_SIZE * (size_t)cs->chunks++;
+    memset(rec, 0, BBC__CHNK_SIZE);
+    bbc__st64(rec, cs->size);
+    bbc__st32(rec + 8, (uint32_t)k->out_size);
+    bbc__st32(rec + 12, k->entries);
+    bbc__st32(rec + 16, crc_of(crc32_z(0, NULL, 0), k->out, k->out_size));
+    cs->crc = crc_of(cs->crc, k->out, k->out_size);
+    r = sink_write(cs->s, cs->offset + cs->size, k->out, k->out_size);
+    cs->size += k->out_size;
+  }
+  cs->filled = 0;
+  return r;
+}
+
+static bbc_result stream_close_chunk(chunk_stream *cs) {
+  if (!cs->open) return BBC_OK;
+  cs->open = 0;
+  return ++cs->filled == cs->slot_count ? stream_flush(cs) : BBC_OK;
+}
+
+/* Sec. 7.3: a list goes into the current chunk unless that chunk is not empty and would
+ * exceed the target; its CIDX record (Sec. 5.6) goes to `rec`. */
+static bbc_result stream_list(chunk_stream *cs, uint32_t target, const cell_entry *e, uint32_t n,
+                              uint8_t *rec) {
+  if (n > BBC__MAX_CHUNK_ENTRIES) return BBC_ERR_UNSUPPORTED;
+  bbc_result r = BBC_OK;
+  if (cs->open && (uint64_t)cs->slots[cs->filled].entries + n > target)
+    r = stream_close_chunk(cs);
+  if (r != BBC_OK) return r;
+  chunk_slot *k = &cs->slots[cs->filled];
+  if (!cs->open) {
+    if (cs->started == UINT32_MAX) return BBC_ERR_UNSUPPORTED;
+    cs->started++;
+    cs->open = 1;
+    k->entries = 0;
+  }
+  if (!grow(&k->raw, &k->raw_cap, ((size_t)k->entries + n) * BBC__ENTRY_BYTES))
+    return BBC_ERR_OUT_OF_MEMORY;
+  bbc__st32(rec, cs->started - 1);
+  bbc__st32(rec + 4, k->entries);
+  bbc__st32(rec + 8, n);
+  /* Sec. 7.2: ids delta-coded within the list, then the code. */
+  uint8_t *out = k->raw + (size_t)k->entries * BBC__ENTRY_BYTES;
+  for (uint32_t i = 0; i < n; i++, out += BBC__ENTRY_BYTES) {
+    bbc__st32(out, i == 0 ? e[0].tuple : e[i].tuple - e[i - 1].tuple - 1);
+    bbc__st16(out + 4, (uint16_t)e[i].code);
+  }
+  k->entries += n;
   return BBC_OK;
-}
-
-static void chunking_free(chunking *ch) {
-  free(ch->first_cell);
-  free(ch->entries);
-  free(ch->cidx);
-}
-
-/* Builds the decoded bytes of chunk k (Sec. 7.2) into `planes` and compresses them. */
-static size_t encode_chunk(const bbc_cache_builder *b, const chunking *ch, uint32_t k,
-                           uint32_t *deltas, uint16_t *codes, uint8_t *planes, uint8_t *dst,
-                           size_t capacity, ZSTD_CCtx *cctx, int level) {
-  uint32_t n = ch->entries[k], at = 0;
-  for (uint64_t cell = ch->first_cell[k]; at < n; cell++) {
-    const cell_list *c = &b->cells[cell];
-    for (uint32_t i = 0; i < c->count; i++) {
-      deltas[at + i] = i == 0 ? c->e[0].tuple : c->e[i].tuple - c->e[i - 1].tuple - 1;
-      codes[at + i] = (uint16_t)c->e[i].code;
-    }
-    at += c->count;
-  }
-  bbc__cache_encode_records(deltas, codes, n, planes);
-  size_t size = ZSTD_compressCCtx(cctx, dst, capacity, planes, (size_t)n * BBC__ENTRY_BYTES, level);
-  return ZSTD_isError(size) ? 0 : size;
 }
 
 static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_write_options *o) {
@@ -824,16 +1013,6 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
                        "%s: shard %u/%u: tuple candidate indices missing or not increasing "
                        "(R-SHR-3)",
                        s->path, b->shard_index, b->shard_count);
-  compact_all(b);
-  chunking ch;
-  bbc_result r = make_chunking(b, target, &ch);
-  if (r != BBC_OK) {
-    chunking_free(&ch);
-    return bbc__report(
-        o->error_fn, o->user, r, "%s: %s", s->path,
-        r == BBC_ERR_UNSUPPORTED ? "a cell list exceeds 2^24 entries" : "out of memory");
-  }
-
   const bbc_grid *g = b->grid;
   const char *writer = bbc_version_string();
   char info[64];
@@ -866,7 +1045,6 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   sec[SEC_TRUV].size = (uint64_t)BBC__TRUV_SIZE * g->uv_triangle_count;
   sec[SEC_TUPL].size = (uint64_t)BBC__TUPL_SIZE * b->tuple_count;
   sec[SEC_CIDX].size = (uint64_t)BBC__CIDX_SIZE * g->cell_count;
-  sec[SEC_CHNK].size = (uint64_t)BBC__CHNK_SIZE * ch.count;
   /* R-LAY-1: offsets up to CDAT are known now; CDAT's size only after compression. */
   uint64_t end = BBC__HEADER_SIZE + (uint64_t)BBC__DIR_ENTRY_SIZE * nsec;
   for (uint32_t i = first; i <= SEC_CDAT; i++) {
@@ -886,11 +1064,10 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   for (int k = 0; k < 5; k++) bbc__st32(fprt + 48 + 4 * k, b->scene_counts[k]);
 
   uint8_t *rcvr = calloc(g->receiver_count, BBC__RCVR_SIZE);
-  uint8_t *chnk = calloc(ch.count ? ch.count : 1, BBC__CHNK_SIZE);
-  if (!rcvr || !chnk) {
+  uint8_t *cidx = calloc(g->cell_count ? g->cell_count : 1, BBC__CIDX_SIZE);
+  if (!rcvr || !cidx) {
     free(rcvr);
-    free(chnk);
-    chunking_free(&ch);
+    free(cidx);
     return bbc__report(o->error_fn, o->user, BBC_ERR_OUT_OF_MEMORY, "%s: out of memory", s->path);
   }
   for (uint32_t i = 0; i < g->receiver_count; i++) {
@@ -909,80 +1086,58 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
     for (int k = 0; k < 3; k++) bbc__stf64(p + 96 + 8 * k, rc->axis_v[k]);
   }
 
+  bbc_result r = BBC_OK;
   if (first == SEC_INFO) r = write_section(s, &sec[SEC_INFO], info_text);
   if (r == BBC_OK) r = write_section(s, &sec[SEC_PARM], parm);
   if (r == BBC_OK) r = write_section(s, &sec[SEC_FPRT], fprt);
   if (r == BBC_OK) r = write_section(s, &sec[SEC_RCVR], rcvr);
   if (r == BBC_OK) r = write_section(s, &sec[SEC_TRUV], g->triangle_uv);
   if (r == BBC_OK) r = write_section(s, &sec[SEC_TUPL], b->tuples);
-  if (r == BBC_OK) r = write_section(s, &sec[SEC_CIDX], ch.cidx);
   free(rcvr);
 
-  /* CDAT: chunks are encoded and compressed in parallel batches and written in chunk
-   * order, so the bytes do not depend on the number of threads. */
-  uint64_t cdat_size = 0;
-  uint32_t cdat_crc = (uint32_t)crc32_z(0, NULL, 0);
-  uint32_t max_entries = 0;
-  for (uint32_t k = 0; k < ch.count; k++)
-    if (ch.entries[k] > max_entries) max_entries = ch.entries[k];
-  size_t capacity = ZSTD_compressBound((size_t)max_entries * BBC__ENTRY_BYTES);
-  enum { BATCH = 64 };
-  uint8_t *out[BATCH];
-  size_t out_size[BATCH];
-  memset(out, 0, sizeof out);
-  for (int i = 0; i < BATCH && r == BBC_OK; i++)
-    if (!(out[i] = malloc(capacity ? capacity : 1))) r = BBC_ERR_OUT_OF_MEMORY;
-  for (uint32_t k0 = 0; k0 < ch.count && r == BBC_OK; k0 += BATCH) {
-    uint32_t n = ch.count - k0 < BATCH ? ch.count - k0 : BATCH;
-    int failed = 0;
-#pragma omp parallel reduction(| : failed)
-    {
-      uint32_t *deltas = malloc(sizeof *deltas * ((size_t)max_entries + 1));
-      uint16_t *codes = malloc(sizeof *codes * ((size_t)max_entries + 1));
-      uint8_t *planes = malloc((size_t)max_entries * BBC__ENTRY_BYTES + 1);
-      ZSTD_CCtx *cctx = ZSTD_createCCtx();
-      if (!deltas || !codes || !planes || !cctx) failed = 1;
-#pragma omp for schedule(dynamic, 1)
-      for (uint32_t i = 0; i < n; i++) {
-        if (failed) continue;
-        out_size[i] =
-            encode_chunk(b, &ch, k0 + i, deltas, codes, planes, out[i], capacity, cctx, level);
-        if (out_size[i] == 0) failed = 1;
-      }
-      ZSTD_freeCCtx(cctx);
-      free(deltas);
-      free(codes);
-      free(planes);
+  /* CDAT from the final lists, then CIDX before it in the file (positioned writes). */
+  chunk_stream cs;
+  list_walk w;
+  int walking = 0;
+  memset(&cs, 0, sizeof cs);
+  if (r == BBC_OK && (r = stream_init(&cs, s, sec[SEC_CDAT].offset, level)) == BBC_OK &&
+      (r = walk_open(&w, b)) == BBC_OK)
+    walking = 1;
+  uint64_t cell = 0, reported = 0;
+  while (walking && r == BBC_OK) {
+    const cell_entry *e;
+    uint32_t n;
+    if ((r = walk_next(&w, &cell, &e, &n)) != BBC_OK || cell == UINT64_MAX) break;
+    r = stream_list(&cs, target, e, n, cidx + BBC__CIDX_SIZE * cell);
+    /* Progress and cancellation about every million cells. */
+    if (r == BBC_OK && o->progress_fn && cell - reported >= (1u << 20)) {
+      reported = cell;
+      if (o->progress_fn(o->progress_user, cell, g->cell_count) != 0) r = BBC_ERR_CANCELLED;
     }
-    if (failed) {
-      r = bbc__report(o->error_fn, o->user, BBC_ERR_OUT_OF_MEMORY,
-                      "%s: cannot compress chunks %u..%u", s->path, k0, k0 + n - 1);
-      break;
-    }
-    for (uint32_t i = 0; i < n && r == BBC_OK; i++) {
-      uint8_t *rec = chnk + BBC__CHNK_SIZE * (size_t)(k0 + i);
-      bbc__st64(rec, cdat_size);
-      bbc__st32(rec + 8, (uint32_t)out_size[i]);
-      bbc__st32(rec + 12, ch.entries[k0 + i]);
-      bbc__st32(rec + 16, crc_of(crc32_z(0, NULL, 0), out[i], out_size[i]));
-      cdat_crc = crc_of(cdat_crc, out[i], out_size[i]);
-      r = sink_write(s, sec[SEC_CDAT].offset + cdat_size, out[i], out_size[i]);
-      cdat_size += out_size[i];
-    }
-    if (r == BBC_OK && o->progress_fn && o->progress_fn(o->progress_user, k0 + n, ch.count) != 0)
-      r = bbc__report(o->error_fn, o->user, BBC_ERR_CANCELLED, "%s: cancelled", s->path);
   }
-  for (int i = 0; i < BATCH; i++) free(out[i]);
-
+  if (walking) walk_close(&w);
+  if (r == BBC_OK) r = stream_close_chunk(&cs);
+  if (r == BBC_OK && cs.filled) r = stream_flush(&cs);
+  if (r == BBC_OK && o->progress_fn && o->progress_fn(o->progress_user, g->cell_count, g->cell_count))
+    r = BBC_ERR_CANCELLED;
+  if (r == BBC_OK) r = write_section(s, &sec[SEC_CIDX], cidx);
+  free(cidx);
   if (r == BBC_OK) {
-    sec[SEC_CDAT].size = cdat_size;
-    sec[SEC_CDAT].crc = cdat_crc;
-    end = sec[SEC_CDAT].offset + cdat_size;
-    sec[SEC_CHNK].offset = bbc__align64(end + BBC__MIN_PADDING);
-    r = write_section(s, &sec[SEC_CHNK], chnk);
+    sec[SEC_CDAT].size = cs.size;
+    sec[SEC_CDAT].crc = cs.crc;
+    sec[SEC_CHNK].size = (uint64_t)BBC__CHNK_SIZE * cs.chunks;
+    sec[SEC_CHNK].offset = bbc__align64(sec[SEC_CDAT].offset + cs.size + BBC__MIN_PADDING);
+    r = write_section(s, &sec[SEC_CHNK], cs.chnk ? cs.chnk : (const uint8_t *)"");
   }
-  free(chnk);
-  chunking_free(&ch);
+  stream_free(&cs);
+  if (r != BBC_OK && r != BBC_ERR_IO) {
+    const char *why = r == BBC_ERR_UNSUPPORTED ? "a cell list exceeds 2^24 entries"
+                      : r == BBC_ERR_CANCELLED ? "cancelled"
+                                               : bbc__cache_builder_error(b);
+    return bbc__report(o->error_fn, o->user, r, "%s: %s", s->path, why ? why : "out of memory");
+  }
+  if (r == BBC_ERR_IO && bbc__cache_builder_error(b))
+    return bbc__report(o->error_fn, o->user, r, "%s: %s", s->path, bbc__cache_builder_error(b));
   if (r == BBC_OK && last == SEC_SHRD) {
     /* SHRD (Sec. 5.10): which shard, the candidate list, each tuple's candidate. */
     sec[SEC_SHRD].size = BBC__SHRD_HEAD_SIZE + (uint64_t)BBC__SHRD_ENTRY_SIZE * b->tuple_count;

@@ -1,7 +1,9 @@
 /* The precompute driver: candidate tuples (tuples.c), bounded in parallel batches; the
  * kept pieces of each batch are recorded in tuple order, so tuple ids and the written
  * cache do not depend on the number of threads. Only tuples with a kept piece are
- * stored. Memory stays bounded by one batch of pieces. */
+ * stored. Memory stays bounded by one batch of pieces and the builder's entry budget:
+ * between batches, the builder spills its cell lists to a temporary file when they
+ * exceed it. */
 #include "bbc/precompute.h"
 
 #include <math.h>
@@ -169,7 +171,7 @@ typedef struct raster {
 static bbc_result record_tuple(bbc_cache_builder *builder, const bbc_grid *grid,
                                const bbc_scene *scene, const bbc_precompute_params *params,
                                const bbc_tuple *tuple, uint32_t id, const piece_list *pieces,
-                               raster *r) {
+                               raster *r, uint64_t *entries) {
   const float *intensity = scene->point_lights[tuple->light].intensity;
   double power = fmax(intensity[0], fmax(intensity[1], intensity[2])) * params->m;
   bbc_cell_range all = {0, UINT32_MAX, UINT32_MAX, 0, 0};
@@ -212,6 +214,8 @@ static bbc_result record_tuple(bbc_cache_builder *builder, const bbc_grid *grid,
         if (e > row[x]) row[x] = e;
     }
   }
+  /* Each cell gets this tuple once: the distinct entries are counted here. */
+  for (size_t k = 0; k < w * h; k++) *entries += r->cells[k] > 0;
   return bbc_cache_builder_splat_cells(builder, id, &all, r->cells);
 }
 
@@ -230,6 +234,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     return bbc__report(options->error_fn, options->user, result,
                        "%s: cannot set up the receiver grids: %s", scene->path,
                        bbc_result_string(result));
+  bbc__cache_builder_set_entry_memory(builder, options->entry_memory);
 
   double t0 = omp_get_wtime();
   bbc_tuple *tuples = NULL;
@@ -322,15 +327,28 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       st.tuples++;
       st.tuples_per_chain[tuple->chain]++;
     }
-    int splat_failed = 0;
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(| : splat_failed)
-    for (size_t i = 0; i < n; i++) {
-      if (ids[i] == UINT32_MAX || result != BBC_OK) continue;
-      if (record_tuple(builder, grid, scene, params, &tuples[first + i], ids[i], &pieces[i],
-                       &rasters[omp_get_thread_num()]) != BBC_OK)
-        splat_failed = 1;
+    /* One parallel pass records the batch; a thread that finds the builder over its
+     * entry budget leaves its remaining tuples for the next pass, after the spill. */
+    for (int pass = 1; pass && result == BBC_OK;) {
+      int splat_failed = 0;
+      uint64_t entries = 0;
+      pass = 0;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) \
+    reduction(| : splat_failed, pass) reduction(+ : entries)
+      for (size_t i = 0; i < n; i++) {
+        if (ids[i] == UINT32_MAX) continue;
+        if (bbc__cache_builder_full(builder)) {
+          pass = 1;
+          continue;
+        }
+        if (record_tuple(builder, grid, scene, params, &tuples[first + i], ids[i], &pieces[i],
+                         &rasters[omp_get_thread_num()], &entries) != BBC_OK)
+          splat_failed = 1;
+        ids[i] = UINT32_MAX; /* recorded */
+      }
+      st.entries += entries;
+      result = splat_failed ? BBC_ERR_OUT_OF_MEMORY : bbc__cache_builder_spill_if_full(builder);
     }
-    if (splat_failed && result == BBC_OK) result = BBC_ERR_OUT_OF_MEMORY;
     st.recording_seconds += omp_get_wtime() - b1;
     if (options->progress && options->progress(options->progress_user, first + n, tuple_count)) {
       result = BBC_ERR_CANCELLED;
@@ -367,13 +385,14 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   free(tuples);
   free(candidate);
   if (result != BBC_OK) {
-    bbc_cache_builder_free(builder);
+    const char *why = bbc__cache_builder_error(builder);
     if (result != BBC_ERR_CANCELLED)
       bbc__report(options->error_fn, options->user, result, "%s: precompute failed: %s",
-                  scene->path, bbc_result_string(result));
+                  scene->path, why ? why : bbc_result_string(result));
+    bbc_cache_builder_free(builder);
     return result;
   }
-  st.entries = bbc_cache_builder_entry_count(builder);
+  bbc__cache_builder_spill_stats(builder, &st.spill_runs, &st.spill_bytes);
   if (stats) *stats = st;
   *out = builder;
   return BBC_OK;

@@ -115,4 +115,18 @@ test_precompute_sigint_writes_nothing() {
   expect_files
 }
 
+# The same while the builder spills its grid entries to a temporary file: the file is
+# unlinked as soon as it is made, so the spill folder stays empty whatever happens.
+test_precompute_sigint_while_spilling_leaves_no_file() {
+  mkdir "$TMP/spill"
+  TMPDIR="$TMP/spill" "$PRECOMPUTE" "$BBC_TEST_SCENES/demo.gltf" -o "$OUT/demo.bbc" \
+    --max-level 8 --entry-memory 0.01 --no-progress >"$TMP/stdout" 2>"$TMP/err" &
+  pid=$!
+  sleep 1
+  interrupt "$pid" INT
+  [ "$status" -eq 130 ] || fail "exit status $status, expected 130"
+  expect_files
+  [ -z "$(ls -A "$TMP/spill")" ] || fail "spill files left behind: $(ls -A "$TMP/spill")"
+}
+
 "test_$1"

@@ -24,8 +24,8 @@ test_degenerate_receiver_cache_is_valid() {
 test_help_documents_every_flag() {
   expect_status 0 "$PRECOMPUTE" --help
   for flag in --output --stats --json --chains --max-level --sigma --alpha --alpha2 --m --resolution \
-              --no-remainder --jacobian --threads --progress --no-progress --version --help \
-              --allow-empty --light-units; do
+              --no-remainder --jacobian --threads --entry-memory --progress --no-progress \
+              --version --help --allow-empty --light-units; do
     grep -q -- "$flag" "$TMP/out" || fail "--help does not mention $flag"
   done
 }
@@ -86,6 +86,53 @@ test_byte_identical_for_any_thread_count() {
   expect_status 0 "$PRECOMPUTE" "$POOL" -o "$TMP/a.bbc" --threads 1 --max-level 3 --chains R,T
   expect_status 0 "$PRECOMPUTE" "$POOL" -o "$TMP/b.bbc" --threads 2 --max-level 3 --chains R,T
   cmp -s "$TMP/a.bbc" "$TMP/b.bbc" || fail "caches differ between 1 and 2 threads"
+}
+
+# Grid entries beyond --entry-memory go to sorted runs in a temporary file, merged when
+# the cache is written. The oracle is the in-memory path (no run written), with which
+# the spilled caches must agree byte for byte for any budget and thread count; the
+# spill files are deleted at once, so the spill folder stays empty.
+PLANE="$BBC_TEST_SCENES/wavy-plane.gltf"
+plane() { expect_status 0 "$PRECOMPUTE" "$PLANE" --chains R --max-level 4 --resolution 64 \
+  --no-progress --stats "$@"; }
+runs() { sed -n 's/^grid entries .*(\([0-9]*\) runs.*/\1/p' "$TMP/err"; }
+
+test_spilled_cache_is_byte_identical() {
+  mkdir "$TMP/spill"
+  export TMPDIR="$TMP/spill"
+  plane -o "$TMP/a.bbc" --entry-memory 1000
+  [ "$(runs)" = 0 ] || fail "the in-memory precompute spilled: $(grep entries "$TMP/err")"
+  plane -o "$TMP/b.bbc" --entry-memory 0.001 --threads 1
+  [ "$(runs)" -ge 8 ] || fail "too few runs: $(grep entries "$TMP/err")"
+  cmp "$TMP/a.bbc" "$TMP/b.bbc" >&2 || fail "spilled cache (1 thread) differs"
+  plane -o "$TMP/c.bbc" --entry-memory 0.05 --threads 2
+  [ "$(runs)" -gt 1 ] || fail "too few runs: $(grep entries "$TMP/err")"
+  cmp "$TMP/a.bbc" "$TMP/c.bbc" >&2 || fail "spilled cache (2 threads) differs"
+  [ -z "$(ls -A "$TMP/spill")" ] || fail "spill files left behind: $(ls -A "$TMP/spill")"
+}
+
+# A spill file that cannot be written (the file size limit stands in for a full disk:
+# EFBIG instead of ENOSPC) fails the precompute with one line and leaves no output.
+test_spill_write_failure_exits_1() {
+  mkdir "$TMP/spill"
+  export TMPDIR="$TMP/spill"
+  (trap '' XFSZ; ulimit -f 64; "$PRECOMPUTE" "$PLANE" --chains R --max-level 4 --no-progress \
+    --entry-memory 0.01 -o "$TMP/x.bbc" >"$TMP/out" 2>"$TMP/err")
+  status=$?
+  [ "$status" -eq 1 ] || fail "exit status $status, expected 1: $(cat "$TMP/err")"
+  [ "$(wc -l < "$TMP/err")" -eq 1 ] || fail "not one line: $(cat "$TMP/err")"
+  grep -q "cannot write the spill file in $TMP/spill: File too large" "$TMP/err" ||
+    fail "message: $(cat "$TMP/err")"
+  [ -e "$TMP/x.bbc" ] && fail "an output was written"
+  ls "$TMP" | grep -q '\.tmp' && fail "a temporary file was left behind"
+  [ -z "$(ls -A "$TMP/spill")" ] || fail "spill files left behind: $(ls -A "$TMP/spill")"
+  export TMPDIR="$TMP/none"
+  expect_status 1 "$PRECOMPUTE" "$PLANE" --chains R --max-level 4 --no-progress \
+    --entry-memory 0.01 -o "$TMP/x.bbc"
+  grep -q "cannot create the spill file in $TMP/none: No such file" "$TMP/err" ||
+    fail "message: $(cat "$TMP/err")"
+  [ -e "$TMP/x.bbc" ] && fail "an output was written"
+  return 0
 }
 
 test_render_refuses_cache_of_another_scene() {

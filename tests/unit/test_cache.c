@@ -8,10 +8,13 @@
  * against the complete cache written from the same content. */
 #define _POSIX_C_SOURCE 200809L
 #include <dirent.h>
+#include <errno.h>
+#include <signal.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include "bbc/cache.h"
@@ -664,8 +667,11 @@ TEST(builder_rejects_invalid_input) {
 
 /* ------------------------------------------------------------------ determinism */
 
+/* The recorded splats into a new builder: in their order (0), reversed (1), from four
+ * threads (2), or strided and single-threaded with the builder told to spill after
+ * every `spill_every` splats (3; *runs receives the runs it wrote). */
 static void *write_with_order(const bbc_scene *scene, const fx_record *rec, int order,
-                              size_t *size) {
+                              size_t spill_every, uint32_t *runs, size_t *size) {
   bbc_precompute_params p;
   bbc_precompute_params_default(&p);
   p.grid_resolution = 64;
@@ -706,6 +712,16 @@ static void *write_with_order(const bbc_scene *scene, const fx_record *rec, int 
       failures += bbc_cache_builder_splat(b, s->tuple, s->triangle, s->b1_lo, s->b1_hi, s->b2_lo,
                                           s->b2_hi, s->bound) != BBC_OK;
     }
+  } else if (order == 3) {
+    /* A budget of one byte: every spill point writes a run, so a (cell, tuple) may sit
+     * in several runs and in memory with different bounds. */
+    bbc__cache_builder_set_entry_memory(b, 1);
+    for (size_t i = 0; i < n; i++) {
+      const fx_splat *s = &rec->splats[(i * 7919) % n];
+      failures += bbc_cache_builder_splat(b, s->tuple, s->triangle, s->b1_lo, s->b1_hi, s->b2_lo,
+                                          s->b2_hi, s->bound) != BBC_OK;
+      if ((i + 1) % spill_every == 0) failures += bbc__cache_builder_spill_if_full(b) != BBC_OK;
+    }
   } else {
     /* Interleaved from several threads, each taking a strided share. */
 #pragma omp parallel for schedule(dynamic, 7) num_threads(4) reduction(+ : failures)
@@ -716,6 +732,10 @@ static void *write_with_order(const bbc_scene *scene, const fx_record *rec, int 
     }
   }
   CHECK_INT(failures, 0);
+  if (runs) {
+    uint64_t spilled;
+    bbc__cache_builder_spill_stats(b, runs, &spilled);
+  }
   void *bytes = NULL;
   bbc_cache_write_options o;
   memset(&o, 0, sizeof o);
@@ -734,9 +754,9 @@ TEST(byte_identical_whatever_the_splat_order) {
   bbc_cache_builder_free(b);
   REQUIRE(rec.count % 7919 != 0);
   size_t s0, s1, s2;
-  void *a = write_with_order(scene, &rec, 0, &s0);
-  void *r = write_with_order(scene, &rec, 1, &s1);
-  void *t = write_with_order(scene, &rec, 2, &s2);
+  void *a = write_with_order(scene, &rec, 0, 0, NULL, &s0);
+  void *r = write_with_order(scene, &rec, 1, 0, NULL, &s1);
+  void *t = write_with_order(scene, &rec, 2, 0, NULL, &s2);
   REQUIRE(a && r && t);
   CHECK_INT(s0, s1);
   CHECK_INT(s0, s2);
@@ -747,6 +767,91 @@ TEST(byte_identical_whatever_the_splat_order) {
   free(t);
   free(rec.splats);
   bbc_scene_free(scene);
+}
+
+/* The spill store: lists written out as sorted runs and merged back give the bytes of
+ * the in-memory builder (the oracle: no spill, no merge), for a few runs and for a run
+ * every few splats, where most lists are joined from many runs. */
+TEST(spilled_lists_give_the_same_bytes) {
+  bbc_scene *scene = load(TEST_SCENE("pool.gltf"));
+  REQUIRE(scene);
+  fx_record rec = {0};
+  bbc_cache_builder *b = NULL;
+  REQUIRE(fx_synthetic_builder(&b, scene, 64, 11, &rec) == BBC_OK);
+  bbc_cache_builder_free(b);
+  size_t s0, s1, s2;
+  uint32_t few = 0, many = 0;
+  void *a = write_with_order(scene, &rec, 0, 0, NULL, &s0);
+  void *f = write_with_order(scene, &rec, 3, rec.count / 3, &few, &s1);
+  void *m = write_with_order(scene, &rec, 3, 5, &many, &s2);
+  REQUIRE(a && f && m);
+  /* The control: the spilling builders did spill. */
+  CHECK_INT(few, 3);
+  CHECK(many > 1000);
+  CHECK(s0 == s1 && memcmp(a, f, s0) == 0);
+  CHECK(s0 == s2 && memcmp(a, m, s0) == 0);
+  free(a);
+  free(f);
+  free(m);
+  free(rec.splats);
+  bbc_scene_free(scene);
+}
+
+/* A spill file that cannot be created or written fails the spill with BBC_ERR_IO and a
+ * line naming the folder and the reason; the builder then refuses to write rather than
+ * write a cache that lacks the lost entries. The writes are made to fail by the file
+ * size limit (EFBIG), as a full disk would (ENOSPC). */
+static void spill_failure(const char *tmpdir, size_t file_limit, const char *reason) {
+  bbc_scene *scene = load(TEST_SCENE("pool.gltf"));
+  REQUIRE(scene);
+  bbc_cache_builder *b = NULL;
+  fx_record rec = {0};
+  REQUIRE(fx_synthetic_builder(&b, scene, 64, 11, &rec) == BBC_OK);
+  free(rec.splats);
+  char *old = getenv("TMPDIR") ? strdup(getenv("TMPDIR")) : NULL;
+  setenv("TMPDIR", tmpdir, 1);
+  struct rlimit saved;
+  getrlimit(RLIMIT_FSIZE, &saved);
+  void (*handler)(int) = signal(SIGXFSZ, SIG_IGN);
+  if (file_limit) {
+    struct rlimit l = {file_limit, saved.rlim_max};
+    setrlimit(RLIMIT_FSIZE, &l);
+  }
+  bbc__cache_builder_set_entry_memory(b, 1);
+  bbc_result r = bbc__cache_builder_spill_if_full(b);
+  setrlimit(RLIMIT_FSIZE, &saved);
+  signal(SIGXFSZ, handler);
+  if (old) {
+    setenv("TMPDIR", old, 1);
+    free(old);
+  } else {
+    unsetenv("TMPDIR");
+  }
+  CHECK_INT(r, BBC_ERR_IO);
+  const char *why = bbc__cache_builder_error(b);
+  REQUIRE(why);
+  CHECK_STR_CONTAINS(why, tmpdir);
+  CHECK_STR_CONTAINS(why, reason);
+  messages msg = {0};
+  bbc_cache_write_options o;
+  memset(&o, 0, sizeof o);
+  o.error_fn = on_message;
+  o.user = &msg;
+  void *bytes = NULL;
+  size_t size = 0;
+  CHECK_INT(bbc_cache_builder_write_memory(b, &bytes, &size, &o), BBC_ERR_IO);
+  CHECK(bytes == NULL);
+  CHECK_STR_CONTAINS(msg.last, reason);
+  bbc_cache_builder_free(b);
+  bbc_scene_free(scene);
+}
+
+TEST(spill_to_a_full_disk_fails_cleanly) {
+  spill_failure("/tmp", 4096, strerror(EFBIG));
+}
+
+TEST(spill_without_a_folder_fails_cleanly) {
+  spill_failure("/nonexistent-bbc-spill-dir", 0, strerror(ENOENT));
 }
 
 /* ------------------------------------------------------------------ invalid files */

@@ -133,7 +133,7 @@ typedef struct bbc_cache_write_options {
   int compression_level;       /* zstd level 1..19; 0 means 9 */
   uint32_t chunk_bytes;        /* target decoded chunk size; 0 means 256 KiB */
   int omit_info;               /* non-zero: no INFO section (writer name) */
-  bbc_progress_fn progress_fn; /* optional; counts chunks */
+  bbc_progress_fn progress_fn; /* optional; counts cells */
   void *progress_user;
 } bbc_cache_write_options;
 

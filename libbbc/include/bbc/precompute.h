@@ -28,6 +28,10 @@ typedef struct bbc_precompute_options {
    * (SHRD section). shard_count 0 (the default): the whole precompute, no SHRD.
    * shard_index >= shard_count is BBC_ERR_INVALID_ARGUMENT. */
   uint32_t shard_index, shard_count;
+  /* Bytes of (cell, tuple) entries kept in memory; beyond, the cell lists are spilled as
+   * sorted runs to an unlinked temporary file in $TMPDIR (or /tmp) and merged back when
+   * the cache is written. 0: 16 MiB. The written file does not depend on it. */
+  size_t entry_memory;
 } bbc_precompute_options;
 
 /* The paper's Table 2 precompute columns and more. Times are wall-clock seconds of
@@ -39,6 +43,8 @@ typedef struct bbc_precompute_stats {
   double second_per_first; /* candidate T2 per (light, T1) prefix that has any (DESIGN 3.7) */
   uint64_t position_pieces, irradiance_pieces, kept_pieces;
   uint64_t entries;            /* (cell, tuple) entries in the grids */
+  uint32_t spill_runs;         /* sorted runs written to the spill file */
+  uint64_t spill_bytes;        /* and their size */
   double construction_seconds; /* finding tuples */
   double bounding_seconds;     /* bounding (position + irradiance) */
   double position_cpu_seconds, irradiance_cpu_seconds;
