@@ -17,7 +17,7 @@
 # time: the machine may be shared. --scale K multiplies every budget (spp, photons,
 # reference spp). Writes bench/results/compare.md, flat-mirror.png, scenes.png and the
 # README's "Numbers" rows between the compare.sh markers. Installs POV-Ray and gnuplot
-# when missing (bench/install-deps.sh, as root) and builds bbc (Release) in build/.
+# when missing (scripts/install-deps.sh --bench, as root) and builds bbc (Release) in build/.
 set -eu
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root" # POV-Ray's I/O restrictions let it write below the current folder only
@@ -37,7 +37,7 @@ while [ $# -gt 0 ]; do
 done
 case $part in all | flat | scenes) ;; *) echo "compare.sh: --part all, flat or scenes" >&2; exit 1 ;; esac
 
-sh "$root/bench/install-deps.sh"
+sh "$root/scripts/install-deps.sh" --bench
 for t in gnuplot povray /usr/bin/time; do
   command -v "$t" > /dev/null || { echo "compare.sh: $t is missing" >&2; exit 1; }
 done

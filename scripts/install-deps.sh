@@ -1,13 +1,15 @@
 #!/bin/sh
 # Installs the Debian packages bbc needs to build and test (run as root). Skips apt
 # entirely when everything is already there. With --fuzz, also clang with libFuzzer
-# and the sanitizer runtimes, for tests/fuzz/run.sh.
+# and the sanitizer runtimes, for tests/fuzz/run.sh; with --bench, also POV-Ray 3.7
+# (photon mapping, the competitor) and gnuplot (the PNG curves), for bench/compare.sh.
 set -eu
 PACKAGES="build-essential cmake libembree-dev libopenexr-dev libzstd-dev libtinygltf-dev \
 zlib1g-dev"
-if [ "${1:-}" = "--fuzz" ]; then
-  PACKAGES="$PACKAGES clang libclang-rt-dev llvm"
-fi
+case "${1:-}" in
+  --fuzz) PACKAGES="$PACKAGES clang libclang-rt-dev llvm" ;;
+  --bench) PACKAGES="$PACKAGES povray gnuplot-nox" ;;
+esac
 missing=""
 for p in $PACKAGES; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
