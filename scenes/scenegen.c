@@ -655,6 +655,8 @@ typedef struct options {
   double sun;       /* > 0: a directional light of this irradiance (W/m^2) instead */
   double spot;      /* > 0: a spot of this outer cone angle (radians) instead */
   unsigned long orbit; /* 0, or the keyframes of the camera's orbit animation */
+  unsigned long checker; /* 0, or the receiver's base colour texture: a checker of N x N */
+  double roughness, metallic; /* the receiver's factors (default 1 and 0: Lambertian) */
   int glb;
 } options;
 
@@ -888,6 +890,77 @@ static void look_at(vec3 eye, vec3 target, vec3 up, double q[4]) {
 }
 
 /* ------------------------------------------------------------------------------------ */
+/* The checker texture: an N x N PNG, written uncompressed (zlib "stored" blocks), so the
+ * generator needs no compression library. */
+
+/* The checker's two sRGB colours: light sand and a tile blue. */
+static const unsigned char CHECKER_LIGHT[3] = {235, 222, 190};
+static const unsigned char CHECKER_DARK[3] = {40, 96, 160};
+
+static uint32_t crc32_update(uint32_t crc, const unsigned char *p, size_t n) {
+  crc = ~crc;
+  for (size_t i = 0; i < n; i++) {
+    crc ^= p[i];
+    for (int k = 0; k < 8; k++) crc = (crc >> 1) ^ (0xEDB88320u & (0u - (crc & 1u)));
+  }
+  return ~crc;
+}
+
+static void put_be32(bytes *b, uint32_t x) {
+  unsigned char c[4] = {(unsigned char)(x >> 24), (unsigned char)(x >> 16),
+                        (unsigned char)(x >> 8), (unsigned char)x};
+  bytes_append(b, c, 4);
+}
+
+static void png_chunk(bytes *png, const char *type, const unsigned char *data, size_t n) {
+  put_be32(png, (uint32_t)n);
+  size_t start = png->len;
+  bytes_append(png, type, 4);
+  if (n) bytes_append(png, data, n);
+  put_be32(png, crc32_update(0, png->data + start, n + 4));
+}
+
+/* Texel (i, j) (column, row from the top) is light where i + j is even. */
+static void checker_png(unsigned long n, bytes *png) {
+  bytes raw = {0}, z = {0};
+  for (unsigned long j = 0; j < n; j++) {
+    unsigned char filter = 0;
+    bytes_append(&raw, &filter, 1);
+    for (unsigned long i = 0; i < n; i++)
+      bytes_append(&raw, (i + j) % 2 == 0 ? CHECKER_LIGHT : CHECKER_DARK, 3);
+  }
+  static const unsigned char zlib_header[2] = {0x78, 0x01};
+  bytes_append(&z, zlib_header, 2);
+  for (size_t off = 0; off < raw.len || off == 0; off += 65535) {
+    size_t len = raw.len - off < 65535 ? raw.len - off : 65535;
+    unsigned char h[5] = {(unsigned char)(off + len == raw.len), (unsigned char)len,
+                          (unsigned char)(len >> 8), (unsigned char)~len,
+                          (unsigned char)(~len >> 8)};
+    bytes_append(&z, h, 5);
+    bytes_append(&z, raw.data + off, len);
+    if (off + len == raw.len) break;
+  }
+  uint32_t a = 1, b2 = 0;
+  for (size_t i = 0; i < raw.len; i++) {
+    a = (a + raw.data[i]) % 65521u;
+    b2 = (b2 + a) % 65521u;
+  }
+  put_be32(&z, b2 << 16 | a);
+  static const unsigned char signature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  bytes_append(png, signature, 8);
+  unsigned char ihdr[13] = {(unsigned char)(n >> 24), (unsigned char)(n >> 16),
+                            (unsigned char)(n >> 8),  (unsigned char)n,
+                            (unsigned char)(n >> 24), (unsigned char)(n >> 16),
+                            (unsigned char)(n >> 8),  (unsigned char)n,
+                            8, 2, 0, 0, 0}; /* 8-bit RGB, no interlace */
+  png_chunk(png, "IHDR", ihdr, 13);
+  png_chunk(png, "IDAT", z.data, z.len);
+  png_chunk(png, "IEND", NULL, 0);
+  free(raw.data);
+  free(z.data);
+}
+
+/* ------------------------------------------------------------------------------------ */
 /* glTF output. */
 
 static const char *const MATERIAL_NAMES[MAT_COUNT] = {"diffuse", "mirror", "glass", "water",
@@ -897,9 +970,15 @@ static void json_material(bytes *j, const scene *s, material_kind k) {
   bytes_printf(j, "{\"name\":\"%s\",\"pbrMetallicRoughness\":", MATERIAL_NAMES[k]);
   switch (k) {
     case MAT_DIFFUSE:
-      bytes_printf(j,
-                   "{\"baseColorFactor\":[0.8,0.8,0.8,1],\"metallicFactor\":0,"
-                   "\"roughnessFactor\":1}}");
+      /* With --checker the texture gives the colour (factor 1); --roughness and
+       * --metallic make the receiver glossy. */
+      bytes_printf(j, "{\"baseColorFactor\":%s,\"metallicFactor\":",
+                   s->opts->checker ? "[1,1,1,1]" : "[0.8,0.8,0.8,1]");
+      bytes_double(j, s->opts->metallic);
+      bytes_printf(j, ",\"roughnessFactor\":");
+      bytes_double(j, s->opts->roughness);
+      if (s->opts->checker) bytes_printf(j, ",\"baseColorTexture\":{\"index\":0}");
+      bytes_printf(j, "}}");
       break;
     case MAT_MIRROR:
       bytes_printf(j,
@@ -1218,6 +1297,23 @@ static void build_gltf(const scene *s, const char *uri, bytes *json, bytes *bin)
   bytes_append(json, meshes.data, meshes.len);
   bytes_printf(json, "],\"materials\":[");
   bytes_append(json, materials.data, materials.len);
+  if (o->checker && material_index[MAT_DIFFUSE] >= 0) {
+    /* The checker PNG lives in the buffer, in a bufferView of its own. */
+    bytes png = {0};
+    checker_png(o->checker, &png);
+    size_t offset = g.bin.len;
+    bytes_append(&g.bin, png.data, png.len);
+    bytes_pad4(&g.bin, 0);
+    bytes_printf(&g.views, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}",
+                 g.view_count ? "," : "", offset, png.len);
+    bytes_printf(json,
+                 "],\"images\":[{\"name\":\"checker\",\"bufferView\":%u,"
+                 "\"mimeType\":\"image/png\"}],\"samplers\":[{\"magFilter\":9728,"
+                 "\"minFilter\":9728,\"wrapS\":10497,\"wrapT\":10497}],"
+                 "\"textures\":[{\"source\":0,\"sampler\":0}",
+                 g.view_count++);
+    free(png.data);
+  }
   bytes_printf(json, "],\"accessors\":[");
   bytes_append(json, g.accessors.data, g.accessors.len);
   bytes_printf(json, "],\"bufferViews\":[");
@@ -1395,6 +1491,13 @@ static void print_help(FILE *f) {
           "                        turning it 20 degrees about the vertical axis through\n"
           "                        its target; adds a static second camera \"side\"\n"
           "\n"
+          "Receiver:\n"
+          "  --checker N           a base colour texture: an N x N checker of sand and blue\n"
+          "                        (sRGB PNG in the buffer, NEAREST, REPEAT), texel (0, 0)\n"
+          "                        light, over TEXCOORD_0 in [0, 1]\n"
+          "  --roughness R         roughnessFactor in [0, 1] (default 1)\n"
+          "  --metallic M          metallicFactor in [0, 1] (default 0)\n"
+          "\n"
           "Other:\n"
           "  -h, --help            show this help and exit\n"
           "\n"
@@ -1410,7 +1513,8 @@ static int usage_error(const char *fmt, ...) {
   va_end(ap);
   fprintf(stderr, "\nusage: " TOOL
                   " KIND -o OUT.gltf [--size N] [--width W] [--height H]"
-                  " [--area-light SIDE | --sun E | --spot OUTER] [--orbit N] [--glb]\n"
+                  " [--area-light SIDE | --sun E | --spot OUTER] [--orbit N] [--checker N]"
+                  " [--roughness R] [--metallic M] [--glb]\n"
                   "Try '" TOOL " --help' for the kinds and options.\n");
   return 2;
 }
@@ -1442,6 +1546,7 @@ static int parse_args(int argc, char **argv, options *o) {
   memset(o, 0, sizeof *o);
   o->kind = KIND_COUNT;
   o->width = 320, o->height = 240;
+  o->roughness = 1;
   for (int i = 1; i < argc; i++) {
     const char *arg = argv[i];
     if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
@@ -1473,7 +1578,8 @@ static int parse_args(int argc, char **argv, options *o) {
                 strcmp(name, "--size") == 0 || strcmp(name, "--width") == 0 ||
                 strcmp(name, "--height") == 0 || strcmp(name, "--area-light") == 0 ||
                 strcmp(name, "--sun") == 0 || strcmp(name, "--spot") == 0 ||
-                strcmp(name, "--orbit") == 0;
+                strcmp(name, "--orbit") == 0 || strcmp(name, "--checker") == 0 ||
+                strcmp(name, "--roughness") == 0 || strcmp(name, "--metallic") == 0;
     if (!known) return usage_error("unknown option '%s'", arg);
     if (!value) {
       if (i + 1 >= argc) return usage_error("option %s needs a value", name);
@@ -1497,6 +1603,19 @@ static int parse_args(int argc, char **argv, options *o) {
     } else if (strcmp(name, "--spot") == 0) {
       if (parse_length(value, 1.5707963267948966, &o->spot))
         return usage_error("--spot wants an outer cone angle in (0, pi/2], not '%s'", value);
+    } else if (strcmp(name, "--checker") == 0) {
+      if (parse_count(value, 1, 4096, &o->checker))
+        return usage_error("--checker wants a whole number of squares from 1 to 4096, not '%s'",
+                           value);
+    } else if (strcmp(name, "--roughness") == 0 || strcmp(name, "--metallic") == 0) {
+      double *dst = name[2] == 'r' ? &o->roughness : &o->metallic;
+      char *end;
+      errno = 0;
+      double x = strtod(value, &end);
+      if (!(isdigit((unsigned char)value[0]) || value[0] == '.') || errno || *end ||
+          !(x >= 0 && x <= 1))
+        return usage_error("%s wants a number from 0 to 1, not '%s'", name, value);
+      *dst = x;
     } else if (strcmp(name, "--orbit") == 0) {
       if (parse_count(value, 2, 10000, &o->orbit))
         return usage_error("--orbit wants a whole number of keys from 2 to 10000, not '%s'", value);

@@ -57,6 +57,9 @@ struct holder {
   std::deque<std::vector<uint32_t>> indices;
   std::vector<bbc__gltf_primitive> primitives;
   std::vector<bbc__gltf_material> materials;
+  std::vector<bbc__gltf_texture> textures;
+  std::vector<bbc__gltf_image> images;
+  std::deque<std::vector<unsigned char>> pixels;
   std::vector<bbc__gltf_light> lights;
   std::vector<const char *> notes;
   std::vector<bbc__gltf_camera> cameras;
@@ -132,10 +135,35 @@ bool fs_write_whole_file(std::string *err, const std::string &, const std::vecto
   return false;
 }
 
-// bbc uses no textures, so images are accepted without being decoded: a missing or
-// unreadable texture must not stop a scene from loading.
-bool ignore_image(tinygltf::Image *, const int, std::string *, std::string *, int, int,
-                  const unsigned char *, int, void *) {
+// The encoded bytes of every image, kept by the image callback while tinygltf parses;
+// the reader decodes those that base colour textures use. Nothing is decoded in the
+// callback, so an unused or broken image never stops a scene from loading.
+struct image_store {
+  const tinygltf::Model *model = nullptr;  // the model being parsed
+  std::map<int, std::vector<unsigned char>> raw;
+  std::map<int, std::string> problems;
+};
+
+bool keep_image(tinygltf::Image *image, const int index, std::string *, std::string *, int, int,
+                const unsigned char *bytes, int size, void *user) {
+  image_store *store = static_cast<image_store *>(user);
+  if (image->bufferView >= 0) {
+    // tinygltf does not check that a bufferView lies inside its buffer; it is checked
+    // here before a byte of it is read (buffers and bufferViews are parsed by now).
+    const tinygltf::Model &m = *store->model;
+    bool inside = size_t(image->bufferView) < m.bufferViews.size();
+    if (inside) {
+      const tinygltf::BufferView &bv = m.bufferViews[size_t(image->bufferView)];
+      inside = bv.buffer >= 0 && size_t(bv.buffer) < m.buffers.size() &&
+               bv.byteOffset <= m.buffers[size_t(bv.buffer)].data.size() &&
+               bv.byteLength <= m.buffers[size_t(bv.buffer)].data.size() - bv.byteOffset;
+    }
+    if (!inside) {
+      store->problems[index] = "its bufferView lies outside its buffer";
+      return true;
+    }
+  }
+  if (bytes && size > 0) store->raw[index].assign(bytes, bytes + size);
   return true;
 }
 
@@ -227,7 +255,8 @@ void multiply(const double a[16], const double b[16], double c[16]) {
 
 class reader {
  public:
-  reader(const tinygltf::Model &model, holder &out) : model_(model), out_(out) {}
+  reader(const tinygltf::Model &model, holder &out, const image_store &images)
+      : model_(model), out_(out), store_(images) {}
 
   void run() {
     check_required_extensions();
@@ -245,6 +274,7 @@ class reader {
     for (size_t i = 0; i < model_.cameras.size(); i++)
       check_extras(model_.cameras[i].extras, label("camera", i, model_.cameras[i].name),
                    camera_keys);
+    read_textures();
     for (size_t i = 0; i < model_.materials.size(); i++) read_material(i);
 
     if (model_.scenes.empty()) fail(BBC_ERR_SCENE, "the file has no scene");
@@ -267,6 +297,10 @@ class reader {
     v.lights = out_.lights.empty() ? nullptr : out_.lights.data();
     v.camera_count = uint32_t(out_.cameras.size());
     v.cameras = out_.cameras.empty() ? nullptr : out_.cameras.data();
+    v.texture_count = uint32_t(out_.textures.size());
+    v.textures = out_.textures.empty() ? nullptr : out_.textures.data();
+    v.image_count = uint32_t(out_.images.size());
+    v.images = out_.images.empty() ? nullptr : out_.images.data();
     v.animation_count = uint32_t(model_.animations.size());
     v.note_count = uint32_t(out_.notes.size());
     v.notes = out_.notes.empty() ? nullptr : out_.notes.data();
@@ -275,6 +309,7 @@ class reader {
  private:
   const tinygltf::Model &model_;
   holder &out_;
+  const image_store &store_;
   // Vertex data of each (mesh, primitive) already read, so a mesh placed by several
   // nodes is copied once.
   std::map<std::pair<int, int>, bbc__gltf_primitive> cache_;
@@ -360,8 +395,7 @@ class reader {
   }
 
   void check_required_extensions() {
-    // The extensions bbc reads, plus KHR_texture_transform, which only concerns
-    // textures and is therefore safe to ignore.
+    // The extensions bbc reads (KHR_texture_transform on base colour textures).
     static const char *const known[] = {
         "KHR_lights_punctual", "KHR_materials_transmission",      "KHR_materials_volume",
         "KHR_materials_ior",   "KHR_materials_emissive_strength", "KHR_texture_transform"};
@@ -423,6 +457,127 @@ class reader {
     return s;
   }
 
+  // Textures and their samplers, checked; images are listed, not yet decoded.
+  void read_textures() {
+    for (size_t i = 0; i < model_.images.size(); i++) {
+      const tinygltf::Image &im = model_.images[i];
+      bbc__gltf_image g{};
+      g.name = out_.keep(!im.name.empty() ? im.name : im.uri);
+      out_.images.push_back(g);
+    }
+    for (size_t i = 0; i < model_.textures.size(); i++) {
+      const tinygltf::Texture &t = model_.textures[i];
+      std::string owner = label("texture", i, t.name);
+      bbc__gltf_texture g{};
+      if (t.source < -1 || (t.source >= 0 && size_t(t.source) >= model_.images.size()))
+        fail(BBC_ERR_GLTF, "%s: source %d, but the file has %zu images", owner.c_str(), t.source,
+             model_.images.size());
+      g.image = t.source;
+      g.wrap_s = g.wrap_t = TINYGLTF_TEXTURE_WRAP_REPEAT;
+      g.mag_filter = -1;
+      if (t.sampler < -1 || (t.sampler >= 0 && size_t(t.sampler) >= model_.samplers.size()))
+        fail(BBC_ERR_GLTF, "%s: sampler %d, but the file has %zu samplers", owner.c_str(),
+             t.sampler, model_.samplers.size());
+      if (t.sampler >= 0) {
+        const tinygltf::Sampler &sm = model_.samplers[size_t(t.sampler)];
+        g.wrap_s = sm.wrapS;
+        g.wrap_t = sm.wrapT;
+        g.mag_filter = sm.magFilter;
+      }
+      out_.textures.push_back(g);
+    }
+  }
+
+  // Decodes image i (once) as RGBA; a failure is recorded in its `problem`.
+  void decode_image(size_t i) {
+    bbc__gltf_image &g = out_.images[i];
+    if (g.rgba || g.problem) return;
+    const tinygltf::Image &im = model_.images[i];
+    auto problem = store_.problems.find(int(i));
+    if (problem != store_.problems.end()) {
+      g.problem = out_.keep(problem->second);
+      return;
+    }
+    auto raw = store_.raw.find(int(i));
+    if (raw == store_.raw.end()) {
+      g.problem = out_.keep(im.uri.empty() ? std::string("it has no data")
+                                           : "cannot read " + im.uri);
+      return;
+    }
+    tinygltf::Image decoded;
+    std::string err;
+    // No user data: tinygltf's defaults, which expand every image to 4 channels.
+    if (raw->second.size() > size_t(std::numeric_limits<int>::max()) ||
+        !tinygltf::LoadImageData(&decoded, int(i), &err, nullptr, 0, 0, raw->second.data(),
+                                 int(raw->second.size()), nullptr) ||
+        decoded.component != 4 || (decoded.bits != 8 && decoded.bits != 16) ||
+        decoded.width < 1 || decoded.height < 1 ||
+        decoded.image.size() != size_t(decoded.width) * size_t(decoded.height) * 4 *
+                                    size_t(decoded.bits / 8)) {
+      g.problem = out_.keep("it cannot be decoded (" +
+                            (err.empty() ? std::string("unexpected layout") : one_line(err)) +
+                            ")");
+      return;
+    }
+    out_.pixels.push_back(std::move(decoded.image));
+    g.width = uint32_t(decoded.width);
+    g.height = uint32_t(decoded.height);
+    g.bits = decoded.bits;
+    g.rgba = out_.pixels.back().data();
+  }
+
+  // A material's textureInfo with its KHR_texture_transform.
+  bbc__gltf_texture_ref texture_ref(const tinygltf::TextureInfo &info, const std::string &owner,
+                                    const char *slot) {
+    bbc__gltf_texture_ref r{};
+    r.texture = -1;
+    r.scale[0] = r.scale[1] = 1.0;
+    if (info.index == -1) return r;
+    if (info.index < 0 || size_t(info.index) >= model_.textures.size())
+      fail(BBC_ERR_GLTF, "%s: %s uses texture %d, but the file has %zu textures", owner.c_str(),
+           slot, info.index, model_.textures.size());
+    if (info.texCoord < 0)
+      fail(BBC_ERR_GLTF, "%s: %s.texCoord %d is negative", owner.c_str(), slot, info.texCoord);
+    r.texture = info.index;
+    r.texcoord = info.texCoord;
+    std::string what = owner + ": " + slot;
+    auto it = info.extensions.find("KHR_texture_transform");
+    if (it != info.extensions.end()) {
+      const tinygltf::Value &x = it->second;
+      if (!x.IsObject())
+        fail(BBC_ERR_GLTF, "%s: KHR_texture_transform is not a JSON object", what.c_str());
+      auto pair = [&](const char *key, double out[2]) {
+        if (!x.Has(key)) return;
+        const tinygltf::Value &v = x.Get(key);
+        if (!v.IsArray() || v.ArrayLen() != 2 || !v.Get(0).IsNumber() || !v.Get(1).IsNumber())
+          fail(BBC_ERR_GLTF, "%s: KHR_texture_transform.%s needs 2 numbers", what.c_str(), key);
+        out[0] = v.Get(0).GetNumberAsDouble();
+        out[1] = v.Get(1).GetNumberAsDouble();
+      };
+      pair("offset", r.offset);
+      pair("scale", r.scale);
+      if (x.Has("rotation")) {
+        if (!x.Get("rotation").IsNumber())
+          fail(BBC_ERR_GLTF, "%s: KHR_texture_transform.rotation is not a number", what.c_str());
+        r.rotation = x.Get("rotation").GetNumberAsDouble();
+      }
+      if (x.Has("texCoord")) {
+        const tinygltf::Value &v = x.Get("texCoord");
+        if (!v.IsInt() || v.GetNumberAsInt() < 0)
+          fail(BBC_ERR_GLTF, "%s: KHR_texture_transform.texCoord is not a non-negative integer",
+               what.c_str());
+        r.texcoord = v.GetNumberAsInt();
+      }
+      double all[5] = {r.offset[0], r.offset[1], r.scale[0], r.scale[1], r.rotation};
+      for (double v : all)
+        if (!std::isfinite(v))
+          fail(BBC_ERR_GLTF, "%s: KHR_texture_transform has a non-finite value", what.c_str());
+    }
+    const bbc__gltf_texture &t = out_.textures[size_t(r.texture)];
+    if (t.image >= 0) decode_image(size_t(t.image));
+    return r;
+  }
+
   void read_material(size_t i) {
     const tinygltf::Material &m = model_.materials[i];
     std::string owner = label("material", i, m.name);
@@ -443,6 +598,8 @@ class reader {
     g.ior = extension_number(m.extensions, "KHR_materials_ior", "ior", 1.5, owner);
     g.emissive_strength = extension_number(m.extensions, "KHR_materials_emissive_strength",
                                            "emissiveStrength", 1.0, owner);
+    g.base_color_texture =
+        texture_ref(m.pbrMetallicRoughness.baseColorTexture, owner, "baseColorTexture");
     out_.materials.push_back(g);
   }
 
@@ -854,19 +1011,22 @@ void parse(holder &h, const unsigned char *bytes, size_t size, const char *base_
   fs.allowed = base_dir != nullptr;
   if (base_dir) fs.base_dir = *base_dir ? base_dir : ".";
   tinygltf::TinyGLTF loader;
-  loader.SetImageLoader(ignore_image, nullptr);
+  tinygltf::Model model;
+  image_store images;
+  images.model = &model;
+  loader.SetImageLoader(keep_image, &images);
   loader.SetFsCallbacks(tinygltf::FsCallbacks{fs_file_exists, fs_expand_file_path,
                                               fs_read_whole_file, fs_write_whole_file, &fs});
-  tinygltf::Model model;
   std::string err, warn;
   bool ok =
       binary
           ? loader.LoadBinaryFromMemory(&model, &err, &warn, bytes, unsigned(size), fs.base_dir)
           : loader.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char *>(bytes),
                                        unsigned(size), fs.base_dir);
-  // tinygltf's warnings all concern images, which bbc ignores, so they are dropped.
+  // tinygltf's warnings all concern images, whose problems the reader reports itself
+  // for the images it uses, so they are dropped.
   if (!ok) fail(BBC_ERR_GLTF, "invalid glTF: %s", one_line(err).c_str());
-  reader(model, h).run();
+  reader(model, h, images).run();
 }
 
 bbc_result guarded(bbc__gltf_data **out, const unsigned char *bytes, size_t size, const char *name,

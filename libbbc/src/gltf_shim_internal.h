@@ -46,8 +46,17 @@ typedef struct bbc__gltf_primitive {
   const uint32_t *indices; /* each < vertex_count; 0, 1, 2, ... when non-indexed */
 } bbc__gltf_primitive;
 
+/* A material's use of a texture (glTF textureInfo with KHR_texture_transform). */
+typedef struct bbc__gltf_texture_ref {
+  int32_t texture;  /* index into bbc__gltf_data.textures (checked), or -1 for none */
+  int texcoord;     /* the TEXCOORD_n set, after KHR_texture_transform's override */
+  double offset[2]; /* KHR_texture_transform, defaults 0, 0 */
+  double rotation;  /* default 0 */
+  double scale[2];  /* default 1, 1 */
+} bbc__gltf_texture_ref;
+
 /* The factors of a glTF material, with the defaults of the specification filled in
- * for anything absent. Textures are ignored. */
+ * for anything absent, and its base colour texture. */
 typedef struct bbc__gltf_material {
   const char *name;         /* never NULL; "" when unnamed */
   double base_color[4];     /* pbrMetallicRoughness.baseColorFactor, default 1 */
@@ -58,7 +67,27 @@ typedef struct bbc__gltf_material {
   double ior;               /* KHR_materials_ior.ior, default 1.5 */
   double emissive[3];       /* emissiveFactor, default 0 */
   double emissive_strength; /* KHR_materials_emissive_strength, default 1 */
+  bbc__gltf_texture_ref base_color_texture; /* pbrMetallicRoughness.baseColorTexture */
 } bbc__gltf_material;
+
+/* A glTF texture: its image and the wrap modes and magnification filter of its sampler
+ * (glTF's enum values; a texture without sampler has REPEAT, REPEAT and filter -1). */
+typedef struct bbc__gltf_texture {
+  int32_t image; /* index into bbc__gltf_data.images (checked), or -1 for none */
+  int wrap_s, wrap_t, mag_filter;
+} bbc__gltf_texture;
+
+/* A glTF image, decoded when a material's base colour texture uses it (by tinygltf's
+ * LoadImageData: PNG, JPEG and the other formats of stb_image), as RGBA with 8 or 16 bits
+ * per channel, rows from the top. An image that is not used is not decoded. */
+typedef struct bbc__gltf_image {
+  const char *name;  /* never NULL: the image's name, else its uri, else "" */
+  uint32_t width, height;
+  int bits;          /* 8 or 16; 0 when not decoded */
+  const void *rgba;  /* width x height x 4 channels, or NULL when not decoded */
+  const char *problem; /* NULL when decoded or unused; otherwise why it could not be,
+                          e.g. "cannot read textures/wood.png" */
+} bbc__gltf_image;
 
 /* A KHR_lights_punctual light placed by a node of the default scene. */
 typedef struct bbc__gltf_light {
@@ -129,6 +158,10 @@ typedef struct bbc__gltf_data {
   bbc__gltf_light *lights; /* lights placed by nodes, in node order */
   uint32_t camera_count;
   bbc__gltf_camera *cameras; /* in walk order */
+  uint32_t texture_count;
+  bbc__gltf_texture *textures; /* all textures of the file, in file order */
+  uint32_t image_count;
+  bbc__gltf_image *images;     /* all images of the file, in file order */
   uint32_t animation_count;  /* animations in the file, whatever they move */
   /* Extras that look meant for bbc but are not read (a flat "bbc.role" key, extras.bbc
    * that is not an object, an unknown key inside it, a string where a number belongs),
@@ -145,8 +178,9 @@ typedef struct bbc__gltf_options {
 
 /* Parses a .gltf or .glb file; which of the two is decided by the first four bytes
  * ("glTF" means binary), never by the extension. External buffers are looked up
- * beside the file; images are never decoded (bbc uses no textures), so missing or
- * broken image files do no harm.
+ * beside the file, and so are external images. Only the images of base colour textures
+ * are decoded; one that is missing or cannot be decoded is reported in its `problem`
+ * (the loader warns and renders without it), so it never stops a scene from loading.
  *
  * Returns BBC_OK and sets *out, or sets *out to NULL and returns BBC_ERR_IO (cannot
  * read the file), BBC_ERR_GLTF (malformed JSON or GLB, missing or short buffer, bad

@@ -10,6 +10,7 @@
  *   cannot be found by path tracing at all: that is the caustic estimator's job, and
  *   shade_diffuse_vertex is where it plugs in. */
 #include "bbc/render.h"
+#include "bbc/texture.h"
 
 #include <float.h>
 #include <math.h>
@@ -98,6 +99,17 @@ typedef struct surface {
   const bbc_material *material;
 } surface;
 
+static bbc_vec3 v3_mul(bbc_vec3 a, bbc_vec3 b) {
+  return v3(a.x * b.x, a.y * b.y, a.z * b.z);
+}
+
+/* The base colour at a surface point: the material's, times its texture (texture.h). */
+static bbc_vec3 albedo_at(const bbc_scene *scene, const surface *s) {
+  double c[3];
+  bbc_scene_base_color(scene, s->triangle, s->b1, s->b2, c);
+  return v3(c[0], c[1], c[2]);
+}
+
 static surface surface_at(const bbc_scene *scene, const bbc_hit *hit) {
   const uint32_t *idx = scene->indices + 3 * (size_t)hit->triangle;
   bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)idx[0]);
@@ -162,7 +174,8 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
                                          const path_sampler *ps, uint64_t *rays) {
   const int depth = (int)segments - 1;
   const bbc_scene *scene = ctx->scene;
-  const float *albedo = s->material->base_color;
+  const bbc_vec3 a = albedo_at(scene, s);
+  const double albedo[3] = {a.x, a.y, a.z};
   bbc_vec3 sum = v3(0, 0, 0);
 
   for (uint32_t i = 0; i < scene->point_light_count && segments + 1 <= ctx->max_depth; i++) {
@@ -238,10 +251,6 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
   return out;
 }
 
-static bbc_vec3 v3_mul(bbc_vec3 a, bbc_vec3 b) {
-  return v3(a.x * b.x, a.y * b.y, a.z * b.z);
-}
-
 /* The radiance arriving at the camera along one path started in direction dir. */
 static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_vec3 origin,
                            bbc_vec3 dir, const path_sampler *ps, uint64_t *rays) {
@@ -286,8 +295,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       double z = sqrt(fmax(0.0, 1.0 - r * r));
       dir = v3_add(v3_add(v3_scale(t, r * cos(phi)), v3_scale(b, r * sin(phi))), v3_scale(s.ns, z));
       if (v3_dot(dir, s.ng) <= 0) break; /* below the geometric surface */
-      throughput = v3(throughput.x * m->base_color[0], throughput.y * m->base_color[1],
-                      throughput.z * m->base_color[2]);
+      throughput = v3_mul(throughput, albedo_at(scene, &s));
       count_emission = 0;
     } else if (m->type == BBC_MATERIAL_MIRROR) {
       bbc_vec3 n = front ? s.ns : v3_neg(s.ns);

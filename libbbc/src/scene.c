@@ -5,6 +5,7 @@
  * this file judges whether the content is something bbc can render (triangles only,
  * finite positions, a light, a camera) and reports the first problem it finds. */
 #include "bbc/scene.h"
+#include "bbc/texture.h"
 
 #include <float.h>
 #include <math.h>
@@ -181,6 +182,7 @@ static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32
     m->emission[k] = (float)emission[k];
   }
   m->ior = 1.5f;
+  m->uv_transform[0] = m->uv_transform[4] = 1.0;
 
   if (g->metallic == 1.0 && g->roughness == 0.0) {
     m->type = BBC_MATERIAL_MIRROR;
@@ -203,6 +205,111 @@ static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32
          label, g->metallic, g->roughness, g->transmission, g->thickness);
   }
   return BBC_OK;
+}
+
+/* ------------------------------------------------------------------ textures */
+
+static bbc_result wrap_mode(const loader *ld, const char *label, const char *key, int value,
+                            bbc_wrap *out) {
+  switch (value) {
+    case 10497: *out = BBC_WRAP_REPEAT; return BBC_OK;
+    case 33071: *out = BBC_WRAP_CLAMP; return BBC_OK;
+    case 33648: *out = BBC_WRAP_MIRROR; return BBC_OK;
+    default:
+      return fail(ld, BBC_ERR_GLTF,
+                  "%s: sampler %s %d is not REPEAT (10497), CLAMP_TO_EDGE (33071) or "
+                  "MIRRORED_REPEAT (33648)",
+                  label, key, value);
+  }
+}
+
+/* Decodes glTF texture `index` into *out: sRGB to linear, alpha dropped. */
+static bbc_result decode_texture(const loader *ld, const bbc__gltf_data *g, uint32_t index,
+                                 const char *label, bbc_texture *out) {
+  const bbc__gltf_texture *t = &g->textures[index];
+  const bbc__gltf_image *im = &g->images[t->image];
+  bbc_result r = wrap_mode(ld, label, "wrapS", t->wrap_s, &out->wrap_s);
+  if (r == BBC_OK) r = wrap_mode(ld, label, "wrapT", t->wrap_t, &out->wrap_t);
+  if (r != BBC_OK) return r;
+  out->nearest = t->mag_filter == 9728;
+  size_t texels = (size_t)im->width * im->height;
+  out->rgb = alloc(3 * texels, sizeof *out->rgb);
+  if (!out->rgb) return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory for a %ux%u texture",
+                             im->width, im->height);
+  out->width = im->width;
+  out->height = im->height;
+  if (im->bits == 8) {
+    float table[256];
+    for (int i = 0; i < 256; i++) table[i] = (float)bbc_srgb_to_linear(i / 255.0);
+    const uint8_t *p = im->rgba;
+    for (size_t i = 0; i < texels; i++)
+      for (int k = 0; k < 3; k++) out->rgb[3 * i + k] = table[p[4 * i + k]];
+  } else {
+    const uint16_t *p = im->rgba;
+    for (size_t i = 0; i < texels; i++)
+      for (int k = 0; k < 3; k++)
+        out->rgb[3 * i + k] = (float)bbc_srgb_to_linear(p[4 * i + k] / 65535.0);
+  }
+  return BBC_OK;
+}
+
+/* The base colour textures of the materials: each glTF texture used is decoded once.
+ * A texture bbc cannot use (no image, an image that cannot be read or decoded, another
+ * TEXCOORD set than 0) is dropped with a warning, leaving the material its factor. */
+static bbc_result load_textures(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
+  int32_t *slot = alloc(g->texture_count, sizeof *slot);
+  s->textures = alloc(g->texture_count, sizeof *s->textures);
+  if (!slot || !s->textures) {
+    free(slot);
+    return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
+  }
+  for (uint32_t i = 0; i < g->texture_count; i++) slot[i] = -1;
+  bbc_result r = BBC_OK;
+  for (uint32_t i = 0; i < g->material_count && r == BBC_OK; i++) {
+    const bbc__gltf_texture_ref *ref = &g->materials[i].base_color_texture;
+    if (ref->texture < 0) continue;
+    char label[128], what[192];
+    material_label(&g->materials[i], i, label, sizeof label);
+    snprintf(what, sizeof what, "%s: baseColorTexture (texture %d)", label, ref->texture);
+    const bbc__gltf_texture *t = &g->textures[ref->texture];
+    if (ref->texcoord != 0) {
+      warn(ld, "%s uses TEXCOORD_%d; bbc reads TEXCOORD_0 only, so the surface has its "
+               "baseColorFactor alone (as under a white texture)", what, ref->texcoord);
+      continue;
+    }
+    if (t->image < 0) {
+      warn(ld, "%s has no image; the surface has its baseColorFactor alone (as under a white "
+               "texture)", what);
+      continue;
+    }
+    const bbc__gltf_image *im = &g->images[t->image];
+    if (!im->rgba) {
+      warn(ld, "%s: image %d%s%s%s: %s; the surface has its baseColorFactor alone (as under a "
+               "white texture)", what, t->image, im->name[0] ? " (\"" : "", im->name,
+           im->name[0] ? "\")" : "", im->problem ? im->problem : "not decoded");
+      continue;
+    }
+    if (slot[ref->texture] < 0) {
+      r = decode_texture(ld, g, (uint32_t)ref->texture, what, &s->textures[s->texture_count]);
+      if (r != BBC_OK) break;
+      slot[ref->texture] = (int32_t)s->texture_count++;
+    }
+    bbc_material *m = &s->materials[i];
+    m->base_color_texture = (uint32_t)slot[ref->texture] + 1;
+    /* KHR_texture_transform: T(offset) R(rotation) S(scale), the rotation turning the
+     * coordinates counter-clockwise as the image is seen (s right, t down), as in the
+     * extension's example (offset [0, 1], rotation pi/2, scale 0.5 shows the image's
+     * lower left quadrant turned clockwise). */
+    double c = cos(ref->rotation), sn = sin(ref->rotation);
+    m->uv_transform[0] = c * ref->scale[0];
+    m->uv_transform[1] = sn * ref->scale[1];
+    m->uv_transform[2] = ref->offset[0];
+    m->uv_transform[3] = -sn * ref->scale[0];
+    m->uv_transform[4] = c * ref->scale[1];
+    m->uv_transform[5] = ref->offset[1];
+  }
+  free(slot);
+  return r;
 }
 
 static const char *mesh_label(const bbc__gltf_primitive *p, char *buf, size_t size) {
@@ -457,7 +564,10 @@ static bbc_result load_geometry(const loader *ld, const bbc__gltf_data *g, bbc_s
     m->type = BBC_MATERIAL_DIFFUSE;
     m->base_color[0] = m->base_color[1] = m->base_color[2] = 0.8f;
     m->ior = 1.5f;
+    m->uv_transform[0] = m->uv_transform[4] = 1.0;
   }
+  bbc_result tr = load_textures(ld, g, s);
+  if (tr != BBC_OK) return tr;
 
   /* Sizes first, so that every array is allocated once. */
   uint64_t vertices = 0, triangles = 0;
@@ -499,6 +609,11 @@ static bbc_result load_geometry(const loader *ld, const bbc__gltf_data *g, bbc_s
     bbc_result r = parse_role(ld, p, s->materials[material].type, &role);
     if (r == BBC_OK) r = add_mesh(ld, p, s, i, material, role, &next_vertex, &next_triangle);
     if (r != BBC_OK) return r;
+    if (s->materials[material].base_color_texture && !p->uvs) {
+      char label[256];
+      warn(ld, "%s has a base colour texture but no TEXCOORD_0; the texture is read at (0, 0)",
+           mesh_label(p, label, sizeof label));
+    }
   }
   return BBC_OK;
 }
@@ -848,6 +963,8 @@ void bbc_scene_free(bbc_scene *scene) {
   free(scene->triangle_mesh);
   free(scene->meshes);
   free(scene->materials);
+  for (uint32_t i = 0; i < scene->texture_count; i++) free(scene->textures[i].rgb);
+  free(scene->textures);
   free(scene->point_lights);
   free(scene->emitters);
   free(scene->emitter_cdf);

@@ -85,7 +85,9 @@ test_bad_numbers() {
   for bad in "--size=" "--size=0" "--size=-5" "--size=+5" "--size= 5" "--size=1e3" \
     "--size=99999999999999999999" "--width=0" "--width=640.5" "--height=abc" \
     "--height=100000" "--area-light=0" "--area-light=-0.1" "--area-light=nan" \
-    "--area-light=inf" "--area-light=0.05m" "--area-light="; do
+    "--area-light=inf" "--area-light=0.05m" "--area-light=" "--checker=0" "--checker=4097" \
+    "--checker=2.5" "--roughness=1.5" "--roughness=-0.1" "--roughness=nan" "--metallic=x" \
+    "--metallic="; do
     expect_usage_error floor "$bad" -o "$tmp/out.gltf"
   done
 }
@@ -139,8 +141,10 @@ test_deterministic() {
     expect_status 0 "run into $dir"
     run wavy-mirror --size 300 --glb -o "$tmp/$dir/w.glb"
     expect_status 0 "--glb run into $dir"
+    run pool --size 50 --checker 8 --roughness 0.3 --glb -o "$tmp/$dir/c.glb"
+    expect_status 0 "--checker run into $dir"
   done
-  for file in s.gltf s.bin w.glb; do
+  for file in s.gltf s.bin w.glb c.glb; do
     expect_files "$tmp/a/$file" "$tmp/b/$file"
     cmp -s "$tmp/a/$file" "$tmp/b/$file" || fail "two runs gave different $file"
   done

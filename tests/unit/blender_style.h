@@ -39,6 +39,8 @@ typedef struct blender_style {
   unsigned shuffle;
   /* > 0: moves vertex 2 (the top) up by this much, a real change. */
   float moved;
+  /* Further top-level members, e.g. "images":[...],"textures":[...]; NULL for none. */
+  const char *more_json;
 } blender_style;
 
 typedef struct bs_text {
@@ -149,6 +151,7 @@ static char *blender_style_write(const blender_style *b) {
   bs_printf(&t, "]");
   if (b->animations) bs_printf(&t, ",\"animations\":%s", b->animations);
   if (b->cameras) bs_printf(&t, ",\"cameras\":%s", b->cameras);
+  if (b->more_json) bs_printf(&t, ",%s", b->more_json);
   bs_printf(&t, ",\"materials\":%s", b->materials ? b->materials
                                                   : "[{\"name\":\"Floor\",\"pbrMetallicRoughness\":"
                                                     "{\"metallicFactor\":0,\"roughnessFactor\":1}}]");

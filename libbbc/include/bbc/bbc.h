@@ -15,6 +15,7 @@
 #include "bbc/scene.h"
 #include "bbc/solver.h"
 #include "bbc/specular_path.h"
+#include "bbc/texture.h"
 #include "bbc/tuple.h"
 #include "bbc/validate.h"
 

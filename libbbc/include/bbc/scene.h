@@ -20,12 +20,37 @@ typedef enum bbc_material_type {
   BBC_MATERIAL_DIELECTRIC = 2 /* perfectly smooth glass/water with index ior */
 } bbc_material_type;
 
+/* How a texture coordinate outside [0, 1] is brought back (glTF sampler wrapS/wrapT). */
+typedef enum bbc_wrap {
+  BBC_WRAP_REPEAT = 0, /* the fractional part (glTF 10497, the default) */
+  BBC_WRAP_CLAMP = 1,  /* clamped to the edge texels (33071) */
+  BBC_WRAP_MIRROR = 2  /* repeated, every other copy mirrored (33648) */
+} bbc_wrap;
+
+/* A decoded base colour texture: linear RGB (the file's sRGB decoded with the exact
+ * IEC 61966-2-1 curve; alpha is ignored), rows from the top of the image (texture
+ * coordinate v = 0), with its sampler's wrap modes and magnification filter. */
+typedef struct bbc_texture {
+  uint32_t width, height;
+  float *rgb; /* 3 floats per texel, row-major */
+  bbc_wrap wrap_s, wrap_t;
+  int nearest; /* magFilter NEAREST; otherwise bilinear (no mipmaps: see texture.h) */
+} bbc_texture;
+
 typedef struct bbc_material {
   char name[64];
   bbc_material_type type;
-  float base_color[3]; /* linear RGB */
+  float base_color[3]; /* linear RGB: baseColorFactor; times the texture where it has one */
   float ior;           /* dielectrics only; 1.5 when absent */
   float emission[3];   /* emitted radiance (W/sr/m^2); zero for non-emitters */
+  /* The base colour texture: 1 + its index into scene->textures, or 0 for none (so a
+   * zeroed material has none; also 0 when its image could not be read: the loader
+   * warns, and the surface has the factor alone, as under a white texture).
+   * uv_transform maps TEXCOORD_0 to texture coordinates,
+   * (s, t) = (m[0] u + m[1] v + m[2], m[3] u + m[4] v + m[5]), from
+   * KHR_texture_transform (the identity without it); unused without a texture. */
+  uint32_t base_color_texture;
+  double uv_transform[6];
 } bbc_material;
 
 /* What a mesh does for caustics: casters are the specular surfaces light is bounced
@@ -150,6 +175,8 @@ typedef struct bbc_scene {
   bbc_mesh *meshes;
   uint32_t material_count;
   bbc_material *materials;
+  uint32_t texture_count;
+  bbc_texture *textures; /* those base colour textures use, in file order */
 
   uint32_t point_light_count;
   bbc_point_light *point_lights;

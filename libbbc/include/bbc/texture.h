@@ -1,0 +1,38 @@
+/* Base colour textures: what a receiver's albedo is at a surface point.
+ *
+ * A texture is sampled where the triangle's interpolated TEXCOORD_0, mapped by the
+ * material's KHR_texture_transform, falls: each coordinate is wrapped by the sampler's
+ * mode (bbc_wrap), then the texel containing it is taken (magFilter NEAREST) or the four
+ * nearest texel centres are blended bilinearly (LINEAR, and when the sampler says
+ * nothing). There are no mipmaps: minification is the renderer's pixel supersampling,
+ * so a texture much finer than a pixel converges to its mean over the pixel instead of
+ * being prefiltered. */
+#ifndef BBC_TEXTURE_H
+#define BBC_TEXTURE_H
+
+#include "bbc/scene.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* sRGB-encoded value in [0, 1] to linear (IEC 61966-2-1: c / 12.92 up to 0.04045,
+ * ((c + 0.055) / 1.055)^2.4 above). */
+BBC_API double bbc_srgb_to_linear(double c);
+
+/* The linear RGB of a texture at texture coordinates (s, t) (s across, t down from the
+ * top row). Non-finite coordinates read as 0. */
+BBC_API void bbc_texture_lookup(const bbc_texture *texture, double s, double t, double out[3]);
+
+/* The base colour (the diffuse albedo, and the glossy model's base colour) of scene
+ * triangle `triangle` at barycentrics b1, b2 of its vertices 1 and 2: the material's
+ * base_color, times its texture at the interpolated, transformed TEXCOORD_0 when it has
+ * one. */
+BBC_API void bbc_scene_base_color(const bbc_scene *scene, uint32_t triangle, double b1, double b2,
+                                  double out[3]);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,72 @@
+/* Base colour textures (bbc/texture.h): wrap modes, nearest and bilinear lookups, and
+ * the albedo of a surface point. */
+#include "bbc/texture.h"
+
+#include <math.h>
+
+double bbc_srgb_to_linear(double c) {
+  return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+}
+
+/* A coordinate in texture units [0, 1) (repeat), [0, 2) (mirror) or [0, 1] (clamp). */
+static double reduce(double x, bbc_wrap wrap) {
+  if (!isfinite(x)) return 0.0;
+  if (wrap == BBC_WRAP_CLAMP) return x < 0.0 ? 0.0 : x > 1.0 ? 1.0 : x;
+  double period = wrap == BBC_WRAP_MIRROR ? 2.0 : 1.0;
+  double r = x - period * floor(x / period);
+  return r >= period || r < 0.0 ? 0.0 : r; /* rounding of floor near a period's end */
+}
+
+/* Texel index i (any integer in [-1, 2n]) wrapped into [0, n). */
+static int64_t wrap_index(int64_t i, int64_t n, bbc_wrap wrap) {
+  if (wrap == BBC_WRAP_CLAMP) return i < 0 ? 0 : i >= n ? n - 1 : i;
+  if (wrap == BBC_WRAP_REPEAT) return ((i % n) + n) % n;
+  int64_t m = ((i % (2 * n)) + 2 * n) % (2 * n);
+  return m < n ? m : 2 * n - 1 - m;
+}
+
+static void texel(const bbc_texture *tex, int64_t x, int64_t y, double w, double out[3]) {
+  const float *p = tex->rgb + 3 * ((size_t)y * tex->width + (size_t)x);
+  for (int k = 0; k < 3; k++) out[k] += w * p[k];
+}
+
+void bbc_texture_lookup(const bbc_texture *tex, double s, double t, double out[3]) {
+  out[0] = out[1] = out[2] = 0.0;
+  const int64_t w = tex->width, h = tex->height;
+  /* In texel units: texel i covers [i, i + 1), its centre is i + 1/2. */
+  double x = reduce(s, tex->wrap_s) * (double)w, y = reduce(t, tex->wrap_t) * (double)h;
+  if (tex->nearest) {
+    int64_t i = (int64_t)floor(x), j = (int64_t)floor(y);
+    texel(tex, wrap_index(i, w, tex->wrap_s), wrap_index(j, h, tex->wrap_t), 1.0, out);
+    return;
+  }
+  x -= 0.5;
+  y -= 0.5;
+  double fx = floor(x), fy = floor(y);
+  double ax = x - fx, ay = y - fy;
+  int64_t i = (int64_t)fx, j = (int64_t)fy;
+  int64_t i0 = wrap_index(i, w, tex->wrap_s), i1 = wrap_index(i + 1, w, tex->wrap_s);
+  int64_t j0 = wrap_index(j, h, tex->wrap_t), j1 = wrap_index(j + 1, h, tex->wrap_t);
+  texel(tex, i0, j0, (1 - ax) * (1 - ay), out);
+  texel(tex, i1, j0, ax * (1 - ay), out);
+  texel(tex, i0, j1, (1 - ax) * ay, out);
+  texel(tex, i1, j1, ax * ay, out);
+}
+
+void bbc_scene_base_color(const bbc_scene *scene, uint32_t triangle, double b1, double b2,
+                          double out[3]) {
+  const bbc_material *m = bbc_scene_triangle_material(scene, triangle);
+  for (int k = 0; k < 3; k++) out[k] = m->base_color[k];
+  if (m->base_color_texture == 0) return;
+  const uint32_t *idx = scene->indices + 3 * (size_t)triangle;
+  const float *uv0 = scene->uvs + 2 * (size_t)idx[0], *uv1 = scene->uvs + 2 * (size_t)idx[1],
+              *uv2 = scene->uvs + 2 * (size_t)idx[2];
+  double b0 = 1.0 - b1 - b2;
+  double u = b0 * uv0[0] + b1 * uv1[0] + b2 * uv2[0];
+  double v = b0 * uv0[1] + b1 * uv1[1] + b2 * uv2[1];
+  const double *x = m->uv_transform;
+  double c[3];
+  bbc_texture_lookup(&scene->textures[m->base_color_texture - 1], x[0] * u + x[1] * v + x[2],
+                     x[3] * u + x[4] * v + x[5], c);
+  for (int k = 0; k < 3; k++) out[k] *= c[k];
+}
