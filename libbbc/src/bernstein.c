@@ -15,7 +15,12 @@
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
+#include <stdatomic.h>
+#include <stdlib.h>
 #include <threads.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "bernstein_internal.h"
 #include "rounding_internal.h"
@@ -111,7 +116,23 @@ size_t bbc__strides(const unsigned char deg[NAX], size_t stride[NAX]) {
 
 double bbc__maxabs(const double *c, size_t n) {
   double m = 0.0;
-  for (size_t i = 0; i < n; i++) {
+  size_t i = 0;
+#ifdef __SSE2__
+  /* Two lanes at a time; the maximum of finite values does not depend on the order. */
+  const __m128d absmask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
+  const __m128d inf = _mm_set1_pd(INFINITY);
+  __m128d vm = _mm_setzero_pd(), finite = _mm_cmpeq_pd(vm, vm);
+  for (; i + 2 <= n; i += 2) {
+    __m128d a = _mm_and_pd(_mm_loadu_pd(c + i), absmask);
+    finite = _mm_and_pd(finite, _mm_cmplt_pd(a, inf)); /* false for inf and NaN */
+    vm = _mm_max_pd(vm, a);
+  }
+  if (_mm_movemask_pd(finite) != 3) return INFINITY;
+  double lanes[2];
+  _mm_storeu_pd(lanes, vm);
+  m = lanes[0] > lanes[1] ? lanes[0] : lanes[1];
+#endif
+  for (; i < n; i++) {
     double a = fabs(c[i]);
     if (!(a <= m)) {
       if (!(a < INFINITY)) return INFINITY; /* inf or NaN */
@@ -138,18 +159,13 @@ static void split_dims(const unsigned char deg[NAX], int axis, size_t *pre, size
   *post = b;
 }
 
-void bbc__axis_apply(const double *in, const unsigned char deg[NAX], int axis, const double *m,
-                     int rows, double *out) {
-  size_t pre, post;
-  split_dims(deg, axis, &pre, &post);
-  size_t cols = (size_t)deg[axis] + 1;
-  /* The non-zero band of each row (elevation matrices are banded), found once, so that the
-   * inner loops need no test. Adding an exact 0 * x inside a band changes no rounding. */
-  int band_lo[MAXD + 1], band_hi[MAXD + 1];
+/* The non-zero band of each row of a rows x cols matrix: columns band_lo[k]..band_hi[k]
+ * (an empty band has hi < lo). */
+static void find_bands(const double *m, int rows, int cols, int *band_lo, int *band_hi) {
   for (int k = 0; k < rows; k++) {
     const double *w = m + (size_t)k * cols;
     int lo = 0, hi = -1;
-    for (int j = 0; j < (int)cols; j++) {
+    for (int j = 0; j < cols; j++) {
       if (w[j] != 0.0) {
         if (hi < 0) lo = j;
         hi = j;
@@ -158,6 +174,28 @@ void bbc__axis_apply(const double *in, const unsigned char deg[NAX], int axis, c
     band_lo[k] = lo;
     band_hi[k] = hi;
   }
+}
+
+/* bbc__axis_apply with the bands of m already found. */
+static void axis_apply_banded(const double *in, const unsigned char deg[NAX], int axis,
+                              const double *m, int rows, const int *band_lo, const int *band_hi,
+                              double *out);
+
+void bbc__axis_apply(const double *in, const unsigned char deg[NAX], int axis, const double *m,
+                     int rows, double *out) {
+  /* The non-zero band of each row (elevation matrices are banded), found once, so that the
+   * inner loops need no test. Adding an exact 0 * x inside a band changes no rounding. */
+  int band_lo[MAXD + 1], band_hi[MAXD + 1];
+  find_bands(m, rows, (int)deg[axis] + 1, band_lo, band_hi);
+  axis_apply_banded(in, deg, axis, m, rows, band_lo, band_hi, out);
+}
+
+static void axis_apply_banded(const double *in, const unsigned char deg[NAX], int axis,
+                              const double *m, int rows, const int *band_lo, const int *band_hi,
+                              double *out) {
+  size_t pre, post;
+  split_dims(deg, axis, &pre, &post);
+  size_t cols = (size_t)deg[axis] + 1;
   if (post == 1) {
     /* The contiguous axis: plain dot products. */
     for (size_t p = 0; p < pre; p++) {
@@ -241,6 +279,40 @@ static void elevation_matrix(int n, int t, double *m) {
       m[(size_t)k * (n + 1) + j] = (j <= k && k - j <= r) ? cn[j] * cr[k - j] / ct[k] : 0.0;
 }
 
+/* The elevation matrices with their bands depend only on (n, t): computed once per process
+ * and shared, published with a compare-and-swap (a thread that loses the race frees its
+ * copy; the matrices are deterministic, so which copy wins does not matter). */
+typedef struct elevation {
+  const double *m;
+  const int *band_lo, *band_hi;
+} elevation;
+
+static _Atomic(elevation *) elevation_cache[MAXD + 1][MAXD + 1];
+
+/* NULL when memory is short (the caller then builds the matrix itself). */
+static const elevation *cached_elevation(int n, int t) {
+  elevation *e = atomic_load_explicit(&elevation_cache[n][t], memory_order_acquire);
+  if (e) return e;
+  size_t rows = (size_t)t + 1, cols = (size_t)n + 1;
+  unsigned char *block =
+      malloc(sizeof(elevation) + rows * cols * sizeof(double) + 2 * rows * sizeof(int));
+  if (!block) return NULL;
+  elevation *fresh = (elevation *)block;
+  double *m = (double *)(block + sizeof(elevation));
+  int *lo = (int *)(m + rows * cols), *hi = lo + rows;
+  elevation_matrix(n, t, m);
+  find_bands(m, (int)rows, (int)cols, lo, hi);
+  fresh->m = m;
+  fresh->band_lo = lo;
+  fresh->band_hi = hi;
+  elevation *expected = NULL;
+  if (atomic_compare_exchange_strong_explicit(&elevation_cache[n][t], &expected, fresh,
+                                              memory_order_acq_rel, memory_order_acquire))
+    return fresh;
+  free(block);
+  return expected;
+}
+
 bbc_result bbc__elevate_into(bbc_arena *arena, const bbc_poly *p, const unsigned char deg[NAX],
                              double *dst, double *err) {
   unsigned char cur[NAX];
@@ -263,15 +335,21 @@ bbc_result bbc__elevate_into(bbc_arena *arena, const bbc_poly *p, const unsigned
     unsigned char next[NAX];
     memcpy(next, cur, NAX);
     next[j] = (unsigned char)t;
-    double *mat = (double *)bbc_arena_alloc(arena, sizeof(double) * (size_t)(t + 1) * (n + 1));
+    const elevation *cached = cached_elevation(n, t);
+    double *mat = NULL;
+    if (!cached) mat = (double *)bbc_arena_alloc(arena, sizeof(double) * (size_t)(t + 1) * (n + 1));
     double *out = dst;
     if (a + 1 < naxes) out = (double *)bbc_arena_alloc(arena, sizeof(double) * bbc__size(next));
-    if (!mat || !out) {
+    if ((!cached && !mat) || !out) {
       bbc_arena_reset(arena, mark);
       return BBC_ERR_OUT_OF_MEMORY;
     }
-    elevation_matrix(n, t, mat);
-    bbc__axis_apply(src, cur, j, mat, t + 1, out);
+    if (cached) {
+      axis_apply_banded(src, cur, j, cached->m, t + 1, cached->band_lo, cached->band_hi, out);
+    } else {
+      elevation_matrix(n, t, mat);
+      bbc__axis_apply(src, cur, j, mat, t + 1, out);
+    }
     /* K = 5 (matrix entry) + 1 (product) + (terms - 1) (sum), terms <= min(n, t - n) + 1. */
     int terms = (n < t - n ? n : t - n) + 1;
     double pass = bbc__mul_up(bbc__gamma(5 + terms), m);
@@ -480,8 +558,229 @@ bbc_result bbc_poly_add_scalar(bbc_arena *arena, bbc_poly *out, const bbc_poly *
  * b_j C(m, j) are convolved and the sum for k divided by C(n + m, k), per axis, which is
  * the exact product (the weights C(n,i) C(m,j) / C(n+m,k) are >= 0 and sum to 1 over
  * i + j = k by Vandermonde's identity). */
+static void mul_general(bbc_arena *arena, const bbc_poly *a, const bbc_poly *b,
+                        const unsigned char deg[NAX], double *dst, bbc_result *status);
+
+/* ---- Products on the last two axes --------------------------------------------------- */
+
+/* Most products of a piece's computation have every degree on the two geometric axes of
+ * the piece (the last two axes; remainders are flattened away). mul2_kernel is the
+ * general product below restricted to that case and done with the same operations in the
+ * same order, so its coefficients are the same doubles: a_ij C(a0, i) C(a1, j) (axis 6's
+ * factor first), likewise b, the convolution accumulated from 0 in a's coefficient order
+ * with zero a-coefficients skipped, then the division by C(o0, k) and then by C(o1, l).
+ * (x * 1 and x / 1 are exact, so the general code's skipping of unit binomials changes
+ * nothing.) The degrees are compile-time constants for the common shapes, whose loops the
+ * compiler then unrolls and vectorises; the operands stay on the stack. */
+#define MUL2_MAXF 15
+
+/* The kernels are also compiled for AVX2 and chosen at load time where the processor has
+ * it: wider vectors for the same operations (no fused multiply-add, which the build
+ * forbids with -ffp-contract=off), hence the same bits. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(BBC_NO_CLONES)
+#define BBC__KERNEL __attribute__((noinline, target_clones("avx2", "default")))
+#else
+#define BBC__KERNEL __attribute__((noinline))
+#endif
+
+static inline __attribute__((always_inline)) void mul2_kernel(const double *restrict a,
+                                                              const double *restrict b,
+                                                              double *restrict dst, int a0,
+                                                              int a1, int b0, int b1) {
+  const int o0 = a0 + b0, o1 = a1 + b1;
+  const int ra = a1 + 1, rb = b1 + 1, ro = o1 + 1;
+  const double *ca0 = binomial_table[a0], *ca1 = binomial_table[a1];
+  const double *cb0 = binomial_table[b0], *cb1 = binomial_table[b1];
+  const double *co0 = binomial_table[o0], *co1 = binomial_table[o1];
+  double ta[(MUL2_MAXF + 1) * (MUL2_MAXF + 1)], tb[(MUL2_MAXF + 1) * (MUL2_MAXF + 1)];
+  for (int i = 0; i <= a0; i++)
+    for (int j = 0; j <= a1; j++) ta[i * ra + j] = (a[i * ra + j] * ca0[i]) * ca1[j];
+  for (int i = 0; i <= b0; i++)
+    for (int j = 0; j <= b1; j++) tb[i * rb + j] = (b[i * rb + j] * cb0[i]) * cb1[j];
+  for (int k = 0; k < (o0 + 1) * ro; k++) dst[k] = 0.0;
+  for (int i = 0; i <= a0; i++) {
+    for (int j = 0; j <= a1; j++) {
+      const double va = ta[i * ra + j];
+      if (va == 0.0) continue;
+      for (int r = 0; r <= b0; r++) {
+        double *d = dst + (i + r) * ro + j;
+        const double *sb = tb + r * rb;
+        for (int t = 0; t <= b1; t++) d[t] += va * sb[t];
+      }
+    }
+  }
+  for (int k = 0; k <= o0; k++)
+    for (int l = 0; l <= o1; l++) dst[k * ro + l] = (dst[k * ro + l] / co0[k]) / co1[l];
+}
+
+static BBC__KERNEL void mul2_any(const double *a, const double *b, double *dst,
+                                               int a0, int a1, int b0, int b1) {
+  mul2_kernel(a, b, dst, a0, a1, b0, b1);
+}
+
+#define MUL2_KEY(a0, a1, b0, b1) (((a0) << 12) | ((a1) << 8) | ((b0) << 4) | (b1))
+#define MUL2_CASE(a0, a1, b0, b1)                    \
+  case MUL2_KEY(a0, a1, b0, b1):                     \
+    mul2_kernel(a, b, dst, a0, a1, b0, b1);          \
+    return
+
+/* The shapes of a double-scattering piece at the flattening degree 3 (products of
+ * flattened quantities, their derivatives and constants), most frequent first. */
+static BBC__KERNEL void mul2(const double *a, const double *b, double *dst, int a0, int a1, int b0, int b1) {
+  switch (MUL2_KEY(a0, a1, b0, b1)) {
+    MUL2_CASE(3, 3, 3, 3);
+    MUL2_CASE(3, 3, 0, 0);
+    MUL2_CASE(1, 1, 1, 1);
+    MUL2_CASE(1, 1, 0, 0);
+    MUL2_CASE(6, 6, 3, 3);
+    MUL2_CASE(3, 3, 1, 1);
+    MUL2_CASE(1, 1, 3, 3);
+    MUL2_CASE(4, 4, 0, 0);
+    MUL2_CASE(2, 2, 1, 1);
+    MUL2_CASE(0, 0, 1, 1);
+    MUL2_CASE(2, 2, 0, 0);
+    MUL2_CASE(0, 0, 3, 3);
+    MUL2_CASE(2, 2, 2, 2);
+    default:
+      mul2_any(a, b, dst, a0, a1, b0, b1);
+  }
+}
+
+/* The same product for operands with at most four active axes in all (any axes), the
+ * tensors seen through those axes only (an axis of degree 0 contributes a factor 1 to
+ * every size and index). Same operations in the same order as the general code. */
+#define MULN_AXES 4
+#define MULN_MAXC 1024
+
+static BBC__KERNEL void muln(const double *a, const double *b, double *dst,
+                                           const int da[MULN_AXES], const int db[MULN_AXES]) {
+  int dout[MULN_AXES];
+  for (int k = 0; k < MULN_AXES; k++) dout[k] = da[k] + db[k];
+  double ta[MULN_MAXC], tb[MULN_MAXC];
+  /* a's and b's coefficients times their binomials, axis by axis in axis order. */
+  const double *src[2] = {a, b};
+  double *to[2] = {ta, tb};
+  const int *dd[2] = {da, db};
+  for (int w = 0; w < 2; w++) {
+    const int *d = dd[w];
+    const double *c0 = binomial_table[d[0]], *c1 = binomial_table[d[1]];
+    const double *c2 = binomial_table[d[2]], *c3 = binomial_table[d[3]];
+    size_t i = 0;
+    for (int i0 = 0; i0 <= d[0]; i0++)
+      for (int i1 = 0; i1 <= d[1]; i1++)
+        for (int i2 = 0; i2 <= d[2]; i2++)
+          for (int i3 = 0; i3 <= d[3]; i3++, i++)
+            to[w][i] = (((src[w][i] * c0[i0]) * c1[i1]) * c2[i2]) * c3[i3];
+  }
+  const size_t s3 = 1, s2 = (size_t)dout[3] + 1, s1 = s2 * ((size_t)dout[2] + 1),
+               s0 = s1 * ((size_t)dout[1] + 1), size = s0 * ((size_t)dout[0] + 1);
+  (void)s3;
+  for (size_t k = 0; k < size; k++) dst[k] = 0.0;
+  const int run = db[3] + 1;
+  size_t ia = 0;
+  for (int i0 = 0; i0 <= da[0]; i0++)
+    for (int i1 = 0; i1 <= da[1]; i1++)
+      for (int i2 = 0; i2 <= da[2]; i2++)
+        for (int i3 = 0; i3 <= da[3]; i3++, ia++) {
+          const double va = ta[ia];
+          if (va == 0.0) continue;
+          const double *sb = tb;
+          for (int r0 = 0; r0 <= db[0]; r0++)
+            for (int r1 = 0; r1 <= db[1]; r1++)
+              for (int r2 = 0; r2 <= db[2]; r2++, sb += run) {
+                double *d = dst + (size_t)(i0 + r0) * s0 + (size_t)(i1 + r1) * s1 +
+                            (size_t)(i2 + r2) * s2 + (size_t)i3;
+                for (int t = 0; t < run; t++) d[t] += va * sb[t];
+              }
+        }
+  const double *c0 = binomial_table[dout[0]], *c1 = binomial_table[dout[1]];
+  const double *c2 = binomial_table[dout[2]], *c3 = binomial_table[dout[3]];
+  size_t k = 0;
+  for (int k0 = 0; k0 <= dout[0]; k0++)
+    for (int k1 = 0; k1 <= dout[1]; k1++)
+      for (int k2 = 0; k2 <= dout[2]; k2++)
+        for (int k3 = 0; k3 <= dout[3]; k3++, k++)
+          dst[k] = (((dst[k] / c0[k0]) / c1[k1]) / c2[k2]) / c3[k3];
+}
+
+/* The degrees of a and b on the at most MULN_AXES active axes of the output (deg), in axis
+ * order, right-aligned (leading entries 0); 0 when there are more active axes, no active
+ * axis (the general code multiplies two constants directly, without the accumulation from
+ * 0), or the operands do not fit on the stack. */
+static int muln_shape(const bbc_poly *a, const bbc_poly *b, const unsigned char deg[NAX],
+                      int da[MULN_AXES], int db[MULN_AXES]) {
+  int m = 0;
+  for (int j = 0; j < NAX; j++) m += deg[j] > 0;
+  if (m == 0 || m > MULN_AXES) return 0;
+  int k = MULN_AXES - m;
+  for (int j = 0; j < k; j++) da[j] = db[j] = 0;
+  for (int j = 0; j < NAX; j++) {
+    if (!deg[j]) continue;
+    da[k] = a->deg[j];
+    db[k] = b->deg[j];
+    k++;
+  }
+  size_t na = 1, nb = 1;
+  for (int j = 0; j < MULN_AXES; j++) {
+    na *= (size_t)da[j] + 1;
+    nb *= (size_t)db[j] + 1;
+  }
+  return na <= MULN_MAXC && nb <= MULN_MAXC;
+}
+
+/* Whether a * b (output degrees deg) goes through mul2: degrees only on the last two axes,
+ * the factors' within MUL2_MAXF, and not both constant (the general code multiplies two
+ * constants directly, without the accumulation from 0). */
+static int mul2_applies(const bbc_poly *a, const bbc_poly *b, const unsigned char deg[NAX]) {
+  for (int j = 0; j < NAX - 2; j++)
+    if (deg[j]) return 0;
+  if (deg[NAX - 2] == 0 && deg[NAX - 1] == 0) return 0;
+  return a->deg[NAX - 2] <= MUL2_MAXF && a->deg[NAX - 1] <= MUL2_MAXF &&
+         b->deg[NAX - 2] <= MUL2_MAXF && b->deg[NAX - 1] <= MUL2_MAXF;
+}
+
 static bbc_result mul_into(bbc_arena *arena, const bbc_poly *a, const bbc_poly *b,
                            const unsigned char deg[NAX], double *dst, double *err) {
+  size_t na = bbc__size(a->deg), nb = bbc__size(b->deg);
+  if (mul2_applies(a, b, deg)) {
+    (void)bbc__binomial_row(0); /* the table is built */
+    mul2(a->coef, b->coef, dst, a->deg[NAX - 2], a->deg[NAX - 1], b->deg[NAX - 2],
+         b->deg[NAX - 1]);
+  } else {
+    int da[MULN_AXES], db[MULN_AXES];
+    if (muln_shape(a, b, deg, da, db)) {
+      (void)bbc__binomial_row(0);
+      muln(a->coef, b->coef, dst, da, db);
+    } else {
+      bbc_result status = BBC_OK;
+      mul_general(arena, a, b, deg, dst, &status);
+      if (status != BBC_OK) return status;
+    }
+  }
+
+  /* K: 2 per active axis for scaling a, the same for b and for the final division, 1 for
+   * the product and terms - 1 for the sum, terms = prod(min(n_j, m_j) + 1). */
+  int active = count_active(deg);
+  double terms = 1.0;
+  for (int j = 0; j < NAX; j++)
+    terms *= (double)((a->deg[j] < b->deg[j] ? a->deg[j] : b->deg[j]) + 1);
+  double k = 6.0 * active + terms + 1.0;
+  double ma = bbc__maxabs(a->coef, na), mb = bbc__maxabs(b->coef, nb);
+  double ea = bbc__radius(a->err), eb = bbc__radius(b->err);
+  /* |A B - a b| <= |a| eb + |b| ea + ea eb coefficient-wise before rounding, then the
+   * rounding of the convex combination. */
+  double e = bbc__add_up(bbc__mul_up(ma, eb), bbc__mul_up(mb, ea));
+  e = bbc__add_up(e, bbc__mul_up(ea, eb));
+  e = bbc__add_up(e, bbc__mul_up(bbc__gamma(k), bbc__mul_up(ma, mb)));
+  e = bbc__add_up(e, k * BBC__ETA);
+  *err = bbc__radius(e);
+  return BBC_OK;
+}
+
+/* The product for any shape (see mul_into); *status receives BBC_ERR_OUT_OF_MEMORY when
+ * the arena cannot hold the scaled operands. */
+static void mul_general(bbc_arena *arena, const bbc_poly *a, const bbc_poly *b,
+                        const unsigned char deg[NAX], double *dst, bbc_result *status) {
   size_t mark = bbc_arena_mark(arena);
   size_t na = bbc__size(a->deg), nb = bbc__size(b->deg);
   size_t so[NAX];
@@ -490,7 +789,8 @@ static bbc_result mul_into(bbc_arena *arena, const bbc_poly *a, const bbc_poly *
   double *tb = (double *)bbc_arena_alloc(arena, nb * sizeof(double));
   if (!ta || !tb) {
     bbc_arena_reset(arena, mark);
-    return BBC_ERR_OUT_OF_MEMORY;
+    *status = BBC_ERR_OUT_OF_MEMORY;
+    return;
   }
   memcpy(ta, a->coef, na * sizeof(double));
   memcpy(tb, b->coef, nb * sizeof(double));
@@ -511,7 +811,8 @@ static bbc_result mul_into(bbc_arena *arena, const bbc_poly *a, const bbc_poly *
     size_t *row_off = (size_t *)bbc_arena_alloc(arena, rows * sizeof(size_t));
     if (!row_off) {
       bbc_arena_reset(arena, mark);
-      return BBC_ERR_OUT_OF_MEMORY;
+      *status = BBC_ERR_OUT_OF_MEMORY;
+      return;
     }
     int idx[NAX] = {0};
     size_t off = 0;
@@ -553,24 +854,6 @@ static bbc_result mul_into(bbc_arena *arena, const bbc_poly *a, const bbc_poly *
   }
   scale_by_binomials(dst, deg, 1);
   bbc_arena_reset(arena, mark);
-
-  /* K: 2 per active axis for scaling a, the same for b and for the final division, 1 for
-   * the product and terms - 1 for the sum, terms = prod(min(n_j, m_j) + 1). */
-  int active = count_active(deg);
-  double terms = 1.0;
-  for (int j = 0; j < NAX; j++)
-    terms *= (double)((a->deg[j] < b->deg[j] ? a->deg[j] : b->deg[j]) + 1);
-  double k = 6.0 * active + terms + 1.0;
-  double ma = bbc__maxabs(a->coef, na), mb = bbc__maxabs(b->coef, nb);
-  double ea = bbc__radius(a->err), eb = bbc__radius(b->err);
-  /* |A B - a b| <= |a| eb + |b| ea + ea eb coefficient-wise before rounding, then the
-   * rounding of the convex combination. */
-  double e = bbc__add_up(bbc__mul_up(ma, eb), bbc__mul_up(mb, ea));
-  e = bbc__add_up(e, bbc__mul_up(ea, eb));
-  e = bbc__add_up(e, bbc__mul_up(bbc__gamma(k), bbc__mul_up(ma, mb)));
-  e = bbc__add_up(e, k * BBC__ETA);
-  *err = bbc__radius(e);
-  return BBC_OK;
 }
 
 bbc_result bbc_poly_mul(bbc_arena *arena, bbc_poly *out, const bbc_poly *a, const bbc_poly *b) {

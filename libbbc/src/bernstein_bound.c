@@ -11,6 +11,9 @@
 
 #include <math.h>
 #include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "bernstein_internal.h"
 #include "rounding_internal.h"
@@ -32,7 +35,28 @@ bbc_interval bbc_poly_bound(const bbc_poly *p) {
   double e = bbc__radius(p->err);
   if (!(e < INFINITY)) return whole;
   double lo = p->coef[0], hi = p->coef[0];
-  for (size_t i = 0; i < n; i++) {
+  size_t i = 0;
+#ifdef __SSE2__
+  /* Two lanes at a time; the extremes of finite values do not depend on the order. */
+  {
+    const __m128d absmask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
+    const __m128d inf = _mm_set1_pd(INFINITY);
+    __m128d vlo = _mm_set1_pd(lo), vhi = vlo, finite = _mm_cmpeq_pd(vlo, vlo);
+    for (; i + 2 <= n; i += 2) {
+      __m128d c = _mm_loadu_pd(p->coef + i);
+      finite = _mm_and_pd(finite, _mm_cmplt_pd(_mm_and_pd(c, absmask), inf));
+      vlo = _mm_min_pd(vlo, c);
+      vhi = _mm_max_pd(vhi, c);
+    }
+    if (_mm_movemask_pd(finite) != 3) return whole;
+    double l[2], h[2];
+    _mm_storeu_pd(l, vlo);
+    _mm_storeu_pd(h, vhi);
+    lo = l[0] < l[1] ? l[0] : l[1];
+    hi = h[0] > h[1] ? h[0] : h[1];
+  }
+#endif
+  for (; i < n; i++) {
     double c = p->coef[i];
     if (!(c > -INFINITY && c < INFINITY)) return whole; /* inf or NaN */
     if (c < lo) lo = c;
