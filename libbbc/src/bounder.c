@@ -109,9 +109,18 @@ bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene
   return BBC_OK;
 }
 
+/* Timing: the thread's CPU time is read once per tuple (a system call), and split
+ * between the position and irradiance bounds in proportion to the time each took on the
+ * monotonic clock, read per piece (no system call). */
 static double cpu_seconds(void) {
   struct timespec ts;
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static double clock_seconds(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
   return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
@@ -538,7 +547,7 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
   memset(root, 0, sizeof *root);
   root->status = BBC_PIECE_DISCARDED;
   double lo_u = 1, lo_v = 1, hi_u = 0, hi_v = 0;
-  double t0 = cpu_seconds();
+  double t0 = clock_seconds();
   bbc_piece stack[4 * DOMAIN_INIT_LEVELS + 1];
   int top = 0;
   memset(&stack[0], 0, sizeof stack[0]);
@@ -579,7 +588,7 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
     hi_u = fmax(hi_u, piece.u_hi);
     hi_v = fmax(hi_v, piece.v_hi);
   }
-  local->position_seconds += cpu_seconds() - t0;
+  local->position_seconds += clock_seconds() - t0;
   if (result != BBC_OK || hi_u <= lo_u) return result;
   root->status = BBC_PIECE_KEPT;
   root->u_lo = lo_u, root->u_hi = hi_u, root->v_lo = lo_v, root->v_hi = hi_v;
@@ -609,6 +618,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
   bbc_bound_stats local;
   memset(&local, 0, sizeof local);
   local.tuples = 1;
+  const double cpu0 = stats ? cpu_seconds() : 0;
 
   bbc_piece root;
   bbc_result result = domain_init(b, g, position_mode, fn, user, &root, &local);
@@ -630,7 +640,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       if (fn && fn(user, &piece)) result = BBC_ERR_CANCELLED;
       continue;
     }
-    double t0 = cpu_seconds();
+    double t0 = clock_seconds();
     piece_forms pf;
     verdict v = VERDICT_PARTIAL;
     result = examine_position(b, g, position_mode, &piece, &pf, &v, NULL);
@@ -639,7 +649,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     bbc_space space = pf.space;
     const chain_forms forms = pf.forms;
     local.position_pieces++;
-    double t1 = cpu_seconds();
+    double t1 = clock_seconds();
     local.position_seconds += t1 - t0;
     if (result != BBC_OK) break;
 
@@ -688,7 +698,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
         result = irradiance_bound(&b->arena, &space, g, irr, box, uk_box, s_axis, t_axis,
                                   prm.jacobian, alpha, &e_lo, &e_hi);
       local.irradiance_pieces++;
-      local.irradiance_seconds += cpu_seconds() - t1;
+      local.irradiance_seconds += clock_seconds() - t1;
       if (result != BBC_OK) break;
       /* Both the piece's own bound and the inherited one hold: keep the tighter ends. */
       piece.e_lo = fmax(piece.e_lo, e_lo);
@@ -734,6 +744,12 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
   }
 done:
   if (stats) {
+    /* local's seconds are on the monotonic clock until here. */
+    double clocked = local.position_seconds + local.irradiance_seconds;
+    double cpu = cpu_seconds() - cpu0;
+    double share = clocked > 0 ? local.position_seconds / clocked : 1.0;
+    local.position_seconds = cpu * share;
+    local.irradiance_seconds = cpu - local.position_seconds;
     stats->tuples += local.tuples;
     stats->position_pieces += local.position_pieces;
     stats->irradiance_pieces += local.irradiance_pieces;

@@ -63,6 +63,11 @@ typedef struct tuple_sink {
   coverage *cover;
   const bbc_grid *grid;
   uint32_t receiver;
+  /* The last region splatted and its result (coverage_range): a piece is judged after
+   * its position bound, again after its irradiance bound and then kept, on one region. */
+  int cached, cached_hit;
+  double cached_region[8];
+  bbc_cell_range cached_range;
 } tuple_sink;
 
 static bbc_result coverage_begin(coverage *c, const bbc_grid *grid, uint32_t receiver) {
@@ -93,17 +98,27 @@ static void coverage_end(coverage *c) {
 
 /* The piece's cells (rows r->y0..r->y1, columns in c->row_x0/x1); 0 when it reaches
  * none. Splats of the triangle's points stay in its rectangle, the raster's. */
-static int coverage_range(const tuple_sink *s, const bbc_piece *p, bbc_cell_range *r) {
+static int coverage_range(tuple_sink *s, const bbc_piece *p, bbc_cell_range *r) {
   const coverage *c = s->cover;
   double region[8];
   piece_region(p, region);
-  if (c->w == 0 || !bbc_grid_splat_octagon(s->grid, s->receiver, region, r, c->row_x0, c->row_x1))
-    return 0;
-  return r->x0 >= c->x0 && r->y0 >= c->y0 && r->x1 < c->x0 + c->w && r->y1 < c->y0 + c->h;
+  if (s->cached && memcmp(region, s->cached_region, sizeof region) == 0) {
+    *r = s->cached_range;
+    return s->cached_hit;
+  }
+  int hit = c->w != 0 &&
+            bbc_grid_splat_octagon(s->grid, s->receiver, region, r, c->row_x0, c->row_x1) &&
+            r->x0 >= c->x0 && r->y0 >= c->y0 && r->x1 < c->x0 + c->w && r->y1 < c->y0 + c->h;
+  /* The row arrays hold this region's columns until the next splat. */
+  s->cached = c->w != 0;
+  s->cached_hit = hit;
+  memcpy(s->cached_region, region, sizeof region);
+  if (hit) s->cached_range = *r;
+  return hit;
 }
 
 static bbc_piece_need piece_need(void *user, const bbc_piece *piece) {
-  const tuple_sink *s = user;
+  tuple_sink *s = user;
   const coverage *c = s->cover;
   bbc_cell_range r;
   if (!coverage_range(s, piece, &r)) return BBC_NEED_NONE; /* it reaches no cell */
@@ -129,11 +144,20 @@ static int keep_piece(void *user, const bbc_piece *piece) {
   coverage *c = s->cover;
   bbc_cell_range r;
   if (coverage_range(s, piece, &r)) {
+    /* A piece that raises no cell (each already holds a positive bound at least its
+     * E_hi, from pieces kept before it) changes nothing record_tuple computes, the
+     * maximum per cell: it is not stored. The first piece kept always raises a cell, so
+     * the tuple is stored exactly when some piece is kept. */
+    int raises = 0;
     for (uint32_t y = r.y0; y <= r.y1; y++) {
       double *row = c->cells + (size_t)(y - c->y0) * c->w - c->x0;
       for (uint32_t x = c->row_x0[y - r.y0]; x <= c->row_x1[y - r.y0]; x++)
-        if (!(row[x] >= piece->e_hi)) row[x] = piece->e_hi;
+        if (!(row[x] > 0 && row[x] >= piece->e_hi)) {
+          raises = 1;
+          if (!(row[x] >= piece->e_hi)) row[x] = piece->e_hi;
+        }
     }
+    if (!raises) return 0;
     if (!c->touched) {
       c->tx0 = r.x0, c->ty0 = r.y0, c->tx1 = r.x1, c->ty1 = r.y1;
       c->touched = 1;
@@ -293,7 +317,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       int id = omp_get_thread_num();
       bbc_tuple_geometry g;
       pieces[i].count = 0;
-      tuple_sink sink = {&pieces[i], &covers[id], grid, tuples[first + i].receiver};
+      tuple_sink sink = {&pieces[i], &covers[id], grid, tuples[first + i].receiver, 0, 0, {0}, {0}};
       int ok = bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) == BBC_OK &&
                coverage_begin(&covers[id], grid, sink.receiver) == BBC_OK;
       if (ok) {
