@@ -225,14 +225,18 @@ bbc_vec3 bbc__caustics_tuple(const bbc__caustics *c, bbc__caustics_thread *t,
   bbc_path_geometry g;
   if (bbc_path_geometry_init(&g, c->scene, tuple) != BBC_OK) return sum;
   if (g.length == 2) return double_contribution(c, t, tuple, &g, p, ng, key);
-  if (!bbc_solver_single_possible(&g, p, NULL)) {
-    t->excluded++;
-    return sum;
-  }
+  /* The solver runs the pre-test (bbc_solver_single_possible) first; its count of the
+   * tuples it excluded is the stats'. */
+  bbc_solver_stats stats;
+  memset(&stats, 0, sizeof stats);
+  bbc_solver_options options;
+  memset(&options, 0, sizeof options);
+  options.stats = &stats;
   bbc_solution solutions[BBC_SOLVER_MAX_SOLUTIONS];
   size_t count = 0;
-  if (bbc_solver_single(&g, p, NULL, solutions, BBC_SOLVER_MAX_SOLUTIONS, &count) != BBC_OK)
-    return sum;
+  bbc_result solved = bbc_solver_single(&g, p, &options, solutions, BBC_SOLVER_MAX_SOLUTIONS, &count);
+  t->excluded += stats.excluded;
+  if (solved != BBC_OK) return sum;
   for (size_t i = 0; i < count; i++) {
     bbc_vec3 v;
     if (!solution_value(c, tuple, &g, &solutions[i], p, ng, &v)) continue;

@@ -118,7 +118,14 @@ BBC_API bbc_result bbc_solver_single(const bbc_path_geometry *g, bbc_vec3 xk,
  * (D x (xk - x1)) . n(u1)), a quadratic on T1 (a product of two affine functions),
  * vanishes at its x1; when the six Bernstein coefficients of C on T1 (grown
  * by the triangle tolerance) share a sign beyond a rounding margin, C has no root there
- * and no path exists. Exact up to that margin (1e-9 of the coefficients' scale). */
+ * and no path exists. Exact up to that margin (1e-9 of the coefficients' scale).
+ * For a reflection, the reflected direction r = (n.n) d0 - 2 (d0.n) n (d0 = x1 - x0)
+ * must also be parallel to d1 = xk - x1: the three components of r x d1, of degree 4 on
+ * T1, vanish together at x1. When one of them keeps a sign on T1 (grown), or on each of
+ * its pieces split up to twice into four, beyond the verifier's angle tolerance times
+ * the bound 3 |n|^2 |d0| |d1| of |r| |d1|, no path exists either: a path the verifier
+ * would accept has |r x d1| below that. bbc_solver_single skips this second half for
+ * mirrors solved in closed form. */
 BBC_API int bbc_solver_single_possible(const bbc_path_geometry *g, bbc_vec3 xk,
                                        const bbc_solver_options *options);
 
