@@ -1,0 +1,75 @@
+# Install rules, the CMake package, bbc.pc and the Debian package (cpack -G DEB).
+#   cmake --install build --prefix P
+# installs the tools to P/bin, the public headers to P/include/bbc, libbbc.so and
+# libbbc.a to P/lib, bbcConfig.cmake to P/lib/cmake/bbc, bbc.pc to P/lib/pkgconfig and
+# the man pages to P/share/man. Private headers (libbbc/src/*_internal.h) are never
+# installed. Components: "runtime" (tools, libbbc.so.*, man pages) and "development"
+# (headers, libbbc.so, libbbc.a, CMake package, bbc.pc).
+include(CMakePackageConfigHelpers)
+
+set(BBC_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/bbc)
+
+install(TARGETS bbc-precompute bbc-render bbc-inspect bbc-scenegen
+  RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
+install(TARGETS bbc_shared EXPORT bbcTargets
+  LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT runtime
+    NAMELINK_COMPONENT development)
+install(TARGETS bbc EXPORT bbcTargets
+  ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT development)
+install(DIRECTORY libbbc/include/bbc DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
+  COMPONENT development FILES_MATCHING PATTERN "*.h")
+install(EXPORT bbcTargets NAMESPACE bbc:: DESTINATION ${BBC_CMAKE_DIR}
+  COMPONENT development)
+
+configure_package_config_file(cmake/bbcConfig.cmake.in
+  ${CMAKE_CURRENT_BINARY_DIR}/bbcConfig.cmake INSTALL_DESTINATION ${BBC_CMAKE_DIR})
+# Before 1.0 a minor version may break the API, so only the same minor version matches.
+if(PROJECT_VERSION_MAJOR EQUAL 0)
+  set(bbc_compatibility SameMinorVersion)
+else()
+  set(bbc_compatibility SameMajorVersion)
+endif()
+write_basic_package_version_file(${CMAKE_CURRENT_BINARY_DIR}/bbcConfigVersion.cmake
+  COMPATIBILITY ${bbc_compatibility})
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/bbcConfig.cmake
+  ${CMAKE_CURRENT_BINARY_DIR}/bbcConfigVersion.cmake
+  DESTINATION ${BBC_CMAKE_DIR} COMPONENT development)
+
+# bbc.pc names its prefix relative to its own folder, so it is right for any
+# `cmake --install --prefix` and inside the Debian package.
+file(RELATIVE_PATH BBC_PC_TO_PREFIX /p/${CMAKE_INSTALL_LIBDIR}/pkgconfig /p)
+string(REGEX REPLACE "/$" "" BBC_PC_TO_PREFIX "${BBC_PC_TO_PREFIX}")
+configure_file(cmake/bbc.pc.in ${CMAKE_CURRENT_BINARY_DIR}/bbc.pc @ONLY)
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/bbc.pc
+  DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig COMPONENT development)
+
+# cpack -G DEB (in the build folder) writes two packages: bbc (the tools, the shared
+# library and the man pages; its dependencies come from dpkg-shlibdeps) and libbbc-dev
+# (what building against libbbc needs, with the -dev packages bbc.pc and
+# bbcConfig.cmake refer to).
+set(CPACK_PACKAGE_NAME bbc)
+set(CPACK_PACKAGE_VENDOR "bbc")
+set(CPACK_PACKAGE_CONTACT "bbc maintainers <bbc@localhost>")
+set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "Bernstein bounds for caustics (Fan et al. 2025)")
+set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
+set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
+set(CPACK_DEB_COMPONENT_INSTALL ON)
+set(CPACK_COMPONENTS_ALL runtime development)
+set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
+set(CPACK_DEBIAN_PACKAGE_SECTION graphics)
+set(CPACK_DEBIAN_RUNTIME_PACKAGE_NAME bbc)
+set(CPACK_DEBIAN_RUNTIME_PACKAGE_SHLIBDEPS ON)
+set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS_PRIVATE_DIRS ${CMAKE_CURRENT_BINARY_DIR}/libbbc)
+set(CPACK_COMPONENT_RUNTIME_DESCRIPTION
+  "bbc renders caustics from point, spot and directional lights without bias, by
+bounding them into a persistent .bbc cache. This package holds
+bbc-precompute, bbc-render, bbc-inspect, bbc-scenegen, the shared library libbbc
+and the man pages.")
+set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_NAME libbbc-dev)
+set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_SECTION libdevel)
+set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_DEPENDS
+  "bbc (= ${PROJECT_VERSION}), libembree-dev, libopenexr-dev, libzstd-dev, libtinygltf-dev, zlib1g-dev, libgomp1")
+set(CPACK_COMPONENT_DEVELOPMENT_DESCRIPTION
+  "What building against libbbc needs: the public headers of libbbc, its static library, the CMake package
+(find_package(bbc) giving bbc::bbc and bbc::bbc_static) and bbc.pc for pkg-config.")
+include(CPack)
