@@ -10,9 +10,11 @@
 #    which must match the exact image to relMSE < 1e-6), and bbc (default precompute,
 #    then bbc-render --only caustics at several --spp);
 # 2. the shared scenes plane1k, plane7k, pool4k (one bounce) and ball320 (two, at
-#    --max-level 3), W pixels wide (80 by default): bbc, uniform and enumerate at several
-#    --spp against a reference made of two independent enumerations (cached in
-#    bench/work/refs; they take most of the time of a first run).
+#    --max-level 3, --max-depth 4), W pixels wide (80 by default): bbc, uniform and
+#    enumerate at several --spp against a reference, the mean of a long bbc render and a
+#    long enumeration; a second one from other seeds must agree with it ten times better
+#    than the smallest relMSE reported (cached in bench/work/refs; they take most of the
+#    time of a first run, about 10 CPU-minutes).
 # Every run is timed in CPU-seconds (user + sys of the process, /usr/bin/time), not wall
 # time: the machine may be shared. --scale K multiplies every budget (spp, photons,
 # reference spp). Writes bench/results/compare.md, flat-mirror.png, scenes.png and the
@@ -269,7 +271,7 @@ scenes_part() {
   w=$scene_width
   : > "$d/summary.dat"
   # scene:chain:level:reference spp (bbc):check spp (enumerate)
-  for spec in plane1k:R::256:128 plane7k:R::256:128 pool4k:T::256:256 ball320:TT:3:2048:2048; do
+  for spec in plane1k:R::256:128 plane7k:R::2048:128 pool4k:T::1024:256 ball320:TT:3:1024:1024; do
     s=${spec%%:*}
     case " ${BBC_BENCH_SCENES:-$s} " in *" $s "*) ;; *) continue ;; esac
     rest=${spec#*:}
