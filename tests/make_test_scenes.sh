@@ -37,6 +37,10 @@ scene flat-mirror --size 8 -o "$out/flat-mirror.gltf"
 scene flat-mirror --size 8 --area-light 0.25 -o "$out/flat-mirror-area.gltf"
 # The analytic mirror on a floor with an 8 x 8 checker texture (mirrored light x texture).
 scene flat-mirror --size 8 --checker 8 -o "$out/flat-mirror-checker.gltf"
+# ... and on a glossy floor (glTF metallic-roughness BRDF), with a point and an area light.
+scene flat-mirror --size 8 --roughness 0.3 --metallic 0.5 -o "$out/flat-mirror-glossy.gltf"
+scene flat-mirror --size 8 --roughness 0.3 --metallic 0.5 --area-light 1 \
+  -o "$out/flat-mirror-glossy-area.gltf"
 # The same mirror under a sun travelling along (-1, -1, 0) / sqrt 2, and under a spot
 # aimed at the mirror's foot whose cone edge crosses the caustic.
 scene flat-mirror --size 8 --sun 3 -o "$out/flat-mirror-sun.gltf"

@@ -91,9 +91,9 @@ static int segment_visible(const bbc__caustics *c, bbc_vec3 a, bbc_vec3 na, bbc_
 
 /* See bbc__caustics_solution_value; returns 0 for an inadmissible or invisible path
  * (out is then zero), 1 otherwise. */
-static int solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
-                          const bbc_path_geometry *g, const bbc_solution *s, bbc_vec3 p,
-                          bbc_vec3 ng, bbc_vec3 *out) {
+static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *shading,
+                          const bbc_tuple *tuple, const bbc_path_geometry *g,
+                          const bbc_solution *s, bbc_vec3 p, bbc_vec3 ng, bbc_vec3 *out) {
   const bbc_scene *scene = c->scene;
   *out = v3(0, 0, 0);
   if (!(s->irradiance > 0) || !isfinite(s->irradiance)) return 0;
@@ -154,6 +154,12 @@ static int solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
     if (!segment_visible(c, x[i], ngeo[i - 1], x[i + 1], nb)) return 0;
   }
   for (int k = 0; k < 3; k++) factor[k] *= light->intensity[k] * s->irradiance;
+  if (shading) {
+    /* A glossy receiver: the BSDF for this solution's light direction. */
+    double f[3];
+    bbc_bsdf_eval(shading->bsdf, shading->n, shading->wo, v3_normalize(v3_sub(x[length], p)), f);
+    for (int k = 0; k < 3; k++) factor[k] *= f[k];
+  }
   *out = v3(factor[0], factor[1], factor[2]);
   return 1;
 }
@@ -162,7 +168,7 @@ bbc_vec3 bbc__caustics_solution_value(const bbc__caustics *c, const bbc_tuple *t
                                       const bbc_path_geometry *g, const bbc_solution *s, bbc_vec3 p,
                                       bbc_vec3 ng) {
   bbc_vec3 v;
-  solution_value(c, tuple, g, s, p, ng, &v);
+  solution_value(c, NULL, tuple, g, s, p, ng, &v);
   return v;
 }
 
@@ -191,14 +197,16 @@ static bbc_vec3 double_contribution(const bbc__caustics *c, bbc__caustics_thread
   bbc_solution s;
   if (c->solver == BBC_SOLVER_NEWTON_DET) {
     static const double centre[2] = {1.0 / 3.0, 1.0 / 3.0};
-    if (newton_run(t, g, p, centre, &s) && solution_value(c, tuple, g, &s, p, ng, &value))
+    if (newton_run(t, g, p, centre, &s) &&
+        solution_value(c, t->shading, tuple, g, &s, p, ng, &value))
       t->solutions++;
     return value;
   }
   bbc_rng rng = {key, 0};
   double u1[2];
   uniform_start(&rng, u1);
-  if (!newton_run(t, g, p, u1, &s) || !solution_value(c, tuple, g, &s, p, ng, &value)) return value;
+  if (!newton_run(t, g, p, u1, &s) || !solution_value(c, t->shading, tuple, g, &s, p, ng, &value))
+    return value;
   t->solutions++;
   if (value.x == 0 && value.y == 0 && value.z == 0) return value;
   /* K: further starts until one reaches s again. */
@@ -239,7 +247,7 @@ bbc_vec3 bbc__caustics_tuple(const bbc__caustics *c, bbc__caustics_thread *t,
   if (solved != BBC_OK) return sum;
   for (size_t i = 0; i < count; i++) {
     bbc_vec3 v;
-    if (!solution_value(c, tuple, &g, &solutions[i], p, ng, &v)) continue;
+    if (!solution_value(c, t->shading, tuple, &g, &solutions[i], p, ng, &v)) continue;
     t->solutions++;
     sum = v3_add(sum, v);
   }

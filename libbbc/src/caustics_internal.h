@@ -4,6 +4,7 @@
 #ifndef BBC_CAUSTICS_INTERNAL_H
 #define BBC_CAUSTICS_INTERNAL_H
 
+#include "bbc/bsdf.h"
 #include "bbc/render.h"
 #include "bbc/solver.h"
 #include "rng_internal.h"
@@ -31,9 +32,20 @@ typedef struct bbc__caustics {
   uint32_t newton_max_trials; /* cap on K (newton-stoch); 0 = BBC_NEWTON_MAX_TRIALS_DEFAULT */
 } bbc__caustics;
 
+/* A glossy receiver's reflectance at the shading point: each solution's value is
+ * multiplied by f(wo, wi) for its own light direction wi (bsdf.h). */
+typedef struct bbc__receiver_shading {
+  const bbc_bsdf *bsdf;
+  bbc_vec3 n;  /* unit shading normal, on the side being shaded */
+  bbc_vec3 wo; /* unit direction toward the viewer */
+} bbc__receiver_shading;
+
 /* Per-thread state: the cache cursor (it keeps decoded chunks), the sampler's arrays
  * and counters. */
 typedef struct bbc__caustics_thread {
+  /* Set by the caller around an estimate: with it the estimate is radiance (each
+   * solution times the BSDF), without it (NULL) irradiance. */
+  const bbc__receiver_shading *shading;
   bbc_cache_cursor *cursor;
   bbc__tuple_sampler sampler;
   bbc_cache_entry *candidates;

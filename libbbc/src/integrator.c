@@ -9,8 +9,8 @@
  *   (found by the specular bounces that follow). From point lights such caustic paths
  *   cannot be found by path tracing at all: that is the caustic estimator's job, and
  *   shade_diffuse_vertex is where it plugs in. */
+#include "bbc/bsdf.h"
 #include "bbc/render.h"
-#include "bbc/texture.h"
 
 #include <float.h>
 #include <math.h>
@@ -103,11 +103,12 @@ static bbc_vec3 v3_mul(bbc_vec3 a, bbc_vec3 b) {
   return v3(a.x * b.x, a.y * b.y, a.z * b.z);
 }
 
-/* The base colour at a surface point: the material's, times its texture (texture.h). */
-static bbc_vec3 albedo_at(const bbc_scene *scene, const surface *s) {
-  double c[3];
-  bbc_scene_base_color(scene, s->triangle, s->b1, s->b2, c);
-  return v3(c[0], c[1], c[2]);
+/* Irradiance e arriving along to_light (any length) times the glossy BSDF. */
+static bbc_vec3 glossy_weight(const bbc_bsdf *bsdf, const surface *s, bbc_vec3 wo,
+                              bbc_vec3 to_light, bbc_vec3 e) {
+  double f[3];
+  bbc_bsdf_eval(bsdf, s->ns, wo, v3_normalize(to_light), f);
+  return v3(e.x * f[0], e.y * f[1], e.z * f[2]);
 }
 
 static surface surface_at(const bbc_scene *scene, const bbc_hit *hit) {
@@ -170,12 +171,14 @@ typedef struct vertex_light {
  * point lights' specular chains. `segments` is the number of path segments so far; a
  * light path may not make the whole exceed max_depth. */
 static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_thread *ct,
-                                         const surface *s, uint32_t segments,
-                                         const path_sampler *ps, uint64_t *rays) {
+                                         const surface *s, const bbc_bsdf *bsdf, bbc_vec3 wo,
+                                         uint32_t segments, const path_sampler *ps,
+                                         uint64_t *rays) {
   const int depth = (int)segments - 1;
   const bbc_scene *scene = ctx->scene;
-  const bbc_vec3 a = albedo_at(scene, s);
-  const double albedo[3] = {a.x, a.y, a.z};
+  const double *albedo = bsdf->base;
+  /* Lambertian: the irradiance, times albedo / pi at the end; glossy: each light's
+   * irradiance times the BSDF for its direction. */
   bbc_vec3 sum = v3(0, 0, 0);
 
   for (uint32_t i = 0; i < scene->point_light_count && segments + 1 <= ctx->max_depth; i++) {
@@ -197,8 +200,8 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
                                  1.0 - 1e-6))
       continue;
     double g = sun ? cos_s : falloff * cos_s / dist2;
-    sum =
-        v3_add(sum, v3(light->intensity[0] * g, light->intensity[1] * g, light->intensity[2] * g));
+    bbc_vec3 e = v3(light->intensity[0] * g, light->intensity[1] * g, light->intensity[2] * g);
+    sum = v3_add(sum, bsdf->glossy ? glossy_weight(bsdf, s, wo, to_light, e) : e);
   }
 
   if (scene->emitter_count > 0 && segments + 1 <= ctx->max_depth) {
@@ -230,23 +233,31 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
       if (!bbc_accel_occluded(ctx->accel, origin, v3_sub(target, origin), 0.0, 1.0 - 1e-6)) {
         const float *le = light.material->emission;
         double g = cos_s * cos_l / dist2 * area / probability;
-        sum = v3_add(sum, v3(le[0] * g, le[1] * g, le[2] * g));
+        bbc_vec3 e = v3(le[0] * g, le[1] * g, le[2] * g);
+        sum = v3_add(sum, bsdf->glossy ? glossy_weight(bsdf, s, wo, to_light, e) : e);
       }
     }
   }
   vertex_light out;
-  out.direct =
-      v3(sum.x * albedo[0] / BBC_PI, sum.y * albedo[1] / BBC_PI, sum.z * albedo[2] / BBC_PI);
+  out.direct = bsdf->glossy ? sum
+                            : v3(sum.x * albedo[0] / BBC_PI, sum.y * albedo[1] / BBC_PI,
+                                 sum.z * albedo[2] / BBC_PI);
   out.caustic = v3(0, 0, 0);
   /* A caustic path of n specular vertices adds n + 1 segments to the point. */
   if (ctx->caustics && segments + 2 <= ctx->max_depth) {
     vertex_bins vb = {ps, depth};
     bbc__bin_uniforms bins = {bin_uniform, &vb, 2 * TUPLE_BIN_SLOTS};
+    /* A glossy receiver: the estimator weighs each solution by the BSDF itself. */
+    bbc__receiver_shading shading = {bsdf, s->ns, wo};
+    ct->shading = bsdf->glossy ? &shading : NULL;
     bbc_vec3 e = bbc__caustics_estimate(ctx->caustics, ct, s->p, s->ng, s->triangle, s->b1, s->b2,
                                         (int)(ctx->max_depth - segments - 1),
                                         bbc__mix64(ps->key ^ bbc__mix64(segments + 0xE7037ED1A0B428DBull)),
                                         &bins);
-    out.caustic = v3(e.x * albedo[0] / BBC_PI, e.y * albedo[1] / BBC_PI, e.z * albedo[2] / BBC_PI);
+    ct->shading = NULL;
+    out.caustic = bsdf->glossy ? e
+                               : v3(e.x * albedo[0] / BBC_PI, e.y * albedo[1] / BBC_PI,
+                                    e.z * albedo[2] / BBC_PI);
   }
   return out;
 }
@@ -280,23 +291,36 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         s.ns = v3_neg(s.ns);
       }
       /* The path so far has depth + 1 segments. */
-      vertex_light light = shade_diffuse_vertex(ctx, ct, &s, depth + 1, ps, rays);
+      bbc_bsdf bsdf;
+      bbc_bsdf_at(scene, s.triangle, s.b1, s.b2, &bsdf);
+      const bbc_vec3 wo = v3_neg(dir);
+      vertex_light light = shade_diffuse_vertex(ctx, ct, &s, &bsdf, wo, depth + 1, ps, rays);
       if (ctx->components & lit_component)
         radiance = v3_add(radiance, v3_mul(throughput, light.direct));
       if (ctx->components & BBC_COMPONENT_CAUSTICS)
         radiance = v3_add(radiance, v3_mul(throughput, light.caustic));
       lit_component = BBC_COMPONENT_INDIRECT;
-      /* Cosine-weighted sampling: the pdf cancels cos/pi, leaving the albedo. */
       double u[2];
       sample_n(ps, (int)depth, SLOT_DIRECTION, 2, u);
-      double r = sqrt(u[0]), phi = 2.0 * BBC_PI * u[1];
-      bbc_vec3 t, b;
-      v3_basis(s.ns, &t, &b);
-      double z = sqrt(fmax(0.0, 1.0 - r * r));
-      dir = v3_add(v3_add(v3_scale(t, r * cos(phi)), v3_scale(b, r * sin(phi))), v3_scale(s.ns, z));
-      if (v3_dot(dir, s.ng) <= 0) break; /* below the geometric surface */
-      throughput = v3_mul(throughput, albedo_at(scene, &s));
       count_emission = 0;
+      if (bsdf.glossy) {
+        /* The BSDF's own sampling; the lobe choice takes the Fresnel slot, which a
+         * receiver does not otherwise use. */
+        double w[3];
+        bbc_bsdf_sample(&bsdf, s.ns, wo, sample(ps, (int)depth, SLOT_FRESNEL), u, &dir, w);
+        if (!(w[0] > 0 || w[1] > 0 || w[2] > 0) || v3_dot(dir, s.ng) <= 0) break;
+        throughput = v3_mul(throughput, v3(w[0], w[1], w[2]));
+      } else {
+        /* Cosine-weighted sampling: the pdf cancels cos/pi, leaving the albedo. */
+        double r = sqrt(u[0]), phi = 2.0 * BBC_PI * u[1];
+        bbc_vec3 t, b;
+        v3_basis(s.ns, &t, &b);
+        double z = sqrt(fmax(0.0, 1.0 - r * r));
+        dir = v3_add(v3_add(v3_scale(t, r * cos(phi)), v3_scale(b, r * sin(phi))),
+                     v3_scale(s.ns, z));
+        if (v3_dot(dir, s.ng) <= 0) break; /* below the geometric surface */
+        throughput = v3_mul(throughput, v3(bsdf.base[0], bsdf.base[1], bsdf.base[2]));
+      }
     } else if (m->type == BBC_MATERIAL_MIRROR) {
       bbc_vec3 n = front ? s.ns : v3_neg(s.ns);
       bbc_vec3 ng = front ? s.ng : v3_neg(s.ng);

@@ -5,6 +5,7 @@
  * this file judges whether the content is something bbc can render (triangles only,
  * finite positions, a light, a camera) and reports the first problem it finds. */
 #include "bbc/scene.h"
+#include "bbc/bsdf.h"
 #include "bbc/texture.h"
 
 #include <float.h>
@@ -195,8 +196,22 @@ static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32
       return fail(ld, BBC_ERR_SCENE, "%s: ior %g is not a positive number", label, g->ior);
     m->type = BBC_MATERIAL_DIELECTRIC;
     m->ior = (float)g->ior;
-  } else if (g->metallic == 0.0 && g->transmission == 0.0) {
+  } else if (g->metallic == 0.0 && g->transmission == 0.0 && g->roughness == 1.0) {
     m->type = BBC_MATERIAL_DIFFUSE;
+  } else if (g->transmission == 0.0 && g->metallic >= 0.0 && g->metallic <= 1.0 &&
+             g->roughness >= 0.0 && g->roughness <= 1.0) {
+    /* A glossy receiver: glTF's metallic-roughness BRDF (bsdf.h). */
+    m->type = BBC_MATERIAL_DIFFUSE;
+    m->glossy = 1;
+    m->metallic = (float)g->metallic;
+    m->roughness = (float)g->roughness;
+    if (g->roughness < BBC_BSDF_MIN_ROUGHNESS) {
+      warn(ld,
+           "%s (metallic %g, roughness %g) is a glossy receiver; roughness below %g is "
+           "rendered as %g (the caustic estimator has no specular receivers)",
+           label, g->metallic, g->roughness, BBC_BSDF_MIN_ROUGHNESS, BBC_BSDF_MIN_ROUGHNESS);
+      m->roughness = (float)BBC_BSDF_MIN_ROUGHNESS;
+    }
   } else {
     m->type = BBC_MATERIAL_DIFFUSE;
     warn(ld,

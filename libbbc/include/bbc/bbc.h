@@ -5,6 +5,7 @@
 #include "bbc/accel.h"
 #include "bbc/bernstein.h"
 #include "bbc/bounds.h"
+#include "bbc/bsdf.h"
 #include "bbc/cache.h"
 #include "bbc/common.h"
 #include "bbc/grid.h"

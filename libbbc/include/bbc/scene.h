@@ -15,7 +15,7 @@ extern "C" {
 #endif
 
 typedef enum bbc_material_type {
-  BBC_MATERIAL_DIFFUSE = 0,   /* Lambertian, albedo = base_color */
+  BBC_MATERIAL_DIFFUSE = 0,   /* a receiver: Lambertian, or glossy (bsdf.h) */
   BBC_MATERIAL_MIRROR = 1,    /* perfect conductor, reflectance = base_color */
   BBC_MATERIAL_DIELECTRIC = 2 /* perfectly smooth glass/water with index ior */
 } bbc_material_type;
@@ -51,6 +51,11 @@ typedef struct bbc_material {
    * KHR_texture_transform (the identity without it); unused without a texture. */
   uint32_t base_color_texture;
   double uv_transform[6];
+  /* Receivers (BBC_MATERIAL_DIFFUSE) only. glossy 0: Lambertian, albedo = base colour
+   * (glTF's metallic 0 with roughness 1, and any zeroed material); glossy 1: glTF's
+   * metallic-roughness BRDF with these factors (bbc/bsdf.h). */
+  int glossy;
+  float roughness, metallic;
 } bbc_material;
 
 /* What a mesh does for caustics: casters are the specular surfaces light is bounced
