@@ -112,11 +112,40 @@ static bbc_result scatter(bbc_arena *arena, bbc_space *space, const bbc_poly3 *d
 
 /* Moller-Trumbore (Eq. 9) for the ray o + t d against the triangle tri:
  * u = up / kappa, v = vp / kappa and t = tnum / kappa, where kappa = (d x e2) . e1. */
+/* b - a, and whether the double difference is exact (its TwoSum error term is 0). */
+static double exact_difference(double b, double a, int *exact) {
+  double s = b - a, bv = s + a, av = bv - s;
+  double t = (b - bv) + (-a - (-av));
+  if (t != 0 || !isfinite(s)) *exact = 0;
+  return s;
+}
+
 static bbc_result hit(bbc_arena *arena, const bbc_poly3 *o, const bbc_poly3 *d,
                       const bbc_vec3 tri[3], bbc_poly *up, bbc_poly *vp, bbc_poly *kappa,
                       bbc_poly *tnum) {
   bbc_poly3 p0, e1, e2, rel, pvec, qvec;
+  /* The receiver's vertices are floats, so its edges are almost always exact in double:
+   * then they enter as exact constants and the products with them are linear
+   * combinations, which are cheaper than products of polynomials and carry their own
+   * rounding in err. Otherwise they are rounded constants with a radius, as below. */
+  int exact = 1;
+  const bbc_vec3 x1 = {exact_difference(tri[1].x, tri[0].x, &exact),
+                       exact_difference(tri[1].y, tri[0].y, &exact),
+                       exact_difference(tri[1].z, tri[0].z, &exact)};
+  const bbc_vec3 x2 = {exact_difference(tri[2].x, tri[0].x, &exact),
+                       exact_difference(tri[2].y, tri[0].y, &exact),
+                       exact_difference(tri[2].z, tri[0].z, &exact)};
   TRY(bbc_poly3_constant(arena, &p0, tri[0]));
+  if (exact) {
+    TRY(bbc_poly3_sub(arena, &rel, o, &p0));
+    TRY(bbc_poly3_cross_vec(arena, &pvec, d, x2));
+    TRY(bbc_poly3_dot_vec(arena, kappa, &pvec, x1));
+    TRY(bbc_poly3_dot(arena, up, &pvec, &rel));
+    TRY(bbc_poly3_cross_vec(arena, &qvec, &rel, x1));
+    TRY(bbc_poly3_dot(arena, vp, &qvec, d));
+    TRY(bbc_poly3_dot_vec(arena, tnum, &qvec, x2));
+    return BBC_OK;
+  }
   TRY(rounded_constant(arena, &e1, v3_sub(tri[1], tri[0])));
   TRY(rounded_constant(arena, &e2, v3_sub(tri[2], tri[0])));
   TRY(bbc_poly3_sub(arena, &rel, o, &p0));
