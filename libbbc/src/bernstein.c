@@ -190,6 +190,40 @@ void bbc__axis_apply(const double *in, const unsigned char deg[NAX], int axis, c
   axis_apply_banded(in, deg, axis, m, rows, band_lo, band_hi, out);
 }
 
+/* Rows of `post` contiguous coefficients (post a small constant): each output row is
+ * accumulated in registers from 0 over the band in column order, the same sums as the
+ * general loop below. */
+#define APPLY_POST(P)                                                                     \
+  static void apply_post_##P(const double *restrict in, const double *m, size_t cols,    \
+                             int rows, const int *band_lo, const int *band_hi, size_t pre, \
+                             double *restrict out) {                                      \
+    for (size_t p = 0; p < pre; p++) {                                                    \
+      const double *src = in + p * cols * P;                                              \
+      double *dst = out + p * (size_t)rows * P;                                           \
+      for (int k = 0; k < rows; k++) {                                                    \
+        double acc[P];                                                                    \
+        for (int t = 0; t < P; t++) acc[t] = 0.0;                                         \
+        for (int j = band_lo[k]; j <= band_hi[k]; j++) {                                  \
+          const double w = m[(size_t)k * cols + (size_t)j];                               \
+          const double *s = src + (size_t)j * P;                                          \
+          for (int t = 0; t < P; t++) acc[t] += w * s[t];                                 \
+        }                                                                                 \
+        for (int t = 0; t < P; t++) dst[(size_t)k * P + t] = acc[t];                      \
+      }                                                                                   \
+    }                                                                                     \
+  }
+APPLY_POST(2)
+APPLY_POST(3)
+APPLY_POST(4)
+APPLY_POST(5)
+APPLY_POST(6)
+APPLY_POST(7)
+APPLY_POST(8)
+#define APPLY_POST_CASE(P)                                                \
+  case P:                                                                 \
+    apply_post_##P(in, m, cols, rows, band_lo, band_hi, pre, out);        \
+    return
+
 static void axis_apply_banded(const double *in, const unsigned char deg[NAX], int axis,
                               const double *m, int rows, const int *band_lo, const int *band_hi,
                               double *out) {
@@ -209,6 +243,17 @@ static void axis_apply_banded(const double *in, const unsigned char deg[NAX], in
       }
     }
     return;
+  }
+  switch (post) {
+    APPLY_POST_CASE(2);
+    APPLY_POST_CASE(3);
+    APPLY_POST_CASE(4);
+    APPLY_POST_CASE(5);
+    APPLY_POST_CASE(6);
+    APPLY_POST_CASE(7);
+    APPLY_POST_CASE(8);
+    default:
+      break;
   }
   for (size_t p = 0; p < pre; p++) {
     const double *src = in + p * cols * post;
@@ -641,6 +686,9 @@ static BBC__KERNEL void mul2(const double *a, const double *b, double *dst, int 
     MUL2_CASE(2, 2, 0, 0);
     MUL2_CASE(0, 0, 3, 3);
     MUL2_CASE(2, 2, 2, 2);
+    MUL2_CASE(6, 6, 6, 6);
+    MUL2_CASE(3, 3, 6, 6);
+    MUL2_CASE(7, 7, 1, 1);
     default:
       mul2_any(a, b, dst, a0, a1, b0, b1);
   }
@@ -652,8 +700,12 @@ static BBC__KERNEL void mul2(const double *a, const double *b, double *dst, int 
 #define MULN_AXES 4
 #define MULN_MAXC 1024
 
-static BBC__KERNEL void muln(const double *a, const double *b, double *dst,
-                                           const int da[MULN_AXES], const int db[MULN_AXES]) {
+static inline __attribute__((always_inline)) void muln_kernel(const double *restrict a,
+                                                              const double *restrict b,
+                                                              double *restrict dst, int a0,
+                                                              int a1, int a2, int a3, int b0,
+                                                              int b1, int b2, int b3) {
+  const int da[MULN_AXES] = {a0, a1, a2, a3}, db[MULN_AXES] = {b0, b1, b2, b3};
   int dout[MULN_AXES];
   for (int k = 0; k < MULN_AXES; k++) dout[k] = da[k] + db[k];
   double ta[MULN_MAXC], tb[MULN_MAXC];
@@ -701,6 +753,47 @@ static BBC__KERNEL void muln(const double *a, const double *b, double *dst,
       for (int k2 = 0; k2 <= dout[2]; k2++)
         for (int k3 = 0; k3 <= dout[3]; k3++, k++)
           dst[k] = (((dst[k] / c0[k0]) / c1[k1]) / c2[k2]) / c3[k3];
+}
+
+static BBC__KERNEL void muln_any(const double *a, const double *b, double *dst,
+                                 const int da[MULN_AXES], const int db[MULN_AXES]) {
+  muln_kernel(a, b, dst, da[0], da[1], da[2], da[3], db[0], db[1], db[2], db[3]);
+}
+
+#define MULN_KEY(a0, a1, a2, a3, b0, b1, b2, b3)                                             \
+  (((uint32_t)(a0) << 28) | ((uint32_t)(a1) << 24) | ((uint32_t)(a2) << 20) |              \
+   ((uint32_t)(a3) << 16) | ((uint32_t)(b0) << 12) | ((uint32_t)(b1) << 8) |               \
+   ((uint32_t)(b2) << 4) | (uint32_t)(b3))
+#define MULN_CASE(a0, a1, a2, a3, b0, b1, b2, b3)            \
+  case MULN_KEY(a0, a1, a2, a3, b0, b1, b2, b3):             \
+    muln_kernel(a, b, dst, a0, a1, a2, a3, b0, b1, b2, b3); \
+    return
+
+/* The common shapes of the implicit differentiation (the receiver's two barycentrics as
+ * extra axes, Eq. 17-19) at the flattening degree 3, by their share of the work. */
+static BBC__KERNEL void muln(const double *a, const double *b, double *dst,
+                             const int da[MULN_AXES], const int db[MULN_AXES]) {
+  int small = 1;
+  for (int k = 0; k < MULN_AXES; k++) small &= da[k] <= 15 && db[k] <= 15;
+  if (small) {
+    switch (MULN_KEY(da[0], da[1], da[2], da[3], db[0], db[1], db[2], db[3])) {
+      MULN_CASE(1, 1, 3, 3, 1, 1, 3, 3);
+      MULN_CASE(0, 0, 3, 3, 2, 2, 6, 6);
+      MULN_CASE(2, 2, 3, 3, 0, 0, 6, 6);
+      MULN_CASE(1, 1, 6, 6, 0, 0, 6, 6);
+      MULN_CASE(2, 2, 3, 3, 1, 1, 3, 3);
+      MULN_CASE(1, 1, 9, 9, 0, 0, 3, 3);
+      MULN_CASE(1, 1, 3, 3, 0, 0, 3, 3);
+      MULN_CASE(0, 0, 3, 3, 1, 1, 3, 3);
+      MULN_CASE(0, 0, 6, 6, 1, 1, 3, 3);
+      MULN_CASE(0, 1, 3, 3, 0, 1, 3, 3);
+      MULN_CASE(0, 1, 3, 3, 0, 0, 3, 3);
+      MULN_CASE(0, 0, 3, 3, 0, 1, 3, 3);
+      default:
+        break;
+    }
+  }
+  muln_any(a, b, dst, da, db);
 }
 
 /* The degrees of a and b on the at most MULN_AXES active axes of the output (deg), in axis
