@@ -46,7 +46,7 @@ install(FILES ${CMAKE_CURRENT_BINARY_DIR}/bbc.pc
 # cpack -G DEB (in the build folder) writes two packages: bbc (the tools, the shared
 # library and the man pages; its dependencies come from dpkg-shlibdeps) and libbbc-dev
 # (what building against libbbc needs, with the -dev packages bbc.pc and
-# bbcConfig.cmake refer to, and libstdc++-dev: libbbc.a holds C++ code).
+# bbcConfig.cmake refer to, and the C++ library: libbbc.a holds C++ code).
 set(CPACK_PACKAGE_NAME bbc)
 set(CPACK_PACKAGE_VENDOR "bbc")
 set(CPACK_PACKAGE_CONTACT "bbc maintainers <bbc@localhost>")
@@ -67,8 +67,11 @@ bbc-precompute, bbc-render, bbc-inspect, bbc-scenegen, the shared library libbbc
 and the man pages.")
 set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_NAME libbbc-dev)
 set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_SECTION libdevel)
+# The C++ library of the compiler that built libbbc.a (the virtual libstdc++-dev may be
+# satisfied by another GCC's, which the default gcc does not find).
+string(REGEX MATCH "^[0-9]+" bbc_cxx_major "${CMAKE_CXX_COMPILER_VERSION}")
 set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_DEPENDS
-  "bbc (= ${PROJECT_VERSION}), libembree-dev, libopenexr-dev, libzstd-dev, libtinygltf-dev, zlib1g-dev, libstdc++-dev, libgomp1")
+  "bbc (= ${PROJECT_VERSION}), libembree-dev, libopenexr-dev, libzstd-dev, libtinygltf-dev, zlib1g-dev, libstdc++-${bbc_cxx_major}-dev | libstdc++-dev, libgomp1")
 set(CPACK_COMPONENT_DEVELOPMENT_DESCRIPTION
   "What building against libbbc needs: the public headers of libbbc, its static library, the CMake package
 (find_package(bbc) giving bbc::bbc and bbc::bbc_static) and bbc.pc for pkg-config.")

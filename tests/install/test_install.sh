@@ -165,6 +165,13 @@ test_deb() {
   for p in libembree3-3 libopenexr-3-1-30 libzstd1 libtinygltf2d libgomp1 libc6; do
     echo "$depends" | grep -q "$p" || fail "bbc does not depend on $p: $depends"
   done
+  # libbbc-dev: the runtime package of the same version, the -dev packages bbc.pc and
+  # bbcConfig.cmake name, and the C++ library that linking libbbc.a needs.
+  depends=$(dpkg-deb -f "$dev" Depends)
+  for p in "bbc (= " libembree-dev libopenexr-dev libzstd-dev libtinygltf-dev zlib1g-dev \
+    "libstdc++-"; do
+    echo "$depends" | grep -qF "$p" || fail "libbbc-dev does not depend on $p: $depends"
+  done
   dpkg-deb -c "$runtime" | grep -q '/usr/bin/bbc-render$' || fail "bbc-render not in $runtime"
   dpkg-deb -c "$runtime" | grep -q 'man1/bbc-render.1' || fail "bbc-render.1 not in $runtime"
   dpkg-deb -c "$dev" | grep -q '/usr/include/bbc/bbc.h$' || fail "bbc.h not in $dev"
