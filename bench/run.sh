@@ -50,10 +50,11 @@ json() { sed -n "s/.*\"$1\": \([-0-9.e+]*\).*/\1/p" "$2"; }
   echo
   echo "Double refraction (TT) through the balls at the paper's levels (Table 3 bottom) and the slab at"
   echo "its level (Table 2: tuples, memory); CPU s"
-  echo "is the bounding threads' CPU time, the per-core figure. Paper: i9-13900KF, 32 threads."
+  echo "is the bounding threads' CPU time, the per-core figure, and process CPU s the whole run's"
+  echo "user + system time. Paper: i9-13900KF, 32 threads."
   echo
-  echo "| scene | level | candidates | tuples | T2 per T1 | pos. pieces/tuple | irr. pieces/tuple | time s | CPU s | peak MB | file MB | paper |"
-  echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
+  echo "| scene | level | candidates | tuples | T2 per T1 | pos. pieces/tuple | irr. pieces/tuple | time s | CPU s | process CPU s | peak MB | file MB | paper |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
   for spec in ball80:4:15K,4.1s ball320:3:52K,7.1s ball1280:2:198K,17.5s ball5120:1:771K,47.1s \
     slab10k:1:127K,28.6MB; do
     s=${spec%%:*}; rest=${spec#*:}; level=${rest%%:*}; paper=${rest#*:}
@@ -62,11 +63,11 @@ json() { sed -n "s/.*\"$1\": \([-0-9.e+]*\).*/\1/p" "$2"; }
       -o "$work/$s.bbc" --json "$work/$s.json" --chains TT --max-level "$level" --no-progress
     cpu=$(awk -v a="$(json position_cpu_seconds "$work/$s.json")" \
       -v b="$(json irradiance_cpu_seconds "$work/$s.json")" 'BEGIN {printf "%.1f", a + b}')
-    printf '| %s | %s | %s | %s | %.1f | %.1f | %.1f | %.2f | %s | %.0f | %.1f | %s |\n' "$s" "$level" \
+    printf '| %s | %s | %s | %s | %.1f | %.1f | %.1f | %.2f | %s | %.1f | %.0f | %.1f | %s |\n' "$s" "$level" \
       "$(json candidate_tuples "$work/$s.json")" "$(json tuples "$work/$s.json")" \
       "$(json second_per_first "$work/$s.json")" "$(json position_pieces_per_tuple "$work/$s.json")" \
       "$(json irradiance_pieces_per_tuple "$work/$s.json")" "$(json seconds "$work/$s.json")" \
-      "$cpu" "$(json peak_memory_mb "$work/$s.json")" \
+      "$cpu" "$(json process_cpu_seconds "$work/$s.json")" "$(json peak_memory_mb "$work/$s.json")" \
       "$(echo "$(json file_bytes "$work/$s.json")" | awk '{printf "%.1f", $1 / 1e6}')" \
       "$(echo "$paper" | tr ',' ' ')"
   done
