@@ -173,7 +173,8 @@ static int cmd_info(const char *path) {
       printf("%s%s %llu", listed++ ? ", " : " (", bbc_chain_name((bbc_chain)k),
              (unsigned long long)per_chain[k]);
   printf("%s\n", listed ? ")" : "");
-  cli_print_tuples_per_light(stdout, "  ", t, in.tuple_count, in.scene_light_count, NULL);
+  cli_print_tuples_per_light(stdout, "  ", t, in.tuple_count,
+                             in.scene_light_count + in.scene_emitter_count, NULL);
   const bbc_grid *g = bbc_cache_grid(c);
   printf("receivers    %u\n", in.receiver_count);
   for (uint32_t i = 0; i < g->receiver_count; i++) {
@@ -441,6 +442,19 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
   size_t count = 0;
   if (bbc_tuples_find(scene, in.params.chains, &cand, &count) != BBC_OK)
     cli_fail("%s: cannot list the candidate tuples (out of memory)", scene_path);
+  if (in.params.area_lights) {
+    /* The area lights' candidates follow the punctual lights' (bbc_precompute). */
+    bbc_tuple *area = NULL;
+    size_t area_count = 0;
+    if (bbc_tuples_find_area(scene, in.params.chains, &area, &area_count) != BBC_OK)
+      cli_fail("%s: cannot list the candidate tuples (out of memory)", scene_path);
+    bbc_tuple *all = realloc(cand, (count + area_count + 1) * sizeof *all);
+    if (!all) cli_fail("out of memory");
+    if (area_count) memcpy(all + count, area, area_count * sizeof *all);
+    cand = all;
+    count += area_count;
+    free(area);
+  }
   /* Stored tuples keep the candidates' order, so one pass pairs them up. */
   const bbc_tuple *stored = bbc_cache_tuples(c);
   int64_t *ids = malloc((count ? count : 1) * sizeof *ids);
@@ -457,7 +471,7 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
 
   size_t blocks = (count + CHECK_BLOCK - 1) / CHECK_BLOCK;
   /* Per block, per light kind and chain type (merged in block order: deterministic). */
-  enum { KINDS = 3, SLOTS = KINDS * BBC_CHAIN_COUNT };
+  enum { KINDS = 4, SLOTS = KINDS * BBC_CHAIN_COUNT };
   bbc_validation *acc = calloc(SLOTS * (blocks ? blocks : 1), sizeof *acc);
   if (!acc) cli_fail("out of memory");
   cli_progress bar;
@@ -471,7 +485,9 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
 #pragma omp for schedule(dynamic, 1)
     for (size_t b = 0; b < blocks; b++) {
       for (size_t i = b * CHECK_BLOCK; i < count && i < (b + 1) * CHECK_BLOCK && r == BBC_OK; i++) {
-        const int kind = (int)scene->point_lights[cand[i].light].model.kind;
+        const int kind = cand[i].light < scene->point_light_count
+                             ? (int)scene->point_lights[cand[i].light].model.kind
+                             : (int)BBC_LIGHT_AREA;
         r = bbc_validate_cached_tuple(
             c, cur, scene, &cand[i], ids[i], samples, 1,
             &acc[SLOTS * b + BBC_CHAIN_COUNT * (kind < KINDS ? kind : 0) + cand[i].chain]);
@@ -520,7 +536,7 @@ static int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cac
   /* With spot or directional lights, the summary per light kind as well. */
   int other_kinds = 0;
   for (int k = BBC_CHAIN_COUNT; k < SLOTS; k++) other_kinds |= by_kind[k].tuples > 0;
-  static const char *const kind_names[KINDS] = {"point", "spot", "directional"};
+  static const char *const kind_names[KINDS] = {"point", "spot", "directional", "area"};
   for (int k = 0; k < SLOTS && other_kinds; k++) {
     if (by_kind[k].tuples == 0) continue;
     char label[64];

@@ -47,6 +47,9 @@ static const char help[] =
     "  --m M                 solutions assumed per tuple, Eq. 21 (default 1)\n"
     "  --resolution N        cells along the longer side of each receiver grid\n"
     "                        (default 512)\n"
+    "  --area-lights         cache the caustics of emissive triangles too (R and T; the\n"
+    "                        renderer then leaves them to the cache instead of path\n"
+    "                        tracing, docs/lights.md)\n"
     "  --no-remainder        drop the remainder variables of refraction: faster, but the\n"
     "                        bounds are no longer conservative (the paper's Fig. 18)\n"
     "  --jacobian FORM       determinant (default) or quotient: the form of the\n"
@@ -218,6 +221,8 @@ int main(int argc, char **argv) {
       options.params.grid_resolution = (uint32_t)cli_parse_int(&a, "--resolution", value, 1, 65536);
     } else if (cli_flag(&a, "--no-remainder")) {
       options.params.remainder = 0;
+    } else if (cli_flag(&a, "--area-lights")) {
+      options.params.area_lights = 1;
     } else if (cli_option(&a, "--jacobian", &value)) {
       if (strcmp(value, "determinant") == 0)
         options.jacobian = BBC_JACOBIAN_DETERMINANT;

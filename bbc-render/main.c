@@ -165,7 +165,7 @@ static void print_stats(const bbc_render_stats *s, const bbc_render_options *opt
       bbc_cache_get_info(options->cache, &info);
       fprintf(stderr, "tuples       %u in the cache, per light:\n", info.tuple_count);
       cli_print_tuples_per_light(stderr, "  ", bbc_cache_tuples(options->cache), info.tuple_count,
-                                 scene->point_light_count, scene);
+                                 info.scene_light_count + info.scene_emitter_count, scene);
     }
     if (s->newton_solves) {
       /* Double-scattering tuples: Newton's method on the chain (--solver). */

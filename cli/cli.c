@@ -207,6 +207,8 @@ void cli_print_tuples_per_light(FILE *out, const char *indent, const bbc_tuple *
     fprintf(out, "%slight %u", indent, l);
     if (scene && l < scene->point_light_count && (unsigned)scene->point_lights[l].model.kind < 3)
       fprintf(out, " (%s)", kinds[scene->point_lights[l].model.kind]);
+    else if (scene && bbc_scene_light_emitter(scene, l) >= 0)
+      fprintf(out, " (area, triangle %u)", scene->emitters[bbc_scene_light_emitter(scene, l)]);
     fprintf(out, ": %llu tuples", (unsigned long long)total);
     int listed = 0;
     for (int k = 0; k < BBC_CHAIN_COUNT; k++)

@@ -77,14 +77,22 @@ bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene
                                    const bbc_tuple *tuple) {
   if (tuple->chain >= BBC_CHAIN_COUNT) return BBC_ERR_INVALID_ARGUMENT;
   const int length = bbc_chain_length((bbc_chain)tuple->chain);
-  if (tuple->light >= scene->point_light_count || tuple->specular[0] >= scene->triangle_count ||
+  const int64_t emitter = bbc_scene_light_emitter(scene, tuple->light);
+  if ((tuple->light >= scene->point_light_count && (emitter < 0 || length != 1)) ||
+      tuple->specular[0] >= scene->triangle_count ||
       tuple->receiver >= scene->triangle_count ||
       (length == 2 && (tuple->specular[1] >= scene->triangle_count ||
                        tuple->specular[1] == tuple->specular[0])))
     return BBC_ERR_INVALID_ARGUMENT;
   memset(g, 0, sizeof *g);
-  g->light = scene->point_lights[tuple->light].position;
-  g->light_model = scene->point_lights[tuple->light].model;
+  if (emitter >= 0) {
+    /* An area light stands at its centroid for orienting T1 (bounds.h). */
+    bbc_scene_area_light(scene, (uint32_t)emitter, &g->light_model, NULL);
+    g->light = bbc__area_centroid(&g->light_model);
+  } else {
+    g->light = scene->point_lights[tuple->light].position;
+    g->light_model = scene->point_lights[tuple->light].model;
+  }
   g->length = length;
   const uint32_t *b = scene->indices + 3 * (size_t)tuple->receiver;
   for (int i = 0; i < 3; i++) g->r[i] = v3_load(scene->positions + 3 * (size_t)b[i]);
@@ -230,6 +238,12 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
   bbc_interval facing = bbc_poly_bound(&f->facing);
   if (facing.hi < 0) return BBC_OK;
   if (facing.lo < 0) partial = 1;
+  if (g->light_model.kind == BBC_LIGHT_AREA) {
+    /* The emitter sends light only to its front. */
+    bbc_interval emit = bbc_poly_bound(&f->emit);
+    if (emit.hi <= 0) return BBC_OK;
+    if (emit.lo <= 0) partial = 1;
+  }
   if (f->has_beta) {
     bbc_interval beta = bbc_poly_bound(&f->beta);
     if (beta.hi < 0) return BBC_OK;
@@ -315,6 +329,33 @@ static bbc_interval irradiance_scale(const bbc_tuple_geometry *g, const chain_fo
   if (dist2.lo < 0) dist2.lo = 0;
   bbc_interval cos0 = bbc_interval_div(h, bbc_interval_sqrt(dist2));
   if (cos0.hi > 1) cos0.hi = 1;
+  if (g->light_model.kind == BBC_LIGHT_AREA) {
+    /* x0 ranges over the emitter's light box: h and the emitter's A_e cos(theta_e) =
+     * (d0 . n_e) / (2 |d0|) by intervals (docs/lights.md). */
+    double lb[4];
+    bbc__chain_light_box(g, lb);
+    const bbc_vec3 *q = g->light_model.emitter;
+    bbc_ivec3 q0 = bbc_ivec3_point(q[0]);
+    bbc_ivec3 e1 = bbc_ivec3_sub(bbc_ivec3_point(q[1]), q0);
+    bbc_ivec3 fq = bbc_ivec3_sub(bbc_ivec3_point(q[2]), bbc_ivec3_point(q[1]));
+    bbc_interval ia = bbc_interval_make(lb[0], lb[1]), ib = bbc_interval_make(lb[2], lb[3]);
+    bbc_ivec3 x0 = bbc_ivec3_add(q0, bbc_ivec3_add(bbc_ivec3_scale(ia, e1),
+                                                   bbc_ivec3_scale(bbc_interval_mul(ia, ib), fq)));
+    h = bbc_interval_div(bbc_ivec3_dot(c1, bbc_ivec3_sub(p0, x0)), a1);
+    if (h.hi < 0) h = bbc_interval_neg(h);
+    else if (h.lo < 0) h = bbc_interval_make(0, fmax(-h.lo, h.hi));
+    cos0 = bbc_interval_div(h, bbc_interval_sqrt(dist2));
+    if (cos0.hi > 1) cos0.hi = 1;
+    bbc_interval emit = bbc_poly_bound(&f->emit);
+    if (emit.lo < 0) emit.lo = 0;
+    bbc_interval w = bbc_interval_scale(bbc_interval_div(emit, bbc_interval_sqrt(dist2)), 0.5);
+    /* The exact weight (bbc__area_weight) rounds a dot product, a length and a quotient:
+     * a few ulps, covered by 8. */
+    w = bbc_interval_make(fmax(w.lo * (1 - 8 * DBL_EPSILON), 0.0), w.hi * (1 + 8 * DBL_EPSILON));
+    if (!(w.hi >= 0)) w = bbc_interval_make(0, INFINITY);
+    cos0 = bbc_interval_mul(cos0, w);
+    if (!(cos0.lo >= 0)) cos0.lo = 0;
+  }
   bbc_interval k =
       bbc_interval_div(bbc_interval_scale(a1, (box[1] - box[0]) * (box[3] - box[2])), ak);
   bbc_interval scale = bbc_interval_mul(k, cos0);
@@ -517,6 +558,7 @@ typedef struct piece_forms {
   bbc_space space;
   int s_axis, t_axis;
   chain_forms forms;
+  bbc_tuple_geometry g; /* the tuple's, with the piece's light box */
 } piece_forms;
 
 static bbc_result examine_position(bbc_bounder *b, const bbc_tuple_geometry *g,
@@ -524,12 +566,53 @@ static bbc_result examine_position(bbc_bounder *b, const bbc_tuple_geometry *g,
                                    verdict *v, int *contained) {
   pf->box[0] = piece->u_lo, pf->box[1] = piece->u_hi;
   pf->box[2] = piece->v_lo, pf->box[3] = piece->v_hi;
+  pf->g = *g;
   bbc_arena_reset(&b->arena, 0);
   memset(&pf->space, 0, sizeof pf->space);
   bbc_space_add_axis(&pf->space, BBC_AXIS_GEOMETRIC, &pf->s_axis);
   bbc_space_add_axis(&pf->space, BBC_AXIS_GEOMETRIC, &pf->t_axis);
-  return position_check(&b->arena, &pf->space, g, pf->box, pf->s_axis, pf->t_axis, mode,
+  if (g->light_model.kind == BBC_LIGHT_AREA) {
+    /* The emitter's (a, b) over the piece's light box: the next two geometric axes,
+     * claimed here so that the irradiance forms use the same ones. */
+    int axes[2];
+    bbc_result r = bbc__chain_area_axes(&pf->space, pf->s_axis, pf->t_axis, axes);
+    if (r != BBC_OK) return r;
+    pf->g.light_box[0] = piece->a_lo, pf->g.light_box[1] = piece->a_hi;
+    pf->g.light_box[2] = piece->b_lo, pf->g.light_box[3] = piece->b_hi;
+  }
+  return position_check(&b->arena, &pf->space, &pf->g, pf->box, pf->s_axis, pf->t_axis, mode,
                         &pf->forms, piece, v, contained);
+}
+
+/* The whole light box on a fresh piece. */
+static void whole_light(bbc_piece *p) {
+  p->a_lo = p->b_lo = 0;
+  p->a_hi = p->b_hi = 1;
+  p->light_level = 0;
+}
+
+/* The deepest level of an area light's box: a few halvings (BBC_LIGHT_MAX_LEVEL) make
+ * the footprint of one emitter part small against the emitter's whole, and every
+ * further one quadruples the pieces of all four variables. */
+#define LIGHT_MAX_LEVEL 3
+static int light_max_level(int max_level) {
+  return max_level < LIGHT_MAX_LEVEL ? max_level : LIGHT_MAX_LEVEL;
+}
+
+/* Area lights: whether a piece to be split splits its light box rather than its u1 box:
+ * the one whose world-space extent is larger (the u1 box's sides times T1's edges, the
+ * light box's times the emitter's), while its level allows. */
+static int split_light(const bbc_tuple_geometry *g, const bbc_piece *p, int max_level) {
+  if (g->light_model.kind != BBC_LIGHT_AREA) return 0;
+  if (p->light_level >= light_max_level(max_level)) return 0;
+  if (p->level >= max_level) return 1;
+  const bbc_vec3 *q = g->light_model.emitter;
+  double el = fmax(v3_length(v3_sub(q[1], q[0])), fmax(v3_length(v3_sub(q[2], q[1])),
+                                                       v3_length(v3_sub(q[0], q[2]))));
+  double tl = fmax(v3_length(v3_sub(g->p[1], g->p[0])), v3_length(v3_sub(g->p[2], g->p[0])));
+  double light = el * fmax(p->a_hi - p->a_lo, p->b_hi - p->b_lo);
+  double u1 = tl * fmax(p->u_hi - p->u_lo, p->v_hi - p->v_lo);
+  return light > u1;
 }
 
 /* Domain initialisation (paper Sec. 6.1): a breadth-first pass of position checks alone,
@@ -552,6 +635,7 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
   int top = 0;
   memset(&stack[0], 0, sizeof stack[0]);
   stack[0].u_hi = stack[0].v_hi = 1;
+  whole_light(&stack[0]);
   top = 1;
   bbc_result result = BBC_OK;
   while (top > 0 && result == BBC_OK) {
@@ -575,6 +659,7 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
       for (int q = 0; q < 4; q++) {
         bbc_piece child;
         memset(&child, 0, sizeof child);
+        whole_light(&child);
         child.level = piece.level + 1;
         child.u_lo = us[q & 1], child.u_hi = us[(q & 1) + 1];
         child.v_lo = vs[q >> 1], child.v_hi = vs[(q >> 1) + 1];
@@ -591,6 +676,7 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
   local->position_seconds += clock_seconds() - t0;
   if (result != BBC_OK || hi_u <= lo_u) return result;
   root->status = BBC_PIECE_KEPT;
+  whole_light(root);
   root->u_lo = lo_u, root->u_hi = hi_u, root->v_lo = lo_v, root->v_hi = hi_v;
   /* What the subdivision inherits at the root: nothing is known yet. */
   root->uk_lo = root->vk_lo = root->sk_lo = 0, root->uk_hi = root->vk_hi = root->sk_hi = 1;
@@ -609,7 +695,12 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
   memset(&prm, 0, sizeof prm);
   if (params) prm = *params;
   const int max_level = prm.max_level > 0 ? prm.max_level : prm.max_level < 0 ? 0 : 10;
-  const double sigma = prm.sigma > 0 ? prm.sigma : 1e-4;
+  /* An area light's pieces split by the irradiance ratio alone: the footprint of an
+   * emitter part does not shrink with u1, and the position rule sent every piece to the
+   * deepest level (docs/lights.md). */
+  const double sigma = g->light_model.kind == BBC_LIGHT_AREA ? INFINITY
+                       : prm.sigma > 0                       ? prm.sigma
+                                                             : 1e-4;
   const double alpha = prm.alpha > 0 ? prm.alpha : g->length == 2 ? 10.0 : 2.0;
   const chain_sqrt_mode position_mode =
       prm.no_remainder ? CHAIN_SQRT_NO_REMAINDER : CHAIN_SQRT_PRIMAL;
@@ -645,6 +736,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     verdict v = VERDICT_PARTIAL;
     result = examine_position(b, g, position_mode, &piece, &pf, &v, NULL);
     const double *box = pf.box;
+    const bbc_tuple_geometry *gp = &pf.g; /* with the piece's light box */
     const int s_axis = pf.s_axis, t_axis = pf.t_axis;
     bbc_space space = pf.space;
     const chain_forms forms = pf.forms;
@@ -676,7 +768,9 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     bbc_piece_need need = prm.need ? prm.need(prm.need_user, &piece) : BBC_NEED_SPLIT;
     /* A partial piece in one cell may still turn out to hold no path there. */
     if (need == BBC_NEED_KEEP && v == VERDICT_PARTIAL) need = BBC_NEED_SPLIT;
-    int can_split = piece.level < max_level && need == BBC_NEED_SPLIT;
+    int can_split = (piece.level < max_level || (g->light_model.kind == BBC_LIGHT_AREA &&
+                                                  piece.light_level < light_max_level(max_level))) &&
+                    need == BBC_NEED_SPLIT;
     double area = (piece.uk_hi - piece.uk_lo) * (piece.vk_hi - piece.vk_lo);
     int split = 0;
     if (need == BBC_NEED_NONE) {
@@ -688,14 +782,14 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       const chain_forms *irr = &forms;
       chain_forms irr_forms;
       if ((g->refract || (g->length == 2 && g->refract2)) && irradiance_mode != position_mode) {
-        result = bbc__chain_forms(&b->arena, &space, g, box, s_axis, t_axis, irradiance_mode,
+        result = bbc__chain_forms(&b->arena, &space, gp, box, s_axis, t_axis, irradiance_mode,
                                   &irr_forms);
         irr = &irr_forms;
       }
       const double uk_box[4] = {piece.uk_lo, piece.uk_hi, piece.vk_lo, piece.vk_hi};
       double e_lo = 0, e_hi = INFINITY;
       if (result == BBC_OK)
-        result = irradiance_bound(&b->arena, &space, g, irr, box, uk_box, s_axis, t_axis,
+        result = irradiance_bound(&b->arena, &space, gp, irr, box, uk_box, s_axis, t_axis,
                                   prm.jacobian, alpha, &e_lo, &e_hi);
       local.irradiance_pieces++;
       local.irradiance_seconds += clock_seconds() - t1;
@@ -704,7 +798,8 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       piece.e_lo = fmax(piece.e_lo, e_lo);
       piece.e_hi = fmin(piece.e_hi, e_hi);
       if (can_split && prm.need) can_split = prm.need(prm.need_user, &piece) == BBC_NEED_SPLIT;
-      split = can_split && area >= sigma && !(piece.e_hi < alpha * piece.e_lo);
+      split = can_split && (area >= sigma || g->light_model.kind == BBC_LIGHT_AREA) &&
+              !(piece.e_hi < alpha * piece.e_lo);
     } else {
       split = can_split && area >= sigma;
     }
@@ -722,6 +817,21 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       }
     }
 
+    if (split && split_light(g, &piece, max_level)) {
+      /* An area light's box is split instead (the u1 box stays). */
+      double am = 0.5 * (piece.a_lo + piece.a_hi), bm = 0.5 * (piece.b_lo + piece.b_hi);
+      bbc_piece child = piece;
+      child.light_level = piece.light_level + 1;
+      const double as[3] = {piece.a_lo, am, piece.a_hi}, bs[3] = {piece.b_lo, bm, piece.b_hi};
+      for (int j = 0; j < 2 && result == BBC_OK; j++) {
+        for (int i = 0; i < 2 && result == BBC_OK; i++) {
+          child.a_lo = as[i], child.a_hi = as[i + 1];
+          child.b_lo = bs[j], child.b_hi = bs[j + 1];
+          result = push(b, &count, &child);
+        }
+      }
+      continue;
+    }
     if (split) {
       double um = 0.5 * (piece.u_lo + piece.u_hi), vm = 0.5 * (piece.v_lo + piece.v_hi);
       bbc_piece child = piece; /* inherits the position and irradiance bounds */

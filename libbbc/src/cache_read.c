@@ -52,7 +52,7 @@ struct bbc_cache {
 
   bbc_precompute_params params;
   bbc_fingerprint fingerprint;
-  uint32_t scene_counts[5];
+  uint32_t scene_counts[6];
   uint32_t tuple_count;
   bbc_grid grid;
   bbc_receiver *receivers;
@@ -295,10 +295,11 @@ static bbc_result check_params_and_fingerprint(bbc_cache *c) {
   q->grid_resolution = bbc__ld32(p + 40);
   uint32_t flags = bbc__ld32(p + 44);
   q->remainder = flags & 1u;
+  q->area_lights = (flags >> 1) & 1u;
   if ((q->chains & ~BBC_CHAIN_MASK_ALL) != 0)
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "reserved chain bits 0x%x not zero (R-FILE-2)",
                 q->chains & ~BBC_CHAIN_MASK_ALL);
-  if ((flags & ~1u) != 0 || !all_zero(p + 48, 16))
+  if ((flags & ~3u) != 0 || !all_zero(p + 48, 16))
     return fail(c, BBC_ERR_CORRUPT, "PARM", at + 44, "reserved bits not zero (R-FILE-2)");
   if (!bbc__params_valid(q))
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "parameter out of its range (R-PAR-1)");
@@ -312,9 +313,12 @@ static bbc_result check_params_and_fingerprint(bbc_cache *c) {
   f->meshes = bbc__ld64(p + 24);
   f->lights = bbc__ld64(p + 32);
   f->params = bbc__ld64(p + 40);
-  for (int k = 0; k < 5; k++) c->scene_counts[k] = bbc__ld32(p + 48 + 4 * k);
-  if (!all_zero(p + 68, 28))
-    return fail(c, BBC_ERR_CORRUPT, "FPRT", at + 68, "reserved bytes not zero (R-FILE-2)");
+  for (int k = 0; k < 6; k++) c->scene_counts[k] = bbc__ld32(p + 48 + 4 * k);
+  if (!all_zero(p + 72, 24))
+    return fail(c, BBC_ERR_CORRUPT, "FPRT", at + 72, "reserved bytes not zero (R-FILE-2)");
+  if (c->scene_counts[5] != 0 && !q->area_lights)
+    return fail(c, BBC_ERR_CORRUPT, "FPRT", at + 68,
+                "emitter_count %u without area lights in PARM (R-FPR-2)", c->scene_counts[5]);
   if (f->total != bbc__xxh64(p + 8, 40))
     return fail(c, BBC_ERR_CORRUPT, "FPRT", at,
                 "fingerprint is not the hash of its parts (R-FPR-1)");
@@ -444,10 +448,13 @@ static bbc_result check_tuples(bbc_cache *c) {
   c->tuple_count = (uint32_t)count;
   const bbc_tuple *t = (const bbc_tuple *)(const void *)c->sec[K_TUPL];
   uint32_t triangles = c->scene_counts[1], lights = c->scene_counts[4];
+  uint64_t all_lights = (uint64_t)lights + c->scene_counts[5];
   for (uint64_t i = 0; i < count; i++) {
     const bbc_tuple *u = &t[i];
     int ok = u->chain < BBC_CHAIN_COUNT && (c->params.chains & BBC_CHAIN_BIT(u->chain)) &&
-             u->light < lights && u->specular[0] < triangles &&
+             u->light < all_lights &&
+             (u->light < lights || u->chain == BBC_CHAIN_R || u->chain == BBC_CHAIN_T) &&
+             u->specular[0] < triangles &&
              (bbc_chain_length((bbc_chain)(u->chain < BBC_CHAIN_COUNT ? u->chain : 0)) == 1
                   ? u->specular[1] == BBC_NO_TRIANGLE
                   : u->specular[1] < triangles) &&
@@ -693,6 +700,7 @@ void bbc_cache_get_info(const bbc_cache *c, bbc_cache_info *out) {
   out->scene_mesh_count = c->scene_counts[2];
   out->scene_material_count = c->scene_counts[3];
   out->scene_light_count = c->scene_counts[4];
+  out->scene_emitter_count = c->scene_counts[5];
   out->tuple_count = c->tuple_count;
   out->receiver_count = c->grid.receiver_count;
   out->cell_count = c->grid.cell_count;
@@ -754,6 +762,8 @@ bbc_result bbc_cache_check_scene(const bbc_cache *c, const bbc_scene *scene) {
     what = "materials";
   else if (f.lights != c->fingerprint.lights)
     what = "point lights";
+  else if (c->scene_counts[5] != 0 && c->scene_counts[5] != scene->emitter_count)
+    what = "emissive triangles";
   if (!what) return BBC_OK;
   return bbc__report(c->options.error_fn, c->options.user, BBC_ERR_SCENE_MISMATCH,
                      "%s: computed for another scene than %s: its %s differ (cache: %u "
@@ -785,6 +795,8 @@ bbc_result bbc_cache_check_params(const bbc_cache *c, const bbc_precompute_param
              p->grid_resolution);
   else if (q->remainder != (p->remainder ? 1u : 0u))
     snprintf(diff, sizeof diff, "remainder %u, expected %u", q->remainder, p->remainder);
+  else if (q->area_lights != (p->area_lights ? 1u : 0u))
+    snprintf(diff, sizeof diff, "area_lights %u, expected %u", q->area_lights, p->area_lights);
   if (!diff[0]) return BBC_OK;
   return bbc__report(c->options.error_fn, c->options.user, BBC_ERR_SCENE_MISMATCH,
                      "%s: computed with other parameters: %s", c->path, diff);

@@ -21,6 +21,7 @@
  * existed), 1 with it. */
 #define BBC__MINOR_COMPLETE 0u
 #define BBC__MINOR_SHARD 1u
+#define BBC__MINOR_AREA 2u /* area lights (PARM flags bit 1) */ 
 
 /* XXH64 of a candidate list as TUPL records (the candidates_hash of SHRD). */
 uint64_t bbc__candidates_hash(const bbc_tuple *tuples, size_t count);

@@ -145,7 +145,7 @@ int bbc__params_valid(const bbc_precompute_params *p) {
          p->max_level <= BBC__MAX_LEVEL && isfinite(p->sigma) && p->sigma >= 0 &&
          isfinite(p->alpha_single) && p->alpha_single >= 1 && isfinite(p->alpha_double) &&
          p->alpha_double >= 1 && isfinite(p->m) && p->m > 0 && p->grid_resolution >= 1 &&
-         p->grid_resolution <= BBC__MAX_RESOLUTION && p->remainder <= 1;
+         p->grid_resolution <= BBC__MAX_RESOLUTION && p->remainder <= 1 && p->area_lights <= 1;
 }
 
 void bbc__params_encode(const bbc_precompute_params *p, uint8_t out[BBC__PARM_SIZE]) {
@@ -157,7 +157,7 @@ void bbc__params_encode(const bbc_precompute_params *p, uint8_t out[BBC__PARM_SI
   bbc__stf64(out + 24, p->alpha_double);
   bbc__stf64(out + 32, p->m);
   bbc__st32(out + 40, p->grid_resolution);
-  bbc__st32(out + 44, p->remainder ? 1u : 0u);
+  bbc__st32(out + 44, (p->remainder ? 1u : 0u) | (p->area_lights ? 2u : 0u));
 }
 
 /* ------------------------------------------------------------------ fingerprint */
@@ -292,7 +292,8 @@ struct bbc_cache_builder {
   bbc_grid *grid;
   bbc_precompute_params params;
   bbc_fingerprint fingerprint;
-  uint32_t scene_counts[5]; /* vertices, triangles, meshes, materials, point lights */
+  uint32_t scene_counts[6]; /* vertices, triangles, meshes, materials, point lights,
+                               emitters (area-light caches only, else 0) */
   bbc_tuple *tuples;
   uint32_t tuple_count, tuple_cap;
   cell_list *cells;
@@ -351,6 +352,8 @@ bbc_result bbc_cache_builder_create(bbc_cache_builder **out, const bbc_scene *sc
   b->scene_counts[2] = scene->mesh_count;
   b->scene_counts[3] = scene->material_count;
   b->scene_counts[4] = scene->point_light_count;
+  b->params.area_lights = params->area_lights ? 1 : 0;
+  b->scene_counts[5] = b->params.area_lights ? scene->emitter_count : 0;
   if (builder_finish(b) != BBC_OK) {
     free(b);
     return BBC_ERR_OUT_OF_MEMORY;
@@ -388,6 +391,7 @@ bbc_result bbc__cache_builder_from_cache(bbc_cache_builder **out, const bbc_cach
   b->scene_counts[2] = in.scene_mesh_count;
   b->scene_counts[3] = in.scene_material_count;
   b->scene_counts[4] = in.scene_light_count;
+  b->scene_counts[5] = in.scene_emitter_count;
   if (builder_finish(b) != BBC_OK) {
     free(b);
     return BBC_ERR_OUT_OF_MEMORY;
@@ -421,7 +425,9 @@ bbc_result bbc_cache_builder_add_tuple(bbc_cache_builder *b, const bbc_tuple *t,
   if (!b || !t) return BBC_ERR_INVALID_ARGUMENT;
   uint32_t triangles = b->scene_counts[1];
   if (t->chain >= BBC_CHAIN_COUNT || !(b->params.chains & BBC_CHAIN_BIT(t->chain)) ||
-      t->light >= b->scene_counts[4] || t->specular[0] >= triangles ||
+      t->light >= b->scene_counts[4] + b->scene_counts[5] ||
+      (t->light >= b->scene_counts[4] && bbc_chain_length((bbc_chain)t->chain) != 1) ||
+      t->specular[0] >= triangles ||
       bbc_grid_receiver_of(b->grid, t->receiver) < 0)
     return BBC_ERR_INVALID_ARGUMENT;
   if (bbc_chain_length((bbc_chain)t->chain) == 1 ? t->specular[1] != BBC_NO_TRIANGLE
@@ -1061,7 +1067,7 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   bbc__st64(fprt + 24, b->fingerprint.meshes);
   bbc__st64(fprt + 32, b->fingerprint.lights);
   bbc__st64(fprt + 40, b->fingerprint.params);
-  for (int k = 0; k < 5; k++) bbc__st32(fprt + 48 + 4 * k, b->scene_counts[k]);
+  for (int k = 0; k < 6; k++) bbc__st32(fprt + 48 + 4 * k, b->scene_counts[k]);
 
   uint8_t *rcvr = calloc(g->receiver_count, BBC__RCVR_SIZE);
   uint8_t *cidx = calloc(g->cell_count ? g->cell_count : 1, BBC__CIDX_SIZE);
@@ -1181,7 +1187,10 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   memset(header, 0, sizeof header);
   memcpy(header, BBC__MAGIC, 8);
   bbc__st16(header + 8, BBC_FORMAT_VERSION_MAJOR);
-  bbc__st16(header + 10, b->shard_count ? BBC__MINOR_SHARD : BBC__MINOR_COMPLETE);
+  /* The smallest minor version whose features the file uses (R-HDR-3). */
+  bbc__st16(header + 10, b->params.area_lights ? BBC__MINOR_AREA
+                         : b->shard_count   ? BBC__MINOR_SHARD
+                                            : BBC__MINOR_COMPLETE);
   bbc__st32(header + 12, nsec);
   bbc__st64(header + 16, file_size);
   bbc__st32(header + 28, crc_of(crc32_z(0, NULL, 0), dir, BBC__DIR_ENTRY_SIZE * nsec));

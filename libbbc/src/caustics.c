@@ -97,7 +97,22 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
   const bbc_scene *scene = c->scene;
   *out = v3(0, 0, 0);
   if (!(s->irradiance > 0) || !isfinite(s->irradiance)) return 0;
-  const bbc_point_light *light = &scene->point_lights[tuple->light];
+  /* An area light is the point light at the emitter point g->light (in air) with the
+   * emitter's radiance, the value times A_e cos(theta_e) (docs/lights.md). */
+  bbc_point_light area_light;
+  const bbc_point_light *light = &area_light;
+  double weight = 1.0;
+  const int area = g->light_model.kind == BBC_LIGHT_AREA;
+  if (area) {
+    memset(&area_light, 0, sizeof area_light);
+    area_light.position = g->light;
+    area_light.model = g->light_model;
+    bbc__cache_light_intensity(scene, tuple->light, area_light.intensity);
+    weight = bbc__area_weight(&g->light_model, g->light, s->x1);
+    if (!(weight > 0)) return 0;
+  } else {
+    light = &scene->point_lights[tuple->light];
+  }
   const int length = g->length;
   /* The path's vertices: x[0] the light, x[1..length] the specular ones, then p. */
   const int sun = light->model.kind == BBC_LIGHT_DIRECTIONAL;
@@ -119,7 +134,8 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
        * T2; bounds.h, specular_path.h). A path whose shading normal says the ray arrives
        * from the other side is outside the bounded set: skipped (a documented
        * limitation, which only bites where shading and geometric normals disagree). */
-      bbc_vec3 source = bbc__light_source(light->position, &light->model, g->specular[0].p[0]);
+      bbc_vec3 source = area ? bbc__area_centroid(&light->model)
+                             : bbc__light_source(light->position, &light->model, g->specular[0].p[0]);
       if (i == 1) {
         const bbc_specular_triangle *t1 = &g->specular[0];
         source = v3_scale(v3_add(t1->p[0], v3_add(t1->p[1], t1->p[2])), 1.0 / 3.0);
@@ -146,6 +162,11 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
      * against its direction. */
     if (bbc_accel_occluded(c->accel, x1_light_side, v3_neg(light->model.direction), 0.0, INFINITY))
       return 0;
+  } else if (area) {
+    /* From the emitter point, pushed off the emitter toward x1. */
+    bbc_vec3 ne = v3_normalize(light->model.emitter_normal);
+    bbc_vec3 y = v3_offset_origin(x[0], ne, v3_sub(x[1], x[0]));
+    if (bbc_accel_occluded(c->accel, y, v3_sub(x1_light_side, y), 0.0, 1.0 - 1e-6)) return 0;
   } else if (bbc_accel_occluded(c->accel, x[0], v3_sub(x1_light_side, x[0]), 0.0, 1.0 - 1e-6)) {
     return 0;
   }
@@ -153,7 +174,7 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
     bbc_vec3 nb = i < length ? ngeo[i] : ng;
     if (!segment_visible(c, x[i], ngeo[i - 1], x[i + 1], nb)) return 0;
   }
-  for (int k = 0; k < 3; k++) factor[k] *= light->intensity[k] * s->irradiance;
+  for (int k = 0; k < 3; k++) factor[k] *= light->intensity[k] * s->irradiance * weight;
   if (shading) {
     /* A glossy receiver: the BSDF for this solution's light direction. */
     double f[3];
@@ -161,6 +182,42 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
     for (int k = 0; k < 3; k++) factor[k] *= f[k];
   }
   *out = v3(factor[0], factor[1], factor[2]);
+  return 1;
+}
+
+int bbc__caustics_area_covers(const bbc__caustics *c, uint32_t receiver, uint32_t t1, int letter,
+                              uint32_t emitter, bbc_vec3 y, bbc_vec3 x1, bbc_vec3 n1) {
+  if (!c || !c->area_lights || letter < 0) return 0;
+  const bbc_scene *scene = c->scene;
+  const bbc_chain chain = letter ? BBC_CHAIN_T : BBC_CHAIN_R;
+  if (!(c->chains & (1u << chain))) return 0;
+  if (scene->meshes[scene->triangle_mesh[receiver]].role != BBC_ROLE_RECEIVER) return 0;
+  const bbc_mesh *mesh = &scene->meshes[scene->triangle_mesh[t1]];
+  const bbc_material *m = &scene->materials[mesh->material];
+  if (mesh->role != BBC_ROLE_CASTER ||
+      m->type != (letter ? BBC_MATERIAL_DIELECTRIC : BBC_MATERIAL_MIRROR))
+    return 0;
+  /* The emitter's index (scene->emitters is in increasing triangle order). */
+  uint32_t lo = 0, hi = scene->emitter_count;
+  while (lo < hi) {
+    uint32_t mid = lo + (hi - lo) / 2;
+    if (scene->emitters[mid] < emitter) lo = mid + 1;
+    else hi = mid;
+  }
+  if (lo == scene->emitter_count || scene->emitters[lo] != emitter) return 0;
+  bbc_light_model model;
+  bbc_scene_area_light(scene, lo, &model, NULL);
+  /* The side: T1's normals turned toward the emitter's centroid (bounds.h), and the
+   * light must arrive against them. */
+  const bbc_vec3 centroid = bbc__area_centroid(&model);
+  const int toward = in_front_of(scene, t1, centroid) ? 1 : -1;
+  if (toward * v3_dot(v3_sub(x1, y), n1) >= 0) return 0;
+  if (letter) {
+    uint32_t after;
+    if (!bbc__media_refract(scene, 0, t1, bbc__media_side(scene, t1, centroid), &after) ||
+        !bbc__media_refract(scene, 0, t1, bbc__media_side(scene, t1, y), &after))
+      return 0;
+  }
   return 1;
 }
 
@@ -233,6 +290,14 @@ bbc_vec3 bbc__caustics_tuple(const bbc__caustics *c, bbc__caustics_thread *t,
   bbc_path_geometry g;
   if (bbc_path_geometry_init(&g, c->scene, tuple) != BBC_OK) return sum;
   if (g.length == 2) return double_contribution(c, t, tuple, &g, p, ng, key);
+  if (g.light_model.kind == BBC_LIGHT_AREA) {
+    /* One emitter point, uniform by area (scene.h's map with a = sqrt r1, b = r2), from
+     * the tuple's own stream: the bound sampled the tuple for A_e times the most any
+     * point gives, so the estimate is the point's value over its density 1 / A_e. */
+    bbc_rng rng = {bbc__mix64(key ^ 0x5A4E3C2B1A09F8E7ull), 0};
+    double r1 = bbc_rng_next(&rng), r2 = bbc_rng_next(&rng);
+    g.light = bbc__area_point(&g.light_model, sqrt(r1), r2);
+  }
   /* The solver runs the pre-test (bbc_solver_single_possible) first; its count of the
    * tuples it excluded is the stats'. */
   bbc_solver_stats stats;

@@ -30,6 +30,7 @@ typedef struct bbc__caustics {
   int no_fresnel;
   bbc_solver_method solver;   /* double scattering: deterministic or stochastic Newton */
   uint32_t newton_max_trials; /* cap on K (newton-stoch); 0 = BBC_NEWTON_MAX_TRIALS_DEFAULT */
+  int area_lights;            /* the cache holds the emitters' tuples (R, T) */
 } bbc__caustics;
 
 /* A glossy receiver's reflectance at the shading point: each solution's value is
@@ -94,6 +95,17 @@ bbc_vec3 bbc__caustics_tuple(const bbc__caustics *c, bbc__caustics_thread *t,
  * the light arrives at p from the side ng points to and every refraction agrees with
  * the side the bounds assume; else 0. g must be bbc_path_geometry_init of the tuple.
  * Exposed for the tests. */
+/* The clean split between the estimator and path tracing for area lights
+ * (docs/lights.md): 1 when the path tracer's path p (on receiver triangle `receiver`)
+ * -> x1 (on triangle t1, with unit shading normal n1 as loaded; `letter` 0 for a mirror
+ * reflection, 1 for a refraction, -1 for anything else) -> the front of emitter
+ * triangle `emitter` at y is one the estimator counts, so that path tracing must not:
+ * the cache holds the emitter's tuples, the chain type is rendered, t1 is a caster of
+ * that type, and the light arrives on the side of t1 the bounds orient it to, where the
+ * medium rule lets it refract. */
+int bbc__caustics_area_covers(const bbc__caustics *c, uint32_t receiver, uint32_t t1, int letter,
+                              uint32_t emitter, bbc_vec3 y, bbc_vec3 x1, bbc_vec3 n1);
+
 bbc_vec3 bbc__caustics_solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
                                       const bbc_path_geometry *g, const bbc_solution *s, bbc_vec3 p,
                                       bbc_vec3 ng);

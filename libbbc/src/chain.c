@@ -172,6 +172,53 @@ bbc_result bbc__chain_forms(bbc_arena *arena, bbc_space *space, const bbc_tuple_
   return bbc__chain_forms_rest(arena, space, g, mode, out);
 }
 
+bbc_result bbc__chain_area_axes(bbc_space *space, int s_axis, int t_axis, int axes[2]) {
+  int n = 0;
+  for (int j = BBC_POLY_MAX_AXES - 1; j >= 0 && n < 2; j--)
+    if (space->kind[j] == BBC_AXIS_GEOMETRIC && j != s_axis && j != t_axis) axes[n++] = j;
+  while (n < 2) TRY(bbc_space_add_axis(space, BBC_AXIS_GEOMETRIC, &axes[n++]));
+  return BBC_OK;
+}
+
+void bbc__chain_light_box(const bbc_tuple_geometry *g, double box[4]) {
+  const double *b = g->light_box;
+  if (b[0] == 0 && b[1] == 0 && b[2] == 0 && b[3] == 0) {
+    box[0] = 0, box[1] = 1, box[2] = 0, box[3] = 1;
+  } else {
+    for (int i = 0; i < 4; i++) box[i] = b[i];
+  }
+}
+
+bbc_result bbc__chain_area_light(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
+                                 int s_axis, int t_axis, bbc_poly3 *out) {
+  /* x0 = q0 + a e1 + a b f with e1 = q1 - q0, f = q2 - q1 (scene.h), a and b linear in
+   * their axes over the light box: exact Bernstein coefficients (bbc_poly_linear), the
+   * product a b exact in real arithmetic. e1 and f are rounded differences of the exact
+   * vertices (one ulp each), which with |a|, |ab| <= 1 widens each coordinate by an ulp
+   * of |e1| + |f|; the scalings and sums account for their own rounding. */
+  int axes[2];
+  TRY(bbc__chain_area_axes(space, s_axis, t_axis, axes));
+  double lb[4];
+  bbc__chain_light_box(g, lb);
+  const bbc_vec3 *q = g->light_model.emitter;
+  bbc_poly a, b, ab;
+  TRY(bbc_poly_linear(arena, &a, axes[0], lb[0], lb[1]));
+  TRY(bbc_poly_linear(arena, &b, axes[1], lb[2], lb[3]));
+  TRY(bbc_poly_mul(arena, &ab, &a, &b));
+  const bbc_vec3 e1 = v3_sub(q[1], q[0]), f = v3_sub(q[2], q[1]);
+  const double qc[3] = {q[0].x, q[0].y, q[0].z}, ec[3] = {e1.x, e1.y, e1.z}, fc[3] = {f.x, f.y, f.z};
+  bbc_poly *c[3] = {&out->x, &out->y, &out->z};
+  for (int i = 0; i < 3; i++) {
+    bbc_poly ta, tb;
+    TRY(bbc_poly_scale(arena, &ta, &a, ec[i]));
+    TRY(bbc_poly_scale(arena, &tb, &ab, fc[i]));
+    TRY(bbc_poly_add(arena, c[i], &ta, &tb));
+    TRY(bbc_poly_add_scalar(arena, c[i], c[i], qc[i]));
+    bbc_poly_widen(c[i], DBL_EPSILON * (fabs(ec[i]) + fabs(fc[i])));
+  }
+  return BBC_OK;
+}
+
 bbc_result bbc__chain_forms_prefix(bbc_arena *arena, bbc_space *space,
                                    const bbc_tuple_geometry *g, const double box[4], int s_axis,
                                    int t_axis, chain_sqrt_mode mode, chain_forms *out) {
@@ -198,12 +245,19 @@ bbc_result bbc__chain_forms_prefix(bbc_arena *arena, bbc_space *space,
      * 1 / |d0|^2 being absent for parallel light (docs/lights.md). */
     TRY(bbc_poly3_constant(arena, &d0, g->light_model.direction));
     TRY(bbc_poly_constant(arena, &out->dist2, 1.0));
+  } else if (g->light_model.kind == BBC_LIGHT_AREA) {
+    bbc_poly3 light;
+    TRY(bbc__chain_area_light(arena, space, g, s_axis, t_axis, &light));
+    TRY(bbc_poly3_sub(arena, &d0, x1, &light));
+    TRY(bbc_poly3_dot(arena, &out->dist2, &d0, &d0));
+    TRY(bbc_poly3_dot_vec(arena, &out->emit, &d0, g->light_model.emitter_normal));
   } else {
     bbc_poly3 light;
     TRY(bbc_poly3_constant(arena, &light, g->light));
     TRY(bbc_poly3_sub(arena, &d0, x1, &light));
     TRY(bbc_poly3_dot(arena, &out->dist2, &d0, &d0));
   }
+  if (g->light_model.kind != BBC_LIGHT_AREA) TRY(bbc_poly_constant(arena, &out->emit, 1.0));
   TRY(bbc_poly3_dot(arena, &dn, &d0, &n1));
   TRY(bbc_poly_scale(arena, &out->facing, &dn, -1.0));
   TRY(scatter(arena, space, &d0, &n1, g->refract, g->eta, mode, d1, &out->beta,

@@ -27,6 +27,9 @@ typedef enum chain_sqrt_mode {
  * vertex. */
 typedef struct chain_forms {
   bbc_poly up, vp, kappa, tnum, facing, dist2;
+  /* Area lights: emit = d0 . n_e (n_e the emitter's front normal, scene.h), positive
+   * where the emitter point sends light toward x1; the constant 1 for other lights. */
+  bbc_poly emit;
   bbc_poly beta;
   bbc_poly3 x1, d1; /* the first vertex and the unnormalised outgoing direction (Eq. 10) */
   int length;       /* specular vertices: 1 or 2 */
@@ -44,6 +47,9 @@ typedef struct chain_forms {
   void *scratch; /* state between the two steps below, in the arena */
 } chain_forms;
 
+/* Area lights: the emitter's parameters (a, b) over g->light_box are the two geometric
+ * axes of space other than s_axis and t_axis (the highest ones), claimed here when the
+ * caller has not claimed them. */
 /* The box of the piece: u = u_lo + (u_hi - u_lo) s, v = v_lo + (v_hi - v_lo) t with s on
  * axis s_axis and t on axis t_axis of space. Remainder axes are claimed from space. */
 bbc_result bbc__chain_forms(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
@@ -58,6 +64,13 @@ bbc_result bbc__chain_forms_prefix(bbc_arena *arena, bbc_space *space,
                                    int t_axis, chain_sqrt_mode mode, chain_forms *out);
 bbc_result bbc__chain_forms_rest(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
                                  chain_sqrt_mode mode, chain_forms *out);
+
+/* The two axes of an area light's (a, b) (see above), the light box (g->light_box, or
+ * [0, 1]^2 when it is all zero) and x0 as a polynomial over them. */
+bbc_result bbc__chain_area_axes(bbc_space *space, int s_axis, int t_axis, int axes[2]);
+void bbc__chain_light_box(const bbc_tuple_geometry *g, double box[4]);
+bbc_result bbc__chain_area_light(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
+                                 int s_axis, int t_axis, bbc_poly3 *out);
 
 /* c + du (u_lo + su s) + dv (v_lo + sv t) per coordinate, widened by the rounding of the
  * caller-side setup (Eq. 6-7 on a piece). */

@@ -6,7 +6,9 @@
  * - light arriving at a diffuse vertex straight from a light (next-event estimation in
  *   shade_diffuse_vertex; an emitter hit after a diffuse bounce is therefore ignored);
  * - light arriving at a diffuse vertex through specular vertices from an area light
- *   (found by the specular bounces that follow). From point lights such caustic paths
+ *   (found by the specular bounces that follow), except, with a cache holding area
+ *   lights, the paths the caustic estimator counts (bbc__caustics_area_covers: one
+ *   specular vertex from a receiver, docs/lights.md). From point lights such caustic paths
  *   cannot be found by path tracing at all: that is the caustic estimator's job, and
  *   shade_diffuse_vertex is where it plugs in. */
 #include "bbc/bsdf.h"
@@ -20,6 +22,7 @@
 #include <omp.h>
 
 #include "caustics_internal.h"
+#include "light_internal.h"
 #include "rng_internal.h"
 #include "sobol_internal.h"
 #include "vec_internal.h"
@@ -269,6 +272,12 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
   bbc_vec3 radiance = v3(0, 0, 0);
   bbc_vec3 throughput = v3(1, 1, 1);
   int count_emission = 1; /* camera ray or specular bounce: an emitter hit counts */
+  /* Since the last diffuse vertex (area lights' split, docs/lights.md): its triangle,
+   * the specular vertices met (their number, the first one's triangle, point, shading
+   * normal and kind: 0 mirror reflection, 1 refraction, -1 other). */
+  uint32_t diffuse_triangle = UINT32_MAX, spec_triangle = 0;
+  int spec_count = 0, spec_letter = -1;
+  bbc_vec3 spec_point = v3(0, 0, 0), spec_normal = v3(0, 0, 0);
   /* Light found before the first diffuse bounce is "direct", after it "indirect". */
   uint32_t lit_component = BBC_COMPONENT_DIRECT;
   for (uint32_t depth = 0; depth < ctx->max_depth; depth++) {
@@ -279,7 +288,16 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
     const bbc_material *m = s.material;
     int front = v3_dot(dir, s.ng) < 0;
 
-    if (count_emission && front && (ctx->components & lit_component)) {
+    /* A caustic path the estimator counts (receiver -> one specular vertex -> the
+     * emitter of an area light of the cache) is not counted here as well. */
+    const int covered = count_emission && front && ctx->caustics &&
+                        ctx->caustics->area_lights && diffuse_triangle != UINT32_MAX &&
+                        spec_count == 1 &&
+                        (m->emission[0] > 0 || m->emission[1] > 0 || m->emission[2] > 0) &&
+                        bbc__caustics_area_covers(ctx->caustics, diffuse_triangle, spec_triangle,
+                                                  spec_letter, hit.triangle, s.p, spec_point,
+                                                  spec_normal);
+    if (count_emission && front && !covered && (ctx->components & lit_component)) {
       radiance = v3_add(radiance, v3(throughput.x * m->emission[0], throughput.y * m->emission[1],
                                      throughput.z * m->emission[2]));
     }
@@ -300,6 +318,8 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       if (ctx->components & BBC_COMPONENT_CAUSTICS)
         radiance = v3_add(radiance, v3_mul(throughput, light.caustic));
       lit_component = BBC_COMPONENT_INDIRECT;
+      diffuse_triangle = s.triangle;
+      spec_count = 0;
       double u[2];
       sample_n(ps, (int)depth, SLOT_DIRECTION, 2, u);
       count_emission = 0;
@@ -322,6 +342,9 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         throughput = v3_mul(throughput, v3(bsdf.base[0], bsdf.base[1], bsdf.base[2]));
       }
     } else if (m->type == BBC_MATERIAL_MIRROR) {
+      if (spec_count++ == 0) {
+        spec_triangle = s.triangle, spec_letter = 0, spec_point = s.p, spec_normal = s.ns;
+      }
       bbc_vec3 n = front ? s.ns : v3_neg(s.ns);
       bbc_vec3 ng = front ? s.ng : v3_neg(s.ng);
       dir = reflect(dir, n);
@@ -344,6 +367,10 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         cos_t = sqrt(1.0 - sin2_t);
         double f = ctx->no_fresnel ? 0.0 : fresnel_dielectric(cos_i, cos_t, eta);
         reflect_it = sample(ps, (int)depth, SLOT_FRESNEL) < f;
+      }
+      if (spec_count++ == 0) {
+        spec_triangle = s.triangle, spec_letter = reflect_it ? -1 : 1, spec_point = s.p,
+        spec_normal = s.ns;
       }
       if (reflect_it) {
         dir = reflect(dir, n);
@@ -411,6 +438,11 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     caustics.no_fresnel = opts.no_fresnel;
     caustics.solver = opts.solver;
     caustics.newton_max_trials = opts.newton_max_trials;
+    {
+      bbc_cache_info info;
+      bbc_cache_get_info(opts.cache, &info);
+      caustics.area_lights = info.params.area_lights && info.scene_emitter_count > 0;
+    }
     static const bbc__sampling_method methods[] = {BBC__SAMPLE_BOUND, BBC__SAMPLE_BOUND,
                                                    BBC__SAMPLE_ENUMERATE, BBC__SAMPLE_UNIFORM,
                                                    BBC__SAMPLE_ONE};
@@ -423,6 +455,14 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     double reference = 0;
     for (uint32_t i = 0; i < scene->point_light_count; i++)
       for (int k = 0; k < 3; k++) reference = fmax(reference, scene->point_lights[i].intensity[k]);
+    /* An emitter of the cache counts with its radiance times its area (W/sr facing it). */
+    for (uint32_t i = 0; caustics.area_lights && i < scene->emitter_count; i++) {
+      bbc_light_model model;
+      float le[3];
+      bbc_scene_area_light(scene, i, &model, le);
+      double area = 0.5 * v3_length(model.emitter_normal);
+      for (int k = 0; k < 3; k++) reference = fmax(reference, le[k] * area);
+    }
     if (!(reference > 0)) reference = 1;
     double value =
         opts.gamma_value > 0 ? opts.gamma_value : (opts.gamma_mode == BBC_GAMMA_FIXED ? 300 : 4);

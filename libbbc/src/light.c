@@ -2,6 +2,7 @@
  * direction light arrives from for each kind (light_internal.h). */
 #include <float.h>
 #include <math.h>
+#include <string.h>
 
 #include "light_internal.h"
 #include "vec_internal.h"
@@ -60,4 +61,51 @@ bbc_interval bbc__light_falloff_over_box(bbc_vec3 position, const bbc_light_mode
   }
   if (cd.lo > cd.hi) cd = bbc_interval_make(-1, 1);
   return falloff_of_cosine(m, cd);
+}
+
+int bbc_scene_area_light(const bbc_scene *scene, uint32_t e, bbc_light_model *m,
+                         float radiance[3]) {
+  if (!scene || e >= scene->emitter_count) return 0;
+  const uint32_t t = scene->emitters[e];
+  const uint32_t *idx = scene->indices + 3 * (size_t)t;
+  memset(m, 0, sizeof *m);
+  m->kind = BBC_LIGHT_AREA;
+  bbc_vec3 nsum = v3(0, 0, 0);
+  for (int k = 0; k < 3; k++) {
+    m->emitter[k] = v3_load(scene->positions + 3 * (size_t)idx[k]);
+    nsum = v3_add(nsum, v3_load(scene->normals + 3 * (size_t)idx[k]));
+  }
+  bbc_vec3 c = v3_cross(v3_sub(m->emitter[1], m->emitter[0]), v3_sub(m->emitter[2], m->emitter[0]));
+  /* The front is where the vertex normals point, as the path tracer's (surface_at). */
+  m->emitter_normal = v3_dot(c, nsum) < 0 ? v3_neg(c) : c;
+  const float *le = bbc_scene_triangle_material(scene, t)->emission;
+  if (radiance)
+    for (int k = 0; k < 3; k++) radiance[k] = le[k];
+  return 1;
+}
+
+bbc_vec3 bbc__area_point(const bbc_light_model *m, double a, double b) {
+  const bbc_vec3 *q = m->emitter;
+  return v3_add(q[0], v3_add(v3_scale(v3_sub(q[1], q[0]), a), v3_scale(v3_sub(q[2], q[1]), a * b)));
+}
+
+bbc_vec3 bbc__area_centroid(const bbc_light_model *m) {
+  return v3_scale(v3_add(m->emitter[0], v3_add(m->emitter[1], m->emitter[2])), 1.0 / 3.0);
+}
+
+double bbc__area_weight(const bbc_light_model *m, bbc_vec3 y, bbc_vec3 x1) {
+  bbc_vec3 d = v3_sub(x1, y);
+  double len = v3_length(d);
+  double c = v3_dot(m->emitter_normal, d);
+  if (!(c > 0) || !(len > 0)) return 0.0;
+  /* A_e cos(theta_e): |n| / 2 is the area, c / (|n| |d|) the cosine. */
+  return 0.5 * c / len;
+}
+
+const float *bbc__cache_light_intensity(const bbc_scene *scene, uint32_t light, float buffer[3]) {
+  if (light < scene->point_light_count) return scene->point_lights[light].intensity;
+  bbc_light_model m;
+  buffer[0] = buffer[1] = buffer[2] = 0;
+  bbc_scene_area_light(scene, light - scene->point_light_count, &m, buffer);
+  return buffer;
 }

@@ -23,4 +23,18 @@ bbc_vec3 bbc__light_d0(bbc_vec3 position, const bbc_light_model *model, bbc_vec3
 bbc_interval bbc__light_falloff_over_box(bbc_vec3 position, const bbc_light_model *model,
                                          const bbc_vec3 p[3], const double box[4]);
 
+/* Area lights (kind BBC_LIGHT_AREA, scene.h): the emitter point of (a, b) in [0, 1]^2,
+ * the centroid (which stands for the light in side tests, as a point light's position
+ * does), and A_e cos(theta_e) for light leaving y toward x1: the factor that turns the
+ * irradiance per unit intensity of a point light at y into the estimate per unit
+ * radiance of y drawn uniformly by area (0 behind the emitter's front). */
+bbc_vec3 bbc__area_point(const bbc_light_model *model, double a, double b);
+bbc_vec3 bbc__area_centroid(const bbc_light_model *model);
+double bbc__area_weight(const bbc_light_model *model, bbc_vec3 y, bbc_vec3 x1);
+
+/* The brightness per RGB channel of cache light `light` (scene.h): a punctual light's
+ * intensity (W/sr; W/m^2 for a sun) or an emitter's radiance (W/sr/m^2, written into
+ * buffer). Zero for an index out of range. */
+const float *bbc__cache_light_intensity(const bbc_scene *scene, uint32_t light, float buffer[3]);
+
 #endif

@@ -13,6 +13,7 @@
 #include <omp.h>
 
 #include "cache_shard_internal.h"
+#include "light_internal.h"
 #include "report_internal.h"
 
 #define BATCH_TUPLES 256
@@ -196,7 +197,9 @@ static bbc_result record_tuple(bbc_cache_builder *builder, const bbc_grid *grid,
                                const bbc_scene *scene, const bbc_precompute_params *params,
                                const bbc_tuple *tuple, uint32_t id, const piece_list *pieces,
                                raster *r, uint64_t *entries) {
-  const float *intensity = scene->point_lights[tuple->light].intensity;
+  /* The light's brightest channel: W/sr, W/m^2 (a sun) or an emitter's radiance. */
+  float radiance[3];
+  const float *intensity = bbc__cache_light_intensity(scene, tuple->light, radiance);
   double power = fmax(intensity[0], fmax(intensity[1], intensity[2])) * params->m;
   bbc_cell_range all = {0, UINT32_MAX, UINT32_MAX, 0, 0};
   int any = 0;
@@ -264,6 +267,23 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   bbc_tuple *tuples = NULL;
   size_t tuple_count = 0;
   result = bbc_tuples_find(scene, params->chains, &tuples, &tuple_count);
+  if (result == BBC_OK && params->area_lights) {
+    /* Area lights come after the punctual ones (their light indices are higher). */
+    bbc_tuple *area = NULL;
+    size_t area_count = 0;
+    result = bbc_tuples_find_area(scene, params->chains, &area, &area_count);
+    if (result == BBC_OK && area_count) {
+      bbc_tuple *all = realloc(tuples, (tuple_count + area_count) * sizeof *all);
+      if (!all) {
+        result = BBC_ERR_OUT_OF_MEMORY;
+      } else {
+        memcpy(all + tuple_count, area, area_count * sizeof *all);
+        tuples = all;
+        tuple_count += area_count;
+      }
+    }
+    free(area);
+  }
   st.construction_seconds = omp_get_wtime() - t0;
   st.candidate_tuples = tuple_count;
   {
@@ -321,7 +341,9 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       int ok = bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) == BBC_OK &&
                coverage_begin(&covers[id], grid, sink.receiver) == BBC_OK;
       if (ok) {
-        bbc_bound_params prm = g.length == 2 ? bound2 : bound;
+        /* Area lights stop at the two-bounce ratio too (docs/lights.md). */
+        bbc_bound_params prm =
+            g.length == 2 || g.light_model.kind == BBC_LIGHT_AREA ? bound2 : bound;
         prm.need = piece_need;
         prm.need_user = &sink;
         ok = bbc_bound_tuple(bounders[id], &g, &prm, keep_piece, &sink, &thread_stats[id]) ==

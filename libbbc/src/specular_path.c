@@ -324,7 +324,9 @@ bbc_result bbc_path_geometry_init(bbc_path_geometry *g, const bbc_scene *scene,
                                   const bbc_tuple *tuple) {
   if (!g || !scene || !tuple) return BBC_ERR_INVALID_ARGUMENT;
   memset(g, 0, sizeof *g);
-  if (tuple->chain >= BBC_CHAIN_COUNT || tuple->light >= scene->point_light_count ||
+  const int64_t emitter = bbc_scene_light_emitter(scene, tuple->light);
+  if (tuple->chain >= BBC_CHAIN_COUNT ||
+      (tuple->light >= scene->point_light_count && emitter < 0) ||
       tuple->receiver >= scene->triangle_count)
     return BBC_ERR_INVALID_ARGUMENT;
   bbc_chain chain = (bbc_chain)tuple->chain;
@@ -332,8 +334,15 @@ bbc_result bbc_path_geometry_init(bbc_path_geometry *g, const bbc_scene *scene,
   for (int i = 0; i < length; i++)
     if (tuple->specular[i] >= scene->triangle_count) return BBC_ERR_INVALID_ARGUMENT;
 
-  g->light = scene->point_lights[tuple->light].position;
-  g->light_model = scene->point_lights[tuple->light].model;
+  if (emitter >= 0) {
+    /* An area light: its centroid orients the triangles below; a path from emitter
+     * point y is traced with `light` set to y (the kind then acts as a point light). */
+    bbc_scene_area_light(scene, (uint32_t)emitter, &g->light_model, NULL);
+    g->light = bbc__area_centroid(&g->light_model);
+  } else {
+    g->light = scene->point_lights[tuple->light].position;
+    g->light_model = scene->point_lights[tuple->light].model;
+  }
   g->intensity = 1.0;
   g->length = length;
   for (int i = 0; i < length; i++) {

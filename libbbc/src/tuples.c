@@ -294,8 +294,47 @@ static int spot_may_light(const bbc_point_light *light, const bbc_scene *scene, 
   return angle <= outer + asin(fmin(1.0, 1.001 * r / L)) + 1e-6;
 }
 
+/* Whether emitter model m can light some point of triangle t: a vertex of t strictly in
+ * front of the emitter's plane (exact on the float data, orient3d), and the emitter not
+ * entirely in t's plane (it would see t edge-on). */
+static int area_may_light(const bbc_scene *scene, const bbc_light_model *m, uint32_t e,
+                          uint32_t t) {
+  const uint32_t et = scene->emitters[e];
+  const float *q[3], *p[3];
+  for (int k = 0; k < 3; k++) {
+    q[k] = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)et + k];
+    p[k] = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t + k];
+  }
+  /* orient3d's sign against the front normal: the sign of the emitter's winding normal
+   * dotted with the front one. */
+  bbc_vec3 qv[3] = {v3_load(q[0]), v3_load(q[1]), v3_load(q[2])};
+  double wind = v3_dot(v3_cross(v3_sub(qv[1], qv[0]), v3_sub(qv[2], qv[0])), m->emitter_normal);
+  int front = 0;
+  for (int k = 0; k < 3 && !front; k++) {
+    int o = bbc__orient3d(q[0], q[1], q[2], p[k]);
+    front = o != 0 && (o > 0) == (wind > 0);
+  }
+  if (!front) return 0;
+  for (int k = 0; k < 3; k++)
+    if (bbc__orient3d(p[0], p[1], p[2], q[k]) != 0) return 1;
+  return 0;
+}
+
+static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int area,
+                                   bbc_tuple **out, size_t *count);
+
 bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
                            size_t *count) {
+  return bbc__tuples_find(scene, chains, 0, out, count);
+}
+
+bbc_result bbc_tuples_find_area(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
+                                size_t *count) {
+  return bbc__tuples_find(scene, chains, 1, out, count);
+}
+
+static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int area,
+                                   bbc_tuple **out, size_t *count) {
   *out = NULL;
   *count = 0;
   const uint32_t doubles = (1u << BBC_CHAIN_RR) | (1u << BBC_CHAIN_RT) | (1u << BBC_CHAIN_TR) |
@@ -318,11 +357,29 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
   bbc_arena arena;
   bbc_arena_init(&arena, arena_memory, arena_bytes);
 
-  for (uint32_t l = 0; l < scene->point_light_count && result == BBC_OK; l++) {
-    const bbc_point_light *light = &scene->point_lights[l];
+  /* Area lights: single scattering only (docs/lights.md). */
+  if (area) chains &= BBC_CHAIN_BIT(BBC_CHAIN_R) | BBC_CHAIN_BIT(BBC_CHAIN_T);
+  const uint32_t light_first = area ? scene->point_light_count : 0;
+  const uint32_t light_end = area ? scene->point_light_count + scene->emitter_count
+                                  : scene->point_light_count;
+  for (uint32_t l = light_first; l < light_end && chains && result == BBC_OK; l++) {
+    /* An emitter stands as a light in air at its centroid for the medium rule (the
+     * bounds orient T1 by it; bounds.h). */
+    bbc_point_light area_light;
+    memset(&area_light, 0, sizeof area_light);
+    const bbc_point_light *light = &area_light;
+    if (l < scene->point_light_count) {
+      light = &scene->point_lights[l];
+    } else {
+      bbc_scene_area_light(scene, l - scene->point_light_count, &area_light.model, NULL);
+      area_light.position = bbc__area_centroid(&area_light.model);
+    }
     for (uint32_t t = 0; t < scene->triangle_count && result == BBC_OK; t++) {
       int first = scattering_of(scene, t);
       if (first < 0) continue;
+      if (l >= scene->point_light_count &&
+          !area_may_light(scene, &light->model, l - scene->point_light_count, t))
+        continue;
       /* The medium beyond T1 (media_internal.h). */
       uint32_t medium = light->medium;
       const bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t]);
@@ -342,7 +399,9 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
       if ((result = bbc_tuple_geometry_init(&g, scene, &tuple)) != BBC_OK) break;
       /* A light in T1's plane sees it edge-on: no light passes through. */
       bbc_vec3 ng = v3_cross(v3_sub(g.p[1], g.p[0]), v3_sub(g.p[2], g.p[0]));
-      if (v3_dot(ng, bbc__light_d0(g.light, &g.light_model, g.p[0])) == 0) continue;
+      if (g.light_model.kind != BBC_LIGHT_AREA &&
+          v3_dot(ng, bbc__light_d0(g.light, &g.light_model, g.p[0])) == 0)
+        continue;
       bbc_ivec3 x, d;
       static const double whole[4] = {0, 1, 0, 1};
       if ((result = beam_of(&arena, &g, whole, &x, &d)) != BBC_OK) break;

@@ -109,7 +109,7 @@ static int build_grid(leaf_set *l) {
  * first discarded one, else NULL. Kept leaves win on shared edges because their bounds
  * hold on their whole closed box, while a discarded neighbour only proves its own
  * interior empty of paths up to the edge. */
-static const bbc_piece *find_leaf(const leaf_set *l, double u, double v) {
+static const bbc_piece *find_leaf(const leaf_set *l, double u, double v, const double *ab) {
   if (l->count == 0) return NULL;
   size_t c = (size_t)cell_of(v, l->y0, l->sy, l->grid) * l->grid +
              (size_t)cell_of(u, l->x0, l->sx, l->grid);
@@ -117,6 +117,9 @@ static const bbc_piece *find_leaf(const leaf_set *l, double u, double v) {
   for (uint32_t k = l->start[c]; k < l->start[c + 1]; k++) {
     const bbc_piece *q = &l->items[l->index[k]];
     if (!(u >= q->u_lo && u <= q->u_hi && v >= q->v_lo && v <= q->v_hi)) continue;
+    /* Area lights: the piece's light box must hold the emitter point's (a, b) too. */
+    if (ab && !(ab[0] >= q->a_lo && ab[0] <= q->a_hi && ab[1] >= q->b_lo && ab[1] <= q->b_hi))
+      continue;
     if (q->status == BBC_PIECE_KEPT) return q;
     if (!discarded) discarded = q;
   }
@@ -228,6 +231,17 @@ void bbc_validation_sample_u1(uint64_t seed, const bbc_tuple *tuple, uint32_t sa
   u1[1] = c;
 }
 
+/* Area lights: the emitter point of sample `sample`, (a, b) = (sqrt r1, r2) with uniform
+ * r1, r2 from a stream of its own (uniform by area, scene.h), a pure function of (seed,
+ * tuple, sample). */
+static void sample_emitter(uint64_t seed, const bbc_tuple *tuple, uint32_t sample, double ab[2]) {
+  uint64_t key = bbc__mix64(((uint64_t)tuple->light << 32) ^ 0xA5EA11u) ^
+                 (((uint64_t)tuple->specular[0] << 32) | tuple->receiver);
+  bbc_rng rng = bbc_rng_make(seed, sample, key);
+  ab[0] = sqrt(bbc_rng_next(&rng));
+  ab[1] = bbc_rng_next(&rng);
+}
+
 static void record_failure(bbc_validation *acc, const bbc_tuple *tuple, uint32_t sample,
                            uint32_t kinds, const bbc_specular_path *path, const bbc_piece *piece) {
   if (acc->failing++ > 0) return;
@@ -266,6 +280,13 @@ static int admissible_path(const bbc_path_geometry *pg, orientation o, const dou
                            bbc_specular_path *path) {
   if (bbc_specular_path_trace(pg, u1[0], u1[1], path) != BBC_OK) return 0;
   if (path->flags & BBC_PATH_REJECT) return 0;
+  if (pg->light_model.kind == BBC_LIGHT_AREA) {
+    /* pg->light is the emitter point: the path's value per unit radiance is A_e
+     * cos(theta_e) times its point-light irradiance, 0 behind the emitter. */
+    double w = bbc__area_weight(&pg->light_model, pg->light, path->x1);
+    if (!(w > 0)) return 0;
+    path->irradiance *= w;
+  }
   if (pg->specular[0].refract &&
       o.t1 * v3_dot(bbc__light_d0(pg->light, &pg->light_model, path->x1), path->n1) >= 0)
     return 0;
@@ -287,6 +308,7 @@ bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, cons
   if ((r = bbc_path_geometry_init(&pg, scene, tuple)) != BBC_OK) return r;
 
   const orientation o = orientation_of(&tg, &pg);
+  const int area = tg.light_model.kind == BBC_LIGHT_AREA;
 
   bbc_bound_params defaults;
   if (!params) {
@@ -311,10 +333,16 @@ bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, cons
     bbc_validation_sample_u1(seed, tuple, i, u1);
     acc->samples++;
     bbc_specular_path path;
-    if (!admissible_path(&pg, o, u1, &path)) continue;
+    double ab[2] = {0, 0};
+    bbc_path_geometry pgi = pg;
+    if (area) {
+      sample_emitter(seed, tuple, i, ab);
+      pgi.light = bbc__area_point(&pg.light_model, ab[0], ab[1]);
+    }
+    if (!admissible_path(&pgi, o, u1, &path)) continue;
     acc->admissible++;
 
-    const bbc_piece *piece = find_leaf(&leaves, u1[0], u1[1]);
+    const bbc_piece *piece = find_leaf(&leaves, u1[0], u1[1], area ? ab : NULL);
     if (!piece) {
       acc->uncovered++;
       record_failure(acc, tuple, i, BBC_VALIDATION_UNCOVERED, &path, NULL);
@@ -372,8 +400,10 @@ bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *c
   bbc_cache_get_info(cache, &info);
   const bbc_precompute_params params = info.params;
   /* The stored bound is per tuple and cell, with the light's brightest channel and m. */
-  const float *intensity = scene->point_lights[tuple->light].intensity;
+  float radiance[3];
+  const float *intensity = bbc__cache_light_intensity(scene, tuple->light, radiance);
   const double scale = fmax(intensity[0], fmax(intensity[1], intensity[2])) * params.m;
+  const int area = tg.light_model.kind == BBC_LIGHT_AREA;
   bbc_validation local;
   bbc_validation_reset(&local);
   local.tuples = 1;
@@ -382,7 +412,13 @@ bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *c
     bbc_validation_sample_u1(seed, tuple, i, u1);
     local.samples++;
     bbc_specular_path path;
-    if (!admissible_path(&pg, o, u1, &path)) continue;
+    bbc_path_geometry pgi = pg;
+    if (area) {
+      double ab[2];
+      sample_emitter(seed, tuple, i, ab);
+      pgi.light = bbc__area_point(&pg.light_model, ab[0], ab[1]);
+    }
+    if (!admissible_path(&pgi, o, u1, &path)) continue;
     local.admissible++;
     if (tuple_id < 0) {
       /* The precompute proved this tuple empty and stored nothing. */

@@ -37,4 +37,21 @@ test_check_bounds_per_light_kind() {
     fail "no clean T sun summary: $(cat "$TMP/out")"
 }
 
+test_area_lights_through_the_cache() {
+  expect_status 0 "$PRECOMPUTE" "$BBC_TEST_SCENES/flat-mirror-area.gltf" -o "$TMP/area.bbc" \
+    --max-level 5 --resolution 64 --no-progress --chains R --area-lights
+  expect_status 0 "$INSPECT" info "$TMP/area.bbc"
+  grep -q "^format *1.2 " "$TMP/out" || fail "info: not format 1.2: $(cat "$TMP/out")"
+  grep -q "^  light 1: [1-9][0-9]* tuples (R [1-9]" "$TMP/out" || fail "info: $(cat "$TMP/out")"
+  expect_status 0 "$INSPECT" validate "$TMP/area.bbc"
+  expect_status 0 "$INSPECT" check-bounds "$BBC_TEST_SCENES/flat-mirror-area.gltf" "$TMP/area.bbc" \
+    --samples 2000 --no-progress
+  grep -q "^R, area lights: .* [1-9][0-9]* admissible paths.*(0 failing paths)" "$TMP/out" ||
+    fail "no clean R area summary: $(cat "$TMP/out")"
+  expect_status 0 "$RENDER" "$BBC_TEST_SCENES/flat-mirror-area.gltf" --cache "$TMP/area.bbc" \
+    --spp 1 --width 16 --height 12 --stats --no-progress -o "$TMP/area.exr"
+  grep -q "^  light 0 (area, triangle [0-9]*): [1-9][0-9]* tuples (R " "$TMP/err" ||
+    fail "--stats: $(cat "$TMP/err")"
+}
+
 "test_$1"

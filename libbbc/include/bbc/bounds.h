@@ -44,6 +44,14 @@ typedef struct bbc_tuple_geometry {
    * side that direction comes from; its irradiance bounds are per unit irradiance
    * (W/m^2 per W/m^2). A spot's bounds include its falloff. */
   bbc_light_model light_model;
+  /* An area light (light_model.kind BBC_LIGHT_AREA; `light` is then the emitter's
+   * centroid, which orients T1 as a point light's position does): the box
+   * {a_lo, a_hi, b_lo, b_hi} of the emitter's square parameters (scene.h) the bounds
+   * are taken over; all zero means the whole square. The irradiance bounds of an area
+   * light are of A_e cos(theta_e) times the irradiance per unit intensity of a point
+   * light at the emitter point: per unit radiance (W/m^2 per W/sr/m^2), the value of a
+   * path whose emitter point is drawn uniformly by area (docs/lights.md). */
+  double light_box[4];
 } bbc_tuple_geometry;
 
 /* Fills g for a tuple of the scene (any chain type).
@@ -107,6 +115,10 @@ typedef struct bbc_piece {
    * which cut the box's corners: the position bound is the octagon of all three. */
   double sk_lo, sk_hi, dk_lo, dk_hi;
   double e_lo, e_hi;
+  /* Area lights: the box of the emitter's square parameters (a, b) the piece covers, and
+   * its subdivision level (the u1 box's is `level`); [0, 1]^2 and 0 for other lights. */
+  double a_lo, a_hi, b_lo, b_hi;
+  int light_level;
 } bbc_piece;
 
 /* Statistics of bounding, summed over calls (the paper's Table 2 precompute columns). */

@@ -34,6 +34,10 @@ typedef struct bbc_precompute_params {
   double m;                 /* solutions assumed per tuple, Eq. 21 (> 0) */
   uint32_t grid_resolution; /* cells along a receiver grid's longer side, 1..65536 */
   uint32_t remainder;       /* 1 if remainder variables were used, else 0 */
+  /* 1: the scene's emissive triangles are lights of the cache too (area lights, light
+   * index point_light_count + emitter; single scattering), else 0 (the default): their
+   * caustics are then left to path tracing. PARM flags bit 1. */
+  uint32_t area_lights;
 } bbc_precompute_params;
 
 /* The paper's defaults: all chains, level 10, sigma 1e-4, alpha 2 and 10, m 1, 512
@@ -194,6 +198,7 @@ typedef struct bbc_cache_info {
   /* Counts of the scene the cache was computed for. */
   uint32_t scene_vertex_count, scene_triangle_count, scene_mesh_count;
   uint32_t scene_material_count, scene_light_count;
+  uint32_t scene_emitter_count; /* area-light caches: the scene's emitter_count, else 0 */
   uint32_t tuple_count;
   uint32_t receiver_count;
   uint64_t cell_count, nonempty_cell_count;

@@ -67,6 +67,12 @@ BBC_API bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scen
 BBC_API bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
                                    size_t *count);
 
+/* The candidate tuples of the scene's area lights (emissive triangles; their light
+ * index is point_light_count + the emitter's index, scene.h) for the single-scattering
+ * chain types of `chains` (R, T; the others are ignored), in the same order. */
+BBC_API bbc_result bbc_tuples_find_area(const bbc_scene *scene, uint32_t chains,
+                                        bbc_tuple **out, size_t *count);
+
 #ifdef __cplusplus
 }
 #endif

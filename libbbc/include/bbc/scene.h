@@ -107,7 +107,9 @@ static inline double bbc_light_radiometric(double intensity, bbc_light_units uni
 typedef enum bbc_light_kind {
   BBC_LIGHT_POINT = 0,      /* emits equally in every direction */
   BBC_LIGHT_SPOT = 1,       /* a point light with the glTF cone falloff (bbc_light_falloff) */
-  BBC_LIGHT_DIRECTIONAL = 2 /* a sun: parallel light along `direction`, from infinity */
+  BBC_LIGHT_DIRECTIONAL = 2, /* a sun: parallel light along `direction`, from infinity */
+  BBC_LIGHT_AREA = 3         /* an emissive triangle (bbc_scene_area_light): not a glTF
+                                punctual light, but a light of the cache (docs/lights.md) */
 } bbc_light_kind;
 
 /* How a light emits, apart from its position and brightness: what the bounds, the exact
@@ -122,6 +124,14 @@ typedef struct bbc_light_model {
    * and the intensity is multiplied by t^2, where
    * scale = 1 / max(0.001, cos(innerConeAngle) - cos(outerConeAngle)). */
   double cos_outer, cone_scale;
+  /* Area only: the emissive triangle's vertices q[0..2] and its front normal
+   * emitter_normal = +-(q1 - q0) x (q2 - q0) (computed in double, not normalised; its
+   * length is twice the area), turned to the side its vertex normals point to, the side
+   * it emits to. A point of the emitter is q0 + a (q1 - q0) + a b (q2 - q1) for (a, b) in
+   * [0, 1]^2 (the map that takes the unit square onto the triangle; a = sqrt(r1), b = r2
+   * for uniform r1, r2 is uniform by area). */
+  bbc_vec3 emitter[3];
+  bbc_vec3 emitter_normal;
 } bbc_light_model;
 
 /* A light of KHR_lights_punctual (the array keeps the historical name point_lights).
@@ -185,6 +195,10 @@ typedef struct bbc_scene {
 
   uint32_t point_light_count;
   bbc_point_light *point_lights;
+  /* The lights of a cache are the punctual lights, then (for caches with area lights,
+   * bbc_precompute_params.area_lights) the emissive triangles: a tuple's light index
+   * l >= point_light_count names emitters[l - point_light_count]
+   * (bbc_scene_area_light). */
 
   /* Emissive triangles (area lights), with the cumulative area-times-power
    * distribution used to sample them. */
@@ -232,6 +246,20 @@ BBC_API bbc_result bbc_scene_camera_at(const bbc_scene *scene, uint32_t index, d
 
 /* Releases a scene; NULL is allowed. */
 BBC_API void bbc_scene_free(bbc_scene *scene);
+
+/* The emitter (index into scene->emitters) of cache light `light`, or -1 when the light is
+ * a punctual one or out of range. */
+static inline int64_t bbc_scene_light_emitter(const bbc_scene *scene, uint32_t light) {
+  if (light < scene->point_light_count) return -1;
+  uint64_t e = (uint64_t)light - scene->point_light_count;
+  return e < scene->emitter_count ? (int64_t)e : -1;
+}
+
+/* The model of emitter e (index into scene->emitters) as an area light (kind
+ * BBC_LIGHT_AREA) and its radiance (W/sr/m^2 per RGB channel, the material's emission).
+ * Returns 0 when e is out of range. */
+BBC_API int bbc_scene_area_light(const bbc_scene *scene, uint32_t e, bbc_light_model *model,
+                                 float radiance[3]);
 
 /* The material of a triangle. */
 static inline const bbc_material *bbc_scene_triangle_material(const bbc_scene *scene,
