@@ -63,7 +63,7 @@ static const char help[] =
     "Execution:\n"
     "  --threads N           worker threads (default: every core); the cache is\n"
     "                        byte-identical for any thread count\n"
-    "  --entry-memory MB     memory for grid entries (default 16); beyond it they are\n"
+    "  --entry-memory MB     memory for grid entries (default 8); beyond it they are\n"
     "                        spilled to a temporary file in $TMPDIR (or /tmp), deleted\n"
     "                        on any exit; the cache does not depend on it\n"
     "  --shard I/N           bound only the candidate tuples k with k % N == I\n"

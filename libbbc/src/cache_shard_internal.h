@@ -61,7 +61,7 @@ bbc_result bbc__cache_builder_add_codes(bbc_cache_builder *b, uint64_t cell, con
  * where nothing else uses the builder (between batches of splats). BBC_ERR_IO when the
  * spill file cannot be written: bbc__cache_builder_error says why, and the builder then
  * refuses to write. */
-#define BBC__DEFAULT_ENTRY_MEMORY ((size_t)16 << 20)
+#define BBC__DEFAULT_ENTRY_MEMORY ((size_t)8 << 20)
 void bbc__cache_builder_set_entry_memory(bbc_cache_builder *b, size_t bytes);
 bbc_result bbc__cache_builder_spill_if_full(bbc_cache_builder *b);
 /* Whether the lists are over the budget (safe to call during splats). */

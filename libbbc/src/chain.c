@@ -53,15 +53,15 @@ static bbc_result rounded_constant(bbc_arena *arena, bbc_poly3 *out, bbc_vec3 v)
 }
 
 /* The scattered direction of Eq. 10 for the incident direction d at a vertex with the
- * unnormalised normal n (on the incident side): reflection, or refraction with ratio eta,
- * where sqrt(beta) (Eq. 11) enters as `mode` says. beta is stored in *beta for the sign
+ * unnormalised normal n (on the incident side), given d_dot_n = d . n (the caller has it
+ * for the facing condition): reflection, or refraction with ratio eta, where sqrt(beta)
+ * (Eq. 11) enters as `mode` says. beta is stored in *beta for the sign
  * conditions; *slope_enclosed is cleared when a derivative-aware sqrt lost its slope. */
 static bbc_result scatter(bbc_arena *arena, bbc_space *space, const bbc_poly3 *d, const bbc_poly3 *n,
-                          int refract, double eta, chain_sqrt_mode mode, bbc_poly3 *out,
-                          bbc_poly *beta, int *slope_enclosed) {
-  bbc_poly nn, dn;
+                          const bbc_poly *d_dot_n, int refract, double eta, chain_sqrt_mode mode,
+                          bbc_poly3 *out, bbc_poly *beta, int *slope_enclosed) {
+  bbc_poly nn, dn = *d_dot_n;
   TRY(bbc_poly3_dot(arena, &nn, n, n));
-  TRY(bbc_poly3_dot(arena, &dn, d, n));
   /* (n.n) d - k (d.n) n: the tangential part shared by both cases of Eq. 10. */
   bbc_poly3 nn_d, dn_n;
   TRY(bbc_poly3_scale(arena, &nn_d, &nn, d));
@@ -260,7 +260,7 @@ bbc_result bbc__chain_forms_prefix(bbc_arena *arena, bbc_space *space,
   if (g->light_model.kind != BBC_LIGHT_AREA) TRY(bbc_poly_constant(arena, &out->emit, 1.0));
   TRY(bbc_poly3_dot(arena, &dn, &d0, &n1));
   TRY(bbc_poly_scale(arena, &out->facing, &dn, -1.0));
-  TRY(scatter(arena, space, &d0, &n1, g->refract, g->eta, mode, d1, &out->beta,
+  TRY(scatter(arena, space, &d0, &n1, &dn, g->refract, g->eta, mode, d1, &out->beta,
               &out->slope_enclosed));
   return BBC_OK;
 }

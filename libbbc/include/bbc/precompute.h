@@ -30,7 +30,7 @@ typedef struct bbc_precompute_options {
   uint32_t shard_index, shard_count;
   /* Bytes of (cell, tuple) entries kept in memory; beyond, the cell lists are spilled as
    * sorted runs to an unlinked temporary file in $TMPDIR (or /tmp) and merged back when
-   * the cache is written. 0: 16 MiB. The written file does not depend on it. */
+   * the cache is written. 0: 8 MiB. The written file does not depend on it. */
   size_t entry_memory;
 } bbc_precompute_options;
 
