@@ -157,6 +157,7 @@ typedef enum material_kind {
   MAT_GLASS,
   MAT_WATER,
   MAT_EMITTER,
+  MAT_DECK,
   MAT_COUNT
 } material_kind;
 
@@ -622,6 +623,7 @@ typedef enum kind {
   KIND_WAVY_CORNER,
   KIND_GLASS_BOX,
   KIND_WAVY_PLANE,
+  KIND_GLASS_POOL,
   KIND_COUNT
 } kind;
 
@@ -643,6 +645,7 @@ static const kind_info KINDS[KIND_COUNT] = {
     {"wavy-corner", 200, "two-mirrors with bumpy walls (double reflection, curved)"},
     {"glass-box", 12, "glass-slab with a flat top: flat parallel faces, finite caustic"},
     {"wavy-plane", 7000, "a wavy mirror plane in the set-up of the shared planes (paper's Plane)"},
+    {"glass-pool", 2000, "the pool's water beside a deck with a glass ball, under a warm sun"},
 };
 
 typedef struct options {
@@ -662,11 +665,12 @@ typedef struct options {
 
 typedef struct scene {
   const options *opts;
-  mesh meshes[4];
+  mesh meshes[6];
   int mesh_count;
   uint32_t caster_triangles;
   vec3 light;
-  double intensity; /* W/sr (glTF: candela), white */
+  double intensity; /* W/sr (glTF: candela) */
+  double color[3];  /* the light's glTF color, white unless the kind says otherwise */
   vec3 eye, target, up;
   double yfov;
 } scene;
@@ -683,6 +687,7 @@ static const double YFOV = 0.69813170079773179;
 static void build_scene(scene *s, const options *o) {
   memset(s, 0, sizeof *s);
   s->opts = o;
+  s->color[0] = s->color[1] = s->color[2] = 1;
   s->yfov = YFOV;
   s->up = v3(0, 1, 0);
   unsigned long size = o->size;
@@ -807,6 +812,39 @@ static void build_scene(scene *s, const options *o) {
       add_plane(floor, 0, 4, 0, 4, 0, 1, 1);
       s->light = v3(1.0, 1.0, 0.7), s->intensity = 10;
       s->eye = v3(2, 7, 2), s->target = v3(2, 0, 2), s->up = v3(0, 0, -1);
+      break;
+    }
+    case KIND_GLASS_POOL: {
+      /* The demo: the pool's wavy water over its floor (y = -1.5; tiled with --checker),
+       * a deck around it at y = 0.05 and a glass ball of radius 0.6 resting
+       * on the deck. A warm light from the far side and above: as a point light (the
+       * default) or, with --sun, a sun from that direction; the water's caustic falls on
+       * the pool floor, the ball's (double refraction) on the deck behind it. --size
+       * counts the water's triangles; the ball has 320. */
+      mesh *water = scene_add_mesh(s, "water", MAT_WATER, ROLE_CASTER);
+      uint32_t n = square_grid_side(size);
+      mesh_add_grid(water, n, n, pool_surface, NULL);
+      mesh *ball = scene_add_mesh(s, "glass_ball", MAT_GLASS, ROLE_CASTER);
+      add_sphere(ball, sphere_frequency(320), v3(3.1, 0.65, 0.3), 0.6);
+      mesh *floor = scene_add_mesh(s, "pool_floor", MAT_DIFFUSE, ROLE_RECEIVER);
+      add_plane(floor, -2.0, 2.0, -2.0, 2.0, -1.5, 1, 1);
+      /* The deck surrounds the pool ([-5, 5]^2 less the pool's [-2, 2]^2); the pool's
+       * walls receive the water's caustic too. */
+      mesh *deck = scene_add_mesh(s, "deck", MAT_DECK, ROLE_RECEIVER);
+      add_plane(deck, 2.0, 5.0, -5.0, 5.0, 0.05, 1, 1);
+      add_plane(deck, -5.0, -2.0, -5.0, 5.0, 0.05, 1, 1);
+      add_plane(deck, -2.0, 2.0, 2.0, 5.0, 0.05, 1, 1);
+      add_plane(deck, -2.0, 2.0, -5.0, -2.0, 0.05, 1, 1);
+      mesh *walls = scene_add_mesh(s, "pool_walls", MAT_DECK, ROLE_RECEIVER);
+      const rect_params wall[4] = {
+          {v3(-2, -1.5, -2), v3(0, 0, 4), v3(0, 1.55, 0), v3(1, 0, 0), 0},
+          {v3(2, -1.5, -2), v3(0, 0, 4), v3(0, 1.55, 0), v3(-1, 0, 0), 0},
+          {v3(-2, -1.5, -2), v3(4, 0, 0), v3(0, 1.55, 0), v3(0, 0, 1), 0},
+          {v3(-2, -1.5, 2), v3(4, 0, 0), v3(0, 1.55, 0), v3(0, 0, -1), 0}};
+      for (int k = 0; k < 4; k++) mesh_add_grid(walls, 1, 1, rect_surface, &wall[k]);
+      s->light = v3(-2.5, 5.5, -3.0), s->intensity = 60;
+      s->color[0] = 1.0, s->color[1] = 0.78, s->color[2] = 0.52;
+      s->eye = v3(5.6, 4.6, 4.8), s->target = v3(1.3, -0.7, 0.0);
       break;
     }
     case KIND_WAVY_PLANE: {
@@ -964,7 +1002,7 @@ static void checker_png(unsigned long n, bytes *png) {
 /* glTF output. */
 
 static const char *const MATERIAL_NAMES[MAT_COUNT] = {"diffuse", "mirror", "glass", "water",
-                                                      "emitter"};
+                                                      "emitter", "deck"};
 
 static void json_material(bytes *j, const scene *s, material_kind k) {
   bytes_printf(j, "{\"name\":\"%s\",\"pbrMetallicRoughness\":", MATERIAL_NAMES[k]);
@@ -994,6 +1032,12 @@ static void json_material(bytes *j, const scene *s, material_kind k) {
                    "\"KHR_materials_volume\":{\"thicknessFactor\":1},"
                    "\"KHR_materials_ior\":{\"ior\":%s}}}",
                    k == MAT_GLASS ? "1.5" : "1.33");
+      break;
+    case MAT_DECK:
+      /* glass-pool's deck: light warm stone, matte. */
+      bytes_printf(j,
+                   "{\"baseColorFactor\":[0.75,0.72,0.66,1],\"metallicFactor\":0,"
+                   "\"roughnessFactor\":1}}");
       break;
     default:
       /* A black base colour: the lamp only emits, it reflects nothing. */
@@ -1166,8 +1210,10 @@ static void build_gltf(const scene *s, const char *uri, bytes *json, bytes *bin)
   if (point_light) {
     bytes_printf(json,
                  ",\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"name\":"
-                 "\"light\",\"type\":\"%s\",\"color\":[1,1,1],\"intensity\":",
+                 "\"light\",\"type\":\"%s\",\"color\":",
                  light_type);
+    json_vec3(json, v3(s->color[0], s->color[1], s->color[2]));
+    bytes_printf(json, ",\"intensity\":");
     bytes_double(json, o->sun > 0 ? o->sun : s->intensity);
     if (o->spot > 0) {
       bytes_printf(json, ",\"spot\":{\"innerConeAngle\":");

@@ -174,6 +174,7 @@ test_kind_wavy_mirror() { check_kind wavy-mirror; }
 test_kind_glass_sphere() { check_kind glass-sphere; }
 test_kind_glass_slab() { check_kind glass-slab; }
 test_kind_pool() { check_kind pool; }
+test_kind_glass_pool() { check_kind glass-pool; }
 
 # The point light gives way to an emissive square when --area-light is given.
 test_area_light() {
