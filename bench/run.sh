@@ -5,9 +5,13 @@
 #                  refraction through the balls at the paper's levels (Table 3 bottom);
 #   render.md      equal-time renders of the caustic alone: relMSE of bbc, uniform and
 #                  enumerate against a converged enumeration.
-# Usage: sh bench/run.sh [SHARED_SCENES_DIR] [SECONDS_PER_RENDER]
+# Usage: sh bench/run.sh [--single] [SHARED_SCENES_DIR] [SECONDS_PER_RENDER]
+#   --single  regenerates only the single-bounce table of precompute.md (planes and pools)
+#             and keeps the rest of that file as it is; render.md is left alone.
 # Needs a Release build in build/ (sh scripts/build.sh).
 set -eu
+single=0
+[ "${1:-}" = --single ] && { single=1; shift; }
 root=$(cd "$(dirname "$0")/.." && pwd)
 scenes=${1:-$root/../shared/scenes}
 seconds=${2:-10}
@@ -32,46 +36,59 @@ json() { sed -n "s/.*\"$1\": \([-0-9.e+]*\).*/\1/p" "$2"; }
   echo "Command: \`bbc-precompute SCENE -o OUT.bbc --json S.json --chains CHAIN\` (defaults: level 10,"
   echo "sigma 1e-4, alpha 2, 512x512 grids, remainder variables on), $(nproc) threads."
   echo
-  echo "| scene | chain | tuples | pos. pieces/tuple | irr. pieces/tuple | time s | bounding s | recording s | peak MB | file MB | list compression |"
-  echo "|---|---|---|---|---|---|---|---|---|---|---|"
-  for s in plane1k plane7k plane28k pool4k pool20k; do
-    [ -f "$scenes/$s.gltf" ] || continue
+  echo "CPU s is user + system time of the whole run (process_cpu_seconds), the per-core figure;"
+  echo "plane458k is \`bbc-scenegen wavy-plane --size 458000\` (the paper's largest plane, Table 3)."
+  echo
+  echo "| scene | chain | tuples | pos. pieces/tuple | irr. pieces/tuple | time s | CPU s | bounding s | recording s | peak MB | file MB | list compression |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
+  "$bin/scenes/bbc-scenegen" wavy-plane --size 458000 -o "$work/plane458k.gltf" > /dev/null
+  for s in plane1k plane7k plane28k plane458k pool4k pool20k; do
+    dir=$scenes; [ $s = plane458k ] && dir=$work
+    [ -f "$dir/$s.gltf" ] || continue
     chain=R; case $s in pool*) chain=T ;; esac
-    "$bin/bbc-precompute/bbc-precompute" "$scenes/$s.gltf" -o "$work/$s.bbc" --json "$work/$s.json" \
+    "$bin/bbc-precompute/bbc-precompute" "$dir/$s.gltf" -o "$work/$s.bbc" --json "$work/$s.json" \
       --chains $chain --no-progress
     ratio=$("$bin/bbc-inspect/bbc-inspect" info "$work/$s.bbc" | sed -n 's/.*ratio[^0-9]*\([0-9.]*\).*/\1/p' | head -1)
-    printf '| %s | %s | %s | %.1f | %.1f | %.2f | %.2f | %.2f | %.0f | %.1f | %s |\n' "$s" "$chain" \
+    printf '| %s | %s | %s | %.1f | %.1f | %.2f | %.1f | %.2f | %.2f | %.0f | %.1f | %s |\n' "$s" "$chain" \
       "$(json tuples "$work/$s.json")" "$(json position_pieces_per_tuple "$work/$s.json")" \
       "$(json irradiance_pieces_per_tuple "$work/$s.json")" "$(json seconds "$work/$s.json")" \
+      "$(json process_cpu_seconds "$work/$s.json")" \
       "$(json bounding_seconds "$work/$s.json")" "$(json recording_seconds "$work/$s.json")" \
       "$(json peak_memory_mb "$work/$s.json")" \
       "$(echo "$(json file_bytes "$work/$s.json")" | awk '{printf "%.1f", $1 / 1e6}')" "${ratio:-?}"
   done
   echo
-  echo "Double refraction (TT) through the balls at the paper's levels (Table 3 bottom) and the slab at"
-  echo "its level (Table 2: tuples, memory); CPU s"
-  echo "is the bounding threads' CPU time, the per-core figure, and process CPU s the whole run's"
-  echo "user + system time. Paper: i9-13900KF, 32 threads."
-  echo
-  echo "| scene | level | candidates | tuples | T2 per T1 | pos. pieces/tuple | irr. pieces/tuple | time s | CPU s | process CPU s | peak MB | file MB | paper |"
-  echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
-  for spec in ball80:4:15K,4.1s ball320:3:52K,7.1s ball1280:2:198K,17.5s ball5120:1:771K,47.1s \
-    slab10k:1:127K,28.6MB; do
-    s=${spec%%:*}; rest=${spec#*:}; level=${rest%%:*}; paper=${rest#*:}
-    [ -f "$scenes/$s.gltf" ] || continue
-    "$bin/bbc-precompute/bbc-precompute" "$scenes/$s.gltf" \
-      -o "$work/$s.bbc" --json "$work/$s.json" --chains TT --max-level "$level" --no-progress
-    cpu=$(awk -v a="$(json position_cpu_seconds "$work/$s.json")" \
-      -v b="$(json irradiance_cpu_seconds "$work/$s.json")" 'BEGIN {printf "%.1f", a + b}')
-    printf '| %s | %s | %s | %s | %.1f | %.1f | %.1f | %.2f | %s | %.1f | %.0f | %.1f | %s |\n' "$s" "$level" \
-      "$(json candidate_tuples "$work/$s.json")" "$(json tuples "$work/$s.json")" \
-      "$(json second_per_first "$work/$s.json")" "$(json position_pieces_per_tuple "$work/$s.json")" \
-      "$(json irradiance_pieces_per_tuple "$work/$s.json")" "$(json seconds "$work/$s.json")" \
-      "$cpu" "$(json process_cpu_seconds "$work/$s.json")" "$(json peak_memory_mb "$work/$s.json")" \
-      "$(echo "$(json file_bytes "$work/$s.json")" | awk '{printf "%.1f", $1 / 1e6}')" \
-      "$(echo "$paper" | tr ',' ' ')"
-  done
-} > "$out/precompute.md"
+  if [ $single = 1 ]; then
+    # The rest of the file (double refraction and what follows) as it was.
+    sed -n '/^Double refraction (TT)/,$p' "$out/precompute.md"
+  else
+    echo "Double refraction (TT) through the balls at the paper's levels (Table 3 bottom) and the slab at"
+    echo "its level (Table 2: tuples, memory); CPU s"
+    echo "is the bounding threads' CPU time, the per-core figure, and process CPU s the whole run's"
+    echo "user + system time. Paper: i9-13900KF, 32 threads."
+    echo
+    echo "| scene | level | candidates | tuples | T2 per T1 | pos. pieces/tuple | irr. pieces/tuple | time s | CPU s | process CPU s | peak MB | file MB | paper |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    for spec in ball80:4:15K,4.1s ball320:3:52K,7.1s ball1280:2:198K,17.5s ball5120:1:771K,47.1s \
+      slab10k:1:127K,28.6MB; do
+      s=${spec%%:*}; rest=${spec#*:}; level=${rest%%:*}; paper=${rest#*:}
+      [ -f "$scenes/$s.gltf" ] || continue
+      "$bin/bbc-precompute/bbc-precompute" "$scenes/$s.gltf" \
+        -o "$work/$s.bbc" --json "$work/$s.json" --chains TT --max-level "$level" --no-progress
+      cpu=$(awk -v a="$(json position_cpu_seconds "$work/$s.json")" \
+        -v b="$(json irradiance_cpu_seconds "$work/$s.json")" 'BEGIN {printf "%.1f", a + b}')
+      printf '| %s | %s | %s | %s | %.1f | %.1f | %.1f | %.2f | %s | %.1f | %.0f | %.1f | %s |\n' "$s" "$level" \
+        "$(json candidate_tuples "$work/$s.json")" "$(json tuples "$work/$s.json")" \
+        "$(json second_per_first "$work/$s.json")" "$(json position_pieces_per_tuple "$work/$s.json")" \
+        "$(json irradiance_pieces_per_tuple "$work/$s.json")" "$(json seconds "$work/$s.json")" \
+        "$cpu" "$(json process_cpu_seconds "$work/$s.json")" "$(json peak_memory_mb "$work/$s.json")" \
+        "$(echo "$(json file_bytes "$work/$s.json")" | awk '{printf "%.1f", $1 / 1e6}')" \
+        "$(echo "$paper" | tr ',' ' ')"
+    done
+  fi
+} > "$work/precompute.md"
+mv "$work/precompute.md" "$out/precompute.md"
+[ $single = 1 ] && { cat "$out/precompute.md"; exit 0; }
 
 {
   echo "# Equal-time renders of the caustic"
