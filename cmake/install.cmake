@@ -1,8 +1,12 @@
 # Install rules, the CMake package, bbc.pc and the Debian package (cpack -G DEB).
 #   cmake --install build --prefix P
 # installs the tools to P/bin, the public headers to P/include/bbc, libbbc.so and
-# libbbc.a to P/lib, bbcConfig.cmake to P/lib/cmake/bbc, bbc.pc to P/lib/pkgconfig and
-# the man pages to P/share/man. Private headers (libbbc/src/*_internal.h) are never
+# libbbc.a to P/LIBDIR (lib/x86_64-linux-gnu on Debian amd64), bbcConfig.cmake to
+# P/LIBDIR/cmake/bbc, bbc.pc to P/LIBDIR/pkgconfig and the man pages to P/share/man.
+# Installed anywhere but /usr, the tree is relocatable (RUNPATH $ORIGIN/../LIBDIR, bbc.pc
+# and bbcConfig.cmake name their prefix relative to themselves); installed to /usr (the
+# Debian package), the tools carry no RUNPATH and bbc.pc says prefix=/usr, so
+# pkg-config drops its system -I and -L. Private headers (libbbc/src/*_internal.h) are never
 # installed. Components: "runtime" (tools, libbbc.so.*, man pages) and "development"
 # (headers, libbbc.so, libbbc.a, CMake package, bbc.pc).
 include(CMakePackageConfigHelpers)
@@ -11,6 +15,16 @@ set(BBC_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/bbc)
 
 install(TARGETS bbc-precompute bbc-render bbc-inspect bbc-scenegen
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
+# Installed to /usr, libbbc.so is where the dynamic linker looks by default: no RUNPATH
+# (Debian policy). Decided at install time, so one build folder serves both.
+install(CODE "set(bbc_bindir \"${CMAKE_INSTALL_BINDIR}\")" COMPONENT runtime)
+install(CODE [[
+  if(CMAKE_INSTALL_PREFIX STREQUAL "/usr")
+    foreach(tool bbc-precompute bbc-render bbc-inspect bbc-scenegen)
+      file(RPATH_REMOVE FILE "$ENV{DESTDIR}${CMAKE_INSTALL_PREFIX}/${bbc_bindir}/${tool}")
+    endforeach()
+  endif()
+]] COMPONENT runtime)
 install(TARGETS bbc_shared EXPORT bbcTargets
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT runtime
     NAMELINK_COMPONENT development)
@@ -35,13 +49,25 @@ install(FILES ${CMAKE_CURRENT_BINARY_DIR}/bbcConfig.cmake
   ${CMAKE_CURRENT_BINARY_DIR}/bbcConfigVersion.cmake
   DESTINATION ${BBC_CMAKE_DIR} COMPONENT development)
 
-# bbc.pc names its prefix relative to its own folder, so it is right for any
-# `cmake --install --prefix` and inside the Debian package.
-file(RELATIVE_PATH BBC_PC_TO_PREFIX /p/${CMAKE_INSTALL_LIBDIR}/pkgconfig /p)
-string(REGEX REPLACE "/$" "" BBC_PC_TO_PREFIX "${BBC_PC_TO_PREFIX}")
-configure_file(cmake/bbc.pc.in ${CMAKE_CURRENT_BINARY_DIR}/bbc.pc @ONLY)
-install(FILES ${CMAKE_CURRENT_BINARY_DIR}/bbc.pc
-  DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig COMPONENT development)
+# bbc.pc: installed to /usr it says prefix=/usr (pkg-config then leaves out -I/usr/include
+# and -L/usr/lib/<triplet>, its system folders); anywhere else it names its prefix
+# relative to its own folder (${pcfiledir}/../../..), so the tree may be moved.
+file(RELATIVE_PATH BBC_PC_PREFIX /p/${CMAKE_INSTALL_LIBDIR}/pkgconfig /p)
+string(REGEX REPLACE "/$" "" BBC_PC_PREFIX "${BBC_PC_PREFIX}")
+set(BBC_PC_PREFIX "\${pcfiledir}/${BBC_PC_PREFIX}")
+configure_file(cmake/bbc.pc.in ${CMAKE_CURRENT_BINARY_DIR}/pc/relocatable/bbc.pc @ONLY)
+set(BBC_PC_PREFIX /usr)
+configure_file(cmake/bbc.pc.in ${CMAKE_CURRENT_BINARY_DIR}/pc/usr/bbc.pc @ONLY)
+install(CODE "set(bbc_pc_dir \"${CMAKE_CURRENT_BINARY_DIR}/pc\")
+  set(bbc_pc_dest \"${CMAKE_INSTALL_LIBDIR}/pkgconfig\")" COMPONENT development)
+install(CODE [[
+  if(CMAKE_INSTALL_PREFIX STREQUAL "/usr")
+    set(bbc_pc "${bbc_pc_dir}/usr/bbc.pc")
+  else()
+    set(bbc_pc "${bbc_pc_dir}/relocatable/bbc.pc")
+  endif()
+  file(INSTALL DESTINATION "${CMAKE_INSTALL_PREFIX}/${bbc_pc_dest}" TYPE FILE FILES "${bbc_pc}")
+]] COMPONENT development)
 
 # cpack -G DEB (in the build folder) writes two packages: bbc (the tools, the shared
 # library and the man pages; its dependencies come from dpkg-shlibdeps) and libbbc-dev
@@ -53,6 +79,10 @@ set(CPACK_PACKAGE_CONTACT "bbc maintainers <bbc@localhost>")
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "Bernstein bounds for caustics (Fan et al. 2025)")
 set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
+# Install with CMAKE_INSTALL_PREFIX=/usr into DESTDIR, so the install-time choices above
+# (no RUNPATH, prefix=/usr in bbc.pc) are made for the package.
+set(CPACK_SET_DESTDIR ON)
+set(CPACK_INSTALL_PREFIX /usr)
 set(CPACK_DEB_COMPONENT_INSTALL ON)
 set(CPACK_COMPONENTS_ALL runtime development)
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)

@@ -8,6 +8,9 @@
 set -u
 . "$BBC_SOURCE_DIR/tests/cli/lib.sh"
 PREFIX="$TMP/prefix"
+# The library folder of the build (CMAKE_INSTALL_LIBDIR: lib/x86_64-linux-gnu on Debian).
+LIBDIR=$(sed -n 's/^CMAKE_INSTALL_LIBDIR:PATH=//p' "$BBC_BIN/CMakeCache.txt")
+[ -n "$LIBDIR" ] || { echo "no CMAKE_INSTALL_LIBDIR in $BBC_BIN/CMakeCache.txt" >&2; exit 1; }
 
 install_bbc() {
   cmake --install "$BBC_BIN" --prefix "$PREFIX" >"$TMP/install.log" 2>&1 ||
@@ -42,8 +45,8 @@ check_print_cell() {
 test_files() {
   install_bbc
   for f in bin/bbc-precompute bin/bbc-render bin/bbc-inspect bin/bbc-scenegen \
-    include/bbc/bbc.h lib/libbbc.a lib/libbbc.so lib/cmake/bbc/bbcConfig.cmake \
-    lib/cmake/bbc/bbcConfigVersion.cmake lib/pkgconfig/bbc.pc \
+    include/bbc/bbc.h $LIBDIR/libbbc.a $LIBDIR/libbbc.so $LIBDIR/cmake/bbc/bbcConfig.cmake \
+    $LIBDIR/cmake/bbc/bbcConfigVersion.cmake $LIBDIR/pkgconfig/bbc.pc \
     share/man/man1/bbc-precompute.1 share/man/man1/bbc-render.1 \
     share/man/man1/bbc-inspect.1 share/man/man1/bbc-scenegen.1 share/man/man5/bbc.5; do
     [ -e "$PREFIX/$f" ] || fail "$f is not installed"
@@ -53,12 +56,38 @@ test_files() {
   (cd "$PREFIX/include/bbc" && ls) >"$TMP/got"
   cmp -s "$TMP/want" "$TMP/got" || fail "installed headers differ: $(diff "$TMP/want" "$TMP/got")"
   # The SONAME follows the version (libbbc.so.MAJOR, libbbc.so.0.MINOR before 1.0).
-  soname=$(readelf -d "$PREFIX/lib/libbbc.so" | sed -n 's/.*SONAME.*\[\(.*\)\]/\1/p')
-  [ -e "$PREFIX/lib/$soname" ] || fail "SONAME $soname is not installed"
+  soname=$(readelf -d "$PREFIX/$LIBDIR/libbbc.so" | sed -n 's/.*SONAME.*\[\(.*\)\]/\1/p')
+  [ -e "$PREFIX/$LIBDIR/$soname" ] || fail "SONAME $soname is not installed"
   case $soname in libbbc.so.[0-9]*) ;; *) fail "SONAME $soname" ;; esac
-  # The installed tools run from the prefix (they find libbbc.so relative to themselves).
+  # The installed tools run from the prefix (they find libbbc.so relative to themselves),
+  # also after the prefix is moved, and bbc.pc names the moved prefix.
   expect_status 0 "$PREFIX/bin/bbc-render" --version
   grep -q "^bbc-render .*libbbc" "$TMP/out" || fail "bbc-render --version: $(cat "$TMP/out")"
+  mv "$PREFIX" "$TMP/moved"
+  expect_status 0 "$TMP/moved/bin/bbc-render" --version
+  PKG_CONFIG_PATH="$TMP/moved/$LIBDIR/pkgconfig" pkg-config --cflags bbc >"$TMP/cflags" ||
+    fail "pkg-config bbc failed in the moved prefix"
+  grep -q -- "-I$TMP/moved/$LIBDIR/pkgconfig/[./]*include\( \|$\)" "$TMP/cflags" ||
+    fail "bbc.pc does not follow the moved prefix: $(cat "$TMP/cflags")"
+}
+
+# Installed to /usr (into DESTDIR, as a package is made), the tools carry no RUNPATH and
+# bbc.pc says prefix=/usr, so pkg-config prints no -I or -L of its own for bbc.
+test_system_prefix() {
+  DESTDIR="$TMP/root" cmake --install "$BBC_BIN" --prefix /usr >"$TMP/install.log" 2>&1 ||
+    { cat "$TMP/install.log" >&2; fail "cmake --install --prefix /usr failed"; }
+  for tool in bbc-precompute bbc-render bbc-inspect bbc-scenegen; do
+    readelf -d "$TMP/root/usr/bin/$tool" >"$TMP/dyn" || fail "readelf $tool"
+    grep -q 'R.*PATH' "$TMP/dyn" && fail "$tool has a RUNPATH in /usr: $(grep 'R.*PATH' "$TMP/dyn")"
+  done
+  pc="$TMP/root/usr/$LIBDIR/pkgconfig/bbc.pc"
+  grep -qx 'prefix=/usr' "$pc" || fail "bbc.pc in /usr: $(head -n 1 "$pc")"
+  PKG_CONFIG_SYSTEM_INCLUDE_PATH=/usr/include PKG_CONFIG_SYSTEM_LIBRARY_PATH="/usr/$LIBDIR" \
+    PKG_CONFIG_PATH="$TMP/root/usr/$LIBDIR/pkgconfig" pkg-config --cflags --libs bbc >"$TMP/flags" ||
+    fail "pkg-config bbc failed"
+  grep -q -- '-I/usr/include\( \|$\)\|-L/usr\|\.\./' "$TMP/flags" &&
+    fail "pkg-config bbc in /usr names system folders: $(cat "$TMP/flags")"
+  grep -q -- '-lbbc' "$TMP/flags" || fail "pkg-config bbc: $(cat "$TMP/flags")"
 }
 
 # The tools need nothing but the public headers: they compile against the installed
@@ -96,11 +125,11 @@ test_pkg_config() {
   install_bbc
   make_cache
   cp -r "$BBC_SOURCE_DIR/examples" "$TMP/example"
-  PKG_CONFIG_PATH="$PREFIX/lib/pkgconfig" make -C "$TMP/example" >"$TMP/make.log" 2>&1 ||
+  PKG_CONFIG_PATH="$PREFIX/$LIBDIR/pkgconfig" make -C "$TMP/example" >"$TMP/make.log" 2>&1 ||
     { cat "$TMP/make.log" >&2; fail "building with pkg-config failed"; }
   readelf -d "$TMP/example/print_cell_static" | grep -q 'NEEDED.*libbbc\.so' &&
     fail "print_cell_static links libbbc.so"
-  LD_LIBRARY_PATH="$PREFIX/lib" check_print_cell "$TMP/example/print_cell"
+  LD_LIBRARY_PATH="$PREFIX/$LIBDIR" check_print_cell "$TMP/example/print_cell"
   mv "$TMP/print_cell.out" "$TMP/shared.out"
   check_print_cell "$TMP/example/print_cell_static"
   cmp -s "$TMP/shared.out" "$TMP/print_cell.out" || fail "shared and static outputs differ"
@@ -176,8 +205,15 @@ test_deb() {
   dpkg-deb -c "$runtime" | grep -q 'man1/bbc-render.1' || fail "bbc-render.1 not in $runtime"
   dpkg-deb -c "$dev" | grep -q '/usr/include/bbc/bbc.h$' || fail "bbc.h not in $dev"
   dpkg-deb -c "$runtime" "$dev" | grep -q '_internal\.h' && fail "a private header is packaged"
+  # Libraries in the multiarch folder, tools without RUNPATH, bbc.pc with prefix=/usr.
+  dpkg-deb -c "$runtime" | grep -q "/usr/$LIBDIR/libbbc\.so\.[0-9.]*$" ||
+    fail "libbbc.so.* not in /usr/$LIBDIR in $runtime"
+  dpkg-deb -c "$dev" | grep -q "/usr/$LIBDIR/pkgconfig/bbc\.pc$" || fail "bbc.pc not in $dev"
   dpkg-deb -x "$runtime" "$TMP/root"
-  expect_status 0 "$TMP/root/usr/bin/bbc-render" --version
+  dpkg-deb -x "$dev" "$TMP/root"
+  readelf -d "$TMP/root/usr/bin/bbc-render" | grep 'R.*PATH' && fail "bbc-render has a RUNPATH"
+  grep -qx 'prefix=/usr' "$TMP/root/usr/$LIBDIR/pkgconfig/bbc.pc" || fail "bbc.pc prefix"
+  LD_LIBRARY_PATH="$TMP/root/usr/$LIBDIR" expect_status 0 "$TMP/root/usr/bin/bbc-render" --version
 }
 
 "test_$1"
