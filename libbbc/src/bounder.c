@@ -378,21 +378,33 @@ static bbc_result implicit_bound(bbc_arena *arena, const bbc_space *space,
   if (!(wa > 0) || !(wb > 0)) return BBC_OK;
   static const bbc_vec3 bs[2] = {{1, 0, 0}, {0, 1, 0}};
   double lo = 0, hi = INFINITY;
+  /* What does not depend on b is computed once for both. */
+  size_t outer = bbc_arena_mark(arena);
+  chain_implicit *prep = NULL;
+  bbc_result pr = bbc__chain_double_implicit_prepare(arena, space, g, f, uk_box, &prep);
+  if (pr != BBC_OK) {
+    bbc_arena_reset(arena, outer);
+    return pr;
+  }
   for (int i = 0; i < 2; i++) {
     size_t mark = bbc_arena_mark(arena);
     bbc_poly det_ab, det_st, den;
     bbc_range ratio;
-    bbc_result r = bbc__chain_double_implicit(arena, space, g, f, uk_box, bs[i], &det_ab, &det_st);
+    bbc_result r = bbc__chain_double_implicit(arena, prep, g, f, bs[i], &det_ab, &det_st);
     if (r == BBC_OK) r = bbc_poly_mul(arena, &den, &f->dist2, &det_st);
     if (r == BBC_OK) r = bbc_rational_bound(arena, &det_ab, &den, &ratio);
     bbc_arena_reset(arena, mark);
-    if (r != BBC_OK) return r;
+    if (r != BBC_OK) {
+      bbc_arena_reset(arena, outer);
+      return r;
+    }
     double l, h;
     magnitude(&ratio, &l, &h);
     lo = fmax(lo, l);
     hi = fmin(hi, h);
     if (hi <= alpha * lo) break; /* tight enough: the second b could only tighten it */
   }
+  bbc_arena_reset(arena, outer);
   bbc_interval k = bbc_interval_div(scale, bbc_interval_mul(bbc_interval_point(wa),
                                                               bbc_interval_point(wb)));
   if (!(k.lo >= 0)) k.lo = 0;

@@ -499,19 +499,29 @@ static bbc_result ds_dot_const(const dual_ctx *c, dscal *out, const dvec *a, bbc
   return dv_dot(c, out, a, &k);
 }
 
-bbc_result bbc__chain_double_implicit(bbc_arena *arena, const bbc_space *space_in,
-                                      const bbc_tuple_geometry *g, const chain_forms *f,
-                                      const double uk_box[4], bbc_vec3 b, bbc_poly *det_ab,
-                                      bbc_poly *det_st) {
+/* What the implicit form needs that does not depend on b. */
+struct chain_implicit {
+  bbc_space space; /* with the two receiver axes */
+  dvec d2, m;
+  dscal G, l1, l2;
+  bbc_poly3 d2a, d2b;
+  bbc_poly g_ab[2], d2_dir[2]; /* m . D2_a, m . D2_b and D2 . D2_a, D2 . D2_b */
+};
+
+bbc_result bbc__chain_double_implicit_prepare(bbc_arena *arena, const bbc_space *space_in,
+                                              const bbc_tuple_geometry *g, const chain_forms *f,
+                                              const double uk_box[4], chain_implicit **out) {
   const double_state *st = f->scratch;
   if (!st || !f->has_derivatives) return BBC_ERR_INVALID_ARGUMENT;
+  chain_implicit *im = bbc_arena_alloc(arena, sizeof *im);
+  if (!im) return BBC_ERR_OUT_OF_MEMORY;
   /* The receiver barycentrics become variables of their own: a = uk_lo + wa alpha,
    * b = vk_lo + wb beta on two fresh geometric axes (the 4D superset of Sec. 4.4). */
-  bbc_space space = *space_in;
+  im->space = *space_in;
   int a_axis, b_axis;
-  TRY(bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &a_axis));
-  TRY(bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &b_axis));
-  dual_ctx c = {arena, &space, 1};
+  TRY(bbc_space_add_axis(&im->space, BBC_AXIS_GEOMETRIC, &a_axis));
+  TRY(bbc_space_add_axis(&im->space, BBC_AXIS_GEOMETRIC, &b_axis));
+  dual_ctx c = {arena, &im->space, 1};
   const double wa = uk_box[1] - uk_box[0], wb = uk_box[3] - uk_box[2];
   const bbc_vec3 e1 = v3_sub(g->r[1], g->r[0]), e2 = v3_sub(g->r[2], g->r[0]);
   bbc_poly3 xk;
@@ -520,47 +530,70 @@ bbc_result bbc__chain_double_implicit(bbc_arena *arena, const bbc_space *space_i
   /* D2 = kappa2 xk - X2 = kappa2 (xk - x2): d2 scaled by kappa2, which changes neither
    * the constraints' zero set nor, on it, the Jacobian (F and G are homogeneous in d2 and
    * n2, and the extra terms of their derivatives vanish where F = G = 0). */
-  dvec d2, xk_d;
+  dvec xk_d;
   for (int i = 0; i < 3; i++) {
     dscal *o = dv_at(&xk_d, i);
     o->v = i == 0 ? xk.x : i == 1 ? xk.y : xk.z;
     TRY(zero(arena, &o->s));
     TRY(zero(arena, &o->t));
   }
-  TRY(dv_scale(&c, &d2, &st->kappa2, &xk_d));
-  TRY(dv_add(&c, &d2, &d2, &st->x2, -1));
-  TRY(dv_flatten(&c, &d2, FLATTEN_DEGREE));
+  TRY(dv_scale(&c, &im->d2, &st->kappa2, &xk_d));
+  TRY(dv_add(&c, &im->d2, &im->d2, &st->x2, -1));
+  TRY(dv_flatten(&c, &im->d2, FLATTEN_DEGREE));
   /* dD2/dalpha = kappa2 e1 wa and dD2/dbeta = kappa2 e2 wb (values only). */
-  bbc_poly3 d2a, d2b, ca, cb;
+  bbc_poly3 ca, cb;
   TRY(rounded_vec(arena, &ca, v3_scale(e1, wa)));
   TRY(rounded_vec(arena, &cb, v3_scale(e2, wb)));
-  TRY(bbc_poly3_scale(arena, &d2a, &st->kappa2.v, &ca));
-  TRY(bbc_poly3_scale(arena, &d2b, &st->kappa2.v, &cb));
+  TRY(bbc_poly3_scale(arena, &im->d2a, &st->kappa2.v, &ca));
+  TRY(bbc_poly3_scale(arena, &im->d2b, &st->kappa2.v, &cb));
+
+  /* m = d1 x n2, G = m . d2 and the lengths |d1|^2, |d2|^2 of Eq. 17 (below). */
+  TRY(dv_cross(&c, &im->m, &st->d1, &st->n2));
+  TRY(dv_flatten(&c, &im->m, FLATTEN_DEGREE));
+  TRY(dv_dot(&c, &im->G, &im->m, &im->d2));
+  TRY(ds_flatten(&c, &im->G, FLATTEN_DEGREE));
+  TRY(dv_dot(&c, &im->l1, &st->d1, &st->d1));
+  TRY(ds_flatten(&c, &im->l1, FLATTEN_DEGREE));
+  TRY(dv_dot(&c, &im->l2, &im->d2, &im->d2));
+  TRY(ds_flatten(&c, &im->l2, FLATTEN_DEGREE));
+
+  /* G_a = m . D2_a, and D2 . D2_a for F_a (likewise for beta). */
+  bbc_poly3 m_v = {im->m.x.v, im->m.y.v, im->m.z.v};
+  bbc_poly3 d2_v = {im->d2.x.v, im->d2.y.v, im->d2.z.v};
+  const bbc_poly3 *dirs[2] = {&im->d2a, &im->d2b};
+  for (int k = 0; k < 2; k++) {
+    TRY(bbc_poly3_dot(arena, &im->g_ab[k], &m_v, dirs[k]));
+    TRY(bbc_poly3_dot(arena, &im->d2_dir[k], &d2_v, dirs[k]));
+    TRY(bbc__flatten(arena, &im->space, &im->g_ab[k], &im->g_ab[k], FLATTEN_DEGREE));
+  }
+  *out = im;
+  return BBC_OK;
+}
+
+bbc_result bbc__chain_double_implicit(bbc_arena *arena, const chain_implicit *im,
+                                      const bbc_tuple_geometry *g, const chain_forms *f,
+                                      bbc_vec3 b, bbc_poly *det_ab, bbc_poly *det_st) {
+  const double_state *st = f->scratch;
+  if (!st || !im || !f->has_derivatives) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_space space = im->space;
+  dual_ctx c = {arena, &space, 1};
 
   /* Eq. 17 with eta' = n_in / n_out: F = eta'^2 |d2|^2 c1^2 - |d1|^2 c2^2 with
    * c1 = (d1 x n2) . b and c2 = (d2 x n2) . b = d2 . (n2 x b); G = (d1 x n2) . d2. */
-  dvec m, w, bd;
-  dscal c1, c2, G, l1, l2, F, t1, t2;
-  TRY(dv_cross(&c, &m, &st->d1, &st->n2));
-  TRY(dv_flatten(&c, &m, FLATTEN_DEGREE));
+  dvec w, bd;
+  dscal c1, c2, t1, t2, F;
   TRY(dv_constant(&c, &bd, b, 0));
   TRY(dv_cross(&c, &w, &st->n2, &bd));
-  TRY(ds_dot_const(&c, &c1, &m, b));
-  TRY(dv_dot(&c, &c2, &d2, &w));
+  TRY(ds_dot_const(&c, &c1, &im->m, b));
+  TRY(dv_dot(&c, &c2, &im->d2, &w));
   TRY(ds_flatten(&c, &c2, FLATTEN_DEGREE));
-  TRY(dv_dot(&c, &G, &m, &d2));
-  TRY(ds_flatten(&c, &G, FLATTEN_DEGREE));
-  TRY(dv_dot(&c, &l1, &st->d1, &st->d1));
-  TRY(ds_flatten(&c, &l1, FLATTEN_DEGREE));
-  TRY(dv_dot(&c, &l2, &d2, &d2));
-  TRY(ds_flatten(&c, &l2, FLATTEN_DEGREE));
   dscal c1sq, c2sq;
   TRY(ds_mul(&c, &c1sq, &c1, &c1));
   TRY(ds_mul(&c, &c2sq, &c2, &c2));
   const double eta2 = g->eta2 * g->eta2;
-  TRY(ds_mul(&c, &t1, &l2, &c1sq));
+  TRY(ds_mul(&c, &t1, &im->l2, &c1sq));
   TRY(ds_scale(&c, &t1, &t1, eta2));
-  TRY(ds_mul(&c, &t2, &l1, &c2sq));
+  TRY(ds_mul(&c, &t2, &im->l1, &c2sq));
   TRY(ds_add(&c, &F, &t1, &t2, -1));
   {
     /* eta'^2 is rounded: a few ulps of the first term. */
@@ -573,31 +606,28 @@ bbc_result bbc__chain_double_implicit(bbc_arena *arena, const bbc_space *space_i
 
   /* The alpha and beta derivatives, by the product rule on the values:
    * G_a = m . D2_a; F_a = eta'^2 2 (D2 . D2_a) c1^2 - |d1|^2 2 c2 (D2_a . w). */
-  bbc_poly3 m_v = {m.x.v, m.y.v, m.z.v}, w_v = {w.x.v, w.y.v, w.z.v}, d2_v = {d2.x.v, d2.y.v, d2.z.v};
-  bbc_poly g_ab[2], f_ab[2];
-  const bbc_poly3 *dirs[2] = {&d2a, &d2b};
+  bbc_poly3 w_v = {w.x.v, w.y.v, w.z.v};
+  bbc_poly f_ab[2];
+  const bbc_poly3 *dirs[2] = {&im->d2a, &im->d2b};
   for (int k = 0; k < 2; k++) {
     bbc_poly p, q, r, u;
-    TRY(bbc_poly3_dot(arena, &g_ab[k], &m_v, dirs[k]));
-    TRY(bbc_poly3_dot(arena, &p, &d2_v, dirs[k]));
-    TRY(bbc_poly_mul(arena, &q, &p, &c1sq.v));
+    TRY(bbc_poly_mul(arena, &q, &im->d2_dir[k], &c1sq.v));
     TRY(bbc_poly_scale(arena, &q, &q, 2 * eta2));
     bbc_interval rq = bbc_poly_bound(&q);
     bbc_poly_widen(&q, 2 * DBL_EPSILON * fmax(fabs(rq.lo), fabs(rq.hi)));
     TRY(bbc_poly3_dot(arena, &p, dirs[k], &w_v));
     TRY(bbc_poly_mul(arena, &r, &p, &c2.v));
-    TRY(bbc_poly_mul(arena, &u, &r, &l1.v));
+    TRY(bbc_poly_mul(arena, &u, &r, &im->l1.v));
     TRY(bbc_poly_scale(arena, &u, &u, 2.0));
     TRY(bbc_poly_sub(arena, &f_ab[k], &q, &u));
     TRY(bbc__flatten(arena, &space, &f_ab[k], &f_ab[k], FLATTEN_DEGREE));
-    TRY(bbc__flatten(arena, &space, &g_ab[k], &g_ab[k], FLATTEN_DEGREE));
   }
   /* Eq. 19: |det d(s,t)/d(alpha,beta)| = |F_a G_b - F_b G_a| / |F_s G_t - F_t G_s|. */
   bbc_poly x, y;
-  TRY(bbc_poly_mul(arena, &x, &f_ab[0], &g_ab[1]));
-  TRY(bbc_poly_mul(arena, &y, &f_ab[1], &g_ab[0]));
+  TRY(bbc_poly_mul(arena, &x, &f_ab[0], &im->g_ab[1]));
+  TRY(bbc_poly_mul(arena, &y, &f_ab[1], &im->g_ab[0]));
   TRY(bbc_poly_sub(arena, det_ab, &x, &y));
-  TRY(bbc_poly_mul(arena, &x, &F.s, &G.t));
-  TRY(bbc_poly_mul(arena, &y, &F.t, &G.s));
+  TRY(bbc_poly_mul(arena, &x, &F.s, &im->G.t));
+  TRY(bbc_poly_mul(arena, &y, &F.t, &im->G.s));
   return bbc_poly_sub(arena, det_st, &x, &y);
 }

@@ -90,11 +90,17 @@ bbc_result bbc__chain_double_rest(bbc_arena *arena, bbc_space *space, const bbc_
  * second vertex refracts, on forms computed with derivatives: with the receiver
  * barycentrics as two more variables over uk_box = {u_lo, u_hi, v_lo, v_hi} (alpha,
  * beta on [0, 1]) and the constraints F, G built with the vector b,
- * |det d(s,t)/d(alpha,beta)| = |det_ab / det_st| at every path of the piece. */
-bbc_result bbc__chain_double_implicit(bbc_arena *arena, const bbc_space *space,
+ * |det d(s,t)/d(alpha,beta)| = |det_ab / det_st| at every path of the piece.
+ * bbc__chain_double_implicit_prepare computes, in the arena, what does not depend on b
+ * (*out points there); bbc__chain_double_implicit then takes any b, as often as needed,
+ * while that part of the arena lives. */
+typedef struct chain_implicit chain_implicit;
+bbc_result bbc__chain_double_implicit_prepare(bbc_arena *arena, const bbc_space *space,
+                                              const bbc_tuple_geometry *g, const chain_forms *f,
+                                              const double uk_box[4], chain_implicit **out);
+bbc_result bbc__chain_double_implicit(bbc_arena *arena, const chain_implicit *prep,
                                       const bbc_tuple_geometry *g, const chain_forms *f,
-                                      const double uk_box[4], bbc_vec3 b, bbc_poly *det_ab,
-                                      bbc_poly *det_st);
+                                      bbc_vec3 b, bbc_poly *det_ab, bbc_poly *det_st);
 
 /* p reduced to at most max_degree on every geometric axis and without remainder axes,
  * what the reduction misses folded into the error radius (see chain_double.c). */
