@@ -15,6 +15,7 @@
 #include "floor_footprint.h"
 #include "gltf_shim_internal.h"
 #include "harness.h"
+#include "render_fixture.h"
 #include "vec_internal.h"
 
 #define PI 3.14159265358979323846
@@ -368,38 +369,8 @@ TEST(animation_without_camera_fails_in_one_line) {
 
 /* ------------------------------------------------------------------ end to end */
 
-typedef struct fixture {
-  bbc_scene *scene;
-  bbc_accel *accel;
-  bbc_cache *cache;
-  void *bytes;
-} fixture;
-
 static int setup(fixture *f, const char *path) {
-  memset(f, 0, sizeof *f);
-  if (bbc_scene_load(&f->scene, path, NULL) != BBC_OK) return 0;
-  if (bbc_accel_create(&f->accel, f->scene, NULL, NULL) != BBC_OK) return 0;
-  bbc_precompute_options o;
-  memset(&o, 0, sizeof o);
-  bbc_precompute_params_default(&o.params);
-  o.params.chains = BBC_CHAIN_BIT(BBC_CHAIN_R);
-  o.params.max_level = 6;
-  o.params.grid_resolution = 128;
-  bbc_cache_builder *b = NULL;
-  if (bbc_precompute(&b, f->scene, &o, NULL) != BBC_OK) return 0;
-  size_t size = 0;
-  bbc_result r = bbc_cache_builder_write_memory(b, &f->bytes, &size, NULL);
-  bbc_cache_builder_free(b);
-  if (r != BBC_OK) return 0;
-  return bbc_cache_open_memory(&f->cache, f->bytes, size, NULL) == BBC_OK &&
-         bbc_cache_check_scene(f->cache, f->scene) == BBC_OK;
-}
-
-static void teardown(fixture *f) {
-  bbc_cache_close(f->cache);
-  free(f->bytes);
-  bbc_accel_free(f->accel);
-  bbc_scene_free(f->scene);
+  return fixture_setup(f, path, BBC_CHAIN_BIT(BBC_CHAIN_R), 6, 0);
 }
 
 /* The textured floor's radiance from the mirrored light: albedo(p)/pi I cos/r^2, the

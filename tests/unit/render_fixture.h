@@ -1,0 +1,49 @@
+/* The set-up of the tests that render through a cache: a scene, its ray tracer and a
+ * cache precomputed in memory with the default parameters except chains, level, a
+ * 128x128 grid and, when asked, area lights. */
+#ifndef BBC_TEST_RENDER_FIXTURE_H
+#define BBC_TEST_RENDER_FIXTURE_H
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "bbc/bbc.h"
+
+typedef struct fixture {
+  bbc_scene *scene;
+  bbc_accel *accel;
+  bbc_cache *cache;
+  void *bytes;
+} fixture;
+
+/* Returns 1 when every step succeeded and the cache matches the scene. */
+static int fixture_setup(fixture *f, const char *path, uint32_t chains, uint32_t max_level,
+                         int area_lights) {
+  memset(f, 0, sizeof *f);
+  if (bbc_scene_load(&f->scene, path, NULL) != BBC_OK) return 0;
+  if (bbc_accel_create(&f->accel, f->scene, NULL, NULL) != BBC_OK) return 0;
+  bbc_precompute_options o;
+  memset(&o, 0, sizeof o);
+  bbc_precompute_params_default(&o.params);
+  o.params.chains = chains;
+  o.params.max_level = max_level;
+  o.params.grid_resolution = 128;
+  o.params.area_lights = area_lights;
+  bbc_cache_builder *b = NULL;
+  if (bbc_precompute(&b, f->scene, &o, NULL) != BBC_OK) return 0;
+  size_t size = 0;
+  bbc_result r = bbc_cache_builder_write_memory(b, &f->bytes, &size, NULL);
+  bbc_cache_builder_free(b);
+  if (r != BBC_OK) return 0;
+  return bbc_cache_open_memory(&f->cache, f->bytes, size, NULL) == BBC_OK &&
+         bbc_cache_check_scene(f->cache, f->scene) == BBC_OK;
+}
+
+static void teardown(fixture *f) {
+  bbc_cache_close(f->cache);
+  free(f->bytes);
+  bbc_accel_free(f->accel);
+  bbc_scene_free(f->scene);
+}
+
+#endif
