@@ -89,12 +89,17 @@ set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION graphics)
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_NAME bbc)
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_SHLIBDEPS ON)
+set(CPACK_STRIP_FILES ON)
+# shlibs for packages linking libbbc; ldconfig runs through the trigger, not postinst.
+set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS ON)
+file(WRITE ${CMAKE_CURRENT_BINARY_DIR}/debian/triggers "activate-noawait ldconfig\n")
+set(CPACK_DEBIAN_RUNTIME_PACKAGE_CONTROL_EXTRA ${CMAKE_CURRENT_BINARY_DIR}/debian/triggers)
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS_PRIVATE_DIRS ${CMAKE_CURRENT_BINARY_DIR}/libbbc)
 set(CPACK_COMPONENT_RUNTIME_DESCRIPTION
-  "bbc renders caustics from point, spot and directional lights without bias, by
-bounding them into a persistent .bbc cache. This package holds
-bbc-precompute, bbc-render, bbc-inspect, bbc-scenegen, the shared library libbbc
-and the man pages.")
+  "bbc renders caustics from point, spot and directional lights without bias,
+by bounding them into a persistent .bbc cache. This package holds
+bbc-precompute, bbc-render, bbc-inspect, bbc-scenegen, the shared library
+libbbc and the man pages.")
 set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_NAME libbbc-dev)
 set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_SECTION libdevel)
 # The C++ library of the compiler that built libbbc.a (the virtual libstdc++-dev may be
@@ -103,6 +108,49 @@ string(REGEX MATCH "^[0-9]+" bbc_cxx_major "${CMAKE_CXX_COMPILER_VERSION}")
 set(CPACK_DEBIAN_DEVELOPMENT_PACKAGE_DEPENDS
   "bbc (= ${PROJECT_VERSION}), libembree-dev, libopenexr-dev, libzstd-dev, libtinygltf-dev, zlib1g-dev, libstdc++-${bbc_cxx_major}-dev | libstdc++-dev, libgomp1")
 set(CPACK_COMPONENT_DEVELOPMENT_DESCRIPTION
-  "What building against libbbc needs: the public headers of libbbc, its static library, the CMake package
-(find_package(bbc) giving bbc::bbc and bbc::bbc_static) and bbc.pc for pkg-config.")
+  "What building against libbbc needs: the public headers of libbbc, its
+static library, the CMake package (find_package(bbc) giving bbc::bbc and
+bbc::bbc_static) and bbc.pc for pkg-config.")
+# Installed to /usr, each package's /usr/share/doc/<package> holds copyright and
+# changelog.gz (Debian policy 12.5, 12.7; a native package's changelog) and the man pages
+# are gzipped; gzip -n: no name or time stamp inside.
+string(TIMESTAMP BBC_DEB_DATE "%a, %d %b %Y %H:%M:%S +0000" UTC)
+find_program(BBC_GZIP gzip)
+foreach(pkg bbc libbbc-dev)
+  set(BBC_DEB_PACKAGE ${pkg})
+  configure_file(cmake/debian/changelog.in ${CMAKE_CURRENT_BINARY_DIR}/debian/${pkg}/changelog @ONLY)
+  configure_file(cmake/debian/copyright ${CMAKE_CURRENT_BINARY_DIR}/debian/${pkg}/copyright COPYONLY)
+  if(BBC_GZIP)
+    execute_process(COMMAND ${BBC_GZIP} -n -9 -f changelog
+      WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR}/debian/${pkg})
+  endif()
+endforeach()
+install(CODE "set(bbc_deb_doc \"${CMAKE_CURRENT_BINARY_DIR}/debian\")
+  set(bbc_datarootdir \"${CMAKE_INSTALL_DATAROOTDIR}\")
+  set(bbc_mandir \"${CMAKE_INSTALL_MANDIR}\")
+  set(bbc_gzip \"${BBC_GZIP}\")" COMPONENT runtime)
+install(CODE [[
+  if(CMAKE_INSTALL_PREFIX STREQUAL "/usr" AND bbc_gzip)
+    file(GLOB bbc_pages "$ENV{DESTDIR}${CMAKE_INSTALL_PREFIX}/${bbc_mandir}/man1/bbc-*.1"
+      "$ENV{DESTDIR}${CMAKE_INSTALL_PREFIX}/${bbc_mandir}/man5/bbc.5")
+    foreach(page ${bbc_pages})
+      execute_process(COMMAND ${bbc_gzip} -n -9 -f ${page} COMMAND_ERROR_IS_FATAL ANY)
+    endforeach()
+  endif()
+]] COMPONENT runtime)
+install(CODE "set(bbc_deb_doc \"${CMAKE_CURRENT_BINARY_DIR}/debian\")
+  set(bbc_datarootdir \"${CMAKE_INSTALL_DATAROOTDIR}\")" COMPONENT development)
+foreach(component runtime development)
+  if(component STREQUAL runtime)
+    set(pkg bbc)
+  else()
+    set(pkg libbbc-dev)
+  endif()
+  install(CODE "
+  if(CMAKE_INSTALL_PREFIX STREQUAL \"/usr\")
+    file(GLOB bbc_docs \"\${bbc_deb_doc}/${pkg}/*\")
+    file(INSTALL DESTINATION \"\${CMAKE_INSTALL_PREFIX}/\${bbc_datarootdir}/doc/${pkg}\"
+      TYPE FILE FILES \${bbc_docs})
+  endif()" COMPONENT ${component})
+endforeach()
 include(CPack)

@@ -4,13 +4,15 @@
 # dpkg-shlibdeps step), groff-base and GNU parallel are for the tests of the installed
 # package (tests/install/test_install.sh). With --fuzz, also clang with libFuzzer
 # and the sanitizer runtimes, for tests/fuzz/run.sh; with --bench, also POV-Ray 3.7
-# (photon mapping, the competitor) and gnuplot (the PNG curves), for bench/compare.sh.
+# (photon mapping, the competitor) and gnuplot (the PNG curves), for bench/compare.sh;
+# with --lint, also lintian, to check the Debian packages (`lintian build/*.deb`).
 set -eu
 PACKAGES="build-essential cmake libembree-dev libopenexr-dev libzstd-dev libtinygltf-dev \
 zlib1g-dev pkg-config file groff-base parallel"
 case "${1:-}" in
   --fuzz) PACKAGES="$PACKAGES clang libclang-rt-dev llvm" ;;
   --bench) PACKAGES="$PACKAGES povray gnuplot-nox" ;;
+  --lint) PACKAGES="$PACKAGES lintian" ;;
 esac
 missing=""
 for p in $PACKAGES; do

@@ -183,7 +183,8 @@ test_man_pages() {
 }
 
 # cpack -G DEB: the runtime package depends on the libraries the tools load (from
-# dpkg-shlibdeps), and its tools run from the unpacked package.
+# dpkg-shlibdeps), and its tools run from the unpacked package. (`lintian` on the two
+# packages, after `sh scripts/install-deps.sh --lint`, names what is left.)
 test_deb() {
   command -v dpkg-deb >/dev/null || fail "dpkg-deb is missing"
   (cd "$TMP" && cpack -G DEB --config "$BBC_BIN/CPackConfig.cmake" -B "$TMP/pkg" \
@@ -205,6 +206,15 @@ test_deb() {
   dpkg-deb -c "$runtime" | grep -q 'man1/bbc-render.1' || fail "bbc-render.1 not in $runtime"
   dpkg-deb -c "$dev" | grep -q '/usr/include/bbc/bbc.h$' || fail "bbc.h not in $dev"
   dpkg-deb -c "$runtime" "$dev" | grep -q '_internal\.h' && fail "a private header is packaged"
+  # Each package has its copyright and changelog; man pages are gzipped.
+  for f in bbc/copyright bbc/changelog.gz; do
+    dpkg-deb -c "$runtime" | grep -q "/usr/share/doc/$f$" || fail "$f not in $runtime"
+  done
+  for f in libbbc-dev/copyright libbbc-dev/changelog.gz; do
+    dpkg-deb -c "$dev" | grep -q "/usr/share/doc/$f$" || fail "$f not in $dev"
+  done
+  dpkg-deb -c "$runtime" | grep -q 'man1/bbc-render\.1\.gz$' || fail "bbc-render.1.gz not in $runtime"
+  dpkg-deb -c "$runtime" | grep -q 'man5/bbc\.5\.gz$' || fail "bbc.5.gz not in $runtime"
   # Libraries in the multiarch folder, tools without RUNPATH, bbc.pc with prefix=/usr.
   dpkg-deb -c "$runtime" | grep -q "/usr/$LIBDIR/libbbc\.so\.[0-9.]*$" ||
     fail "libbbc.so.* not in /usr/$LIBDIR in $runtime"
