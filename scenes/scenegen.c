@@ -1546,6 +1546,7 @@ static void print_help(FILE *f) {
           "\n"
           "Other:\n"
           "  -h, --help            show this help and exit\n"
+          "  --version             print the version and exit\n"
           "\n"
           "Options take their value as --opt VALUE or --opt=VALUE. The same arguments\n"
           "always give the same bytes.\n");
@@ -1597,6 +1598,10 @@ static int parse_args(int argc, char **argv, options *o) {
     const char *arg = argv[i];
     if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
       print_help(stdout);
+      return 0;
+    }
+    if (strcmp(arg, "--version") == 0) {
+      printf(TOOL " %s\n", BBC_VERSION);
       return 0;
     }
     if (arg[0] != '-' || arg[1] == '\0') {

@@ -63,11 +63,20 @@ test_help() {
   run --help
   expect_status 0 --help
   [ ! -s "$tmp/stderr" ] || fail "--help wrote to stderr"
-  for word in $kinds --size --width --height --area-light --glb --output --help; do
+  for word in $kinds --size --width --height --area-light --glb --output --help --version; do
     grep -q -- "$word" "$tmp/stdout" || fail "--help does not mention '$word'"
   done
   run -h
   expect_status 0 -h
+}
+
+# The version line, as the other tools print it; the project's version from CMakeLists.txt.
+test_version() {
+  run --version
+  expect_status 0 --version
+  version=$(sed -n 's/^project(bbc VERSION \([0-9.]*\).*/\1/p' "$BBC_SOURCE_DIR/CMakeLists.txt")
+  [ -n "$version" ] || fail "no version in CMakeLists.txt"
+  [ "$(cat "$tmp/stdout")" = "bbc-scenegen $version" ] || fail "--version: $(cat "$tmp/stdout")"
 }
 
 test_unknown_kind() {
