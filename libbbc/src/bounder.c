@@ -85,14 +85,10 @@ bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene
                        tuple->specular[1] == tuple->specular[0])))
     return BBC_ERR_INVALID_ARGUMENT;
   memset(g, 0, sizeof *g);
-  if (emitter >= 0) {
-    /* An area light stands at its centroid for orienting T1 (bounds.h). */
-    bbc_scene_area_light(scene, (uint32_t)emitter, &g->light_model, NULL);
-    g->light = bbc__area_centroid(&g->light_model);
-  } else {
-    g->light = scene->point_lights[tuple->light].position;
-    g->light_model = scene->point_lights[tuple->light].model;
-  }
+  /* An area light stands at its centroid for orienting T1 (bounds.h). */
+  const bbc_point_light light = bbc__cache_light_point(scene, tuple->light);
+  g->light = light.position;
+  g->light_model = light.model;
   g->length = length;
   const uint32_t *b = scene->indices + 3 * (size_t)tuple->receiver;
   for (int i = 0; i < 3; i++) g->r[i] = v3_load(scene->positions + 3 * (size_t)b[i]);

@@ -93,6 +93,15 @@ bbc_vec3 bbc__area_centroid(const bbc_light_model *m) {
   return v3_scale(v3_add(m->emitter[0], v3_add(m->emitter[1], m->emitter[2])), 1.0 / 3.0);
 }
 
+bbc_point_light bbc__cache_light_point(const bbc_scene *scene, uint32_t light) {
+  if (light < scene->point_light_count) return scene->point_lights[light];
+  bbc_point_light p;
+  memset(&p, 0, sizeof p);
+  bbc_scene_area_light(scene, light - scene->point_light_count, &p.model, NULL);
+  p.position = bbc__area_centroid(&p.model);
+  return p;
+}
+
 double bbc__area_weight(const bbc_light_model *m, bbc_vec3 y, bbc_vec3 x1) {
   bbc_vec3 d = v3_sub(x1, y);
   double len = v3_length(d);

@@ -32,6 +32,10 @@ bbc_vec3 bbc__area_point(const bbc_light_model *model, double a, double b);
 bbc_vec3 bbc__area_centroid(const bbc_light_model *model);
 double bbc__area_weight(const bbc_light_model *model, bbc_vec3 y, bbc_vec3 x1);
 
+/* Cache light `light` (scene.h; in range) as the point that stands for it: a punctual
+ * light itself; an emitter as a light in air at its centroid, with its model. */
+bbc_point_light bbc__cache_light_point(const bbc_scene *scene, uint32_t light);
+
 /* The brightness per RGB channel of cache light `light` (scene.h): a punctual light's
  * intensity (W/sr; W/m^2 for a sun) or an emitter's radiance (W/sr/m^2, written into
  * buffer). Zero for an index out of range. */

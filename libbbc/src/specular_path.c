@@ -334,15 +334,11 @@ bbc_result bbc_path_geometry_init(bbc_path_geometry *g, const bbc_scene *scene,
   for (int i = 0; i < length; i++)
     if (tuple->specular[i] >= scene->triangle_count) return BBC_ERR_INVALID_ARGUMENT;
 
-  if (emitter >= 0) {
-    /* An area light: its centroid orients the triangles below; a path from emitter
-     * point y is traced with `light` set to y (the kind then acts as a point light). */
-    bbc_scene_area_light(scene, (uint32_t)emitter, &g->light_model, NULL);
-    g->light = bbc__area_centroid(&g->light_model);
-  } else {
-    g->light = scene->point_lights[tuple->light].position;
-    g->light_model = scene->point_lights[tuple->light].model;
-  }
+  /* An area light: its centroid orients the triangles below; a path from emitter point
+   * y is traced with `light` set to y (the kind then acts as a point light). */
+  const bbc_point_light light = bbc__cache_light_point(scene, tuple->light);
+  g->light = light.position;
+  g->light_model = light.model;
   g->intensity = 1.0;
   g->length = length;
   for (int i = 0; i < length; i++) {

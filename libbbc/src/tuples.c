@@ -365,15 +365,8 @@ static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int 
   for (uint32_t l = light_first; l < light_end && chains && result == BBC_OK; l++) {
     /* An emitter stands as a light in air at its centroid for the medium rule (the
      * bounds orient T1 by it; bounds.h). */
-    bbc_point_light area_light;
-    memset(&area_light, 0, sizeof area_light);
+    const bbc_point_light area_light = bbc__cache_light_point(scene, l);
     const bbc_point_light *light = &area_light;
-    if (l < scene->point_light_count) {
-      light = &scene->point_lights[l];
-    } else {
-      bbc_scene_area_light(scene, l - scene->point_light_count, &area_light.model, NULL);
-      area_light.position = bbc__area_centroid(&area_light.model);
-    }
     for (uint32_t t = 0; t < scene->triangle_count && result == BBC_OK; t++) {
       int first = scattering_of(scene, t);
       if (first < 0) continue;
