@@ -46,4 +46,18 @@ static void teardown(fixture *f) {
   bbc_scene_free(f->scene);
 }
 
+/* A w x h render of f's scene with options o, through f's cache unless o.method is path
+ * tracing, its statistics into stats (may be NULL); NULL on failure. */
+static bbc_image *fixture_render(const fixture *f, bbc_render_options o, uint32_t w, uint32_t h,
+                                 bbc_render_stats *stats) {
+  bbc_image *image = NULL;
+  if (bbc_image_create(&image, w, h) != BBC_OK) return NULL;
+  o.cache = o.method == BBC_METHOD_PT ? NULL : f->cache;
+  if (bbc_render(f->scene, f->accel, &o, image, stats) != BBC_OK) {
+    bbc_image_free(image);
+    return NULL;
+  }
+  return image;
+}
+
 #endif

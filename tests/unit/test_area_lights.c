@@ -96,21 +96,14 @@ static double oracle(const bbc_scene *s, const layout *l, bbc_vec3 p, int mirror
 
 static bbc_image *render(const fixture *f, bbc_method method, uint32_t components, uint32_t spp,
                          uint32_t w, uint32_t h, uint64_t seed) {
-  bbc_image *image = NULL;
-  if (bbc_image_create(&image, w, h) != BBC_OK) return NULL;
   bbc_render_options o;
   memset(&o, 0, sizeof o);
   o.method = method;
-  o.cache = method == BBC_METHOD_PT ? NULL : f->cache;
   o.spp = spp;
   o.seed = seed;
   o.components = components;
   o.max_depth = 3;
-  if (bbc_render(f->scene, f->accel, &o, image, NULL) != BBC_OK) {
-    bbc_image_free(image);
-    return NULL;
-  }
-  return image;
+  return fixture_render(f, o, w, h, NULL);
 }
 
 /* The z-score of sum over floor pixels of (rendered - expected), the expectation being

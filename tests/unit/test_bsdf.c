@@ -197,16 +197,14 @@ TEST(glossy_floor_under_flat_mirror_is_exact) {
   CHECK_NEAR(bsdf.metallic, 0.5, 0);
   CHECK_NEAR(bsdf.alpha, 0.09, 1e-7);
   const uint32_t w = 40, h = 30;
-  bbc_image *image = NULL;
-  REQUIRE(bbc_image_create(&image, w, h) == BBC_OK);
   bbc_render_options o;
   memset(&o, 0, sizeof o);
   o.method = BBC_METHOD_ENUMERATE;
-  o.cache = f.cache;
   o.spp = 2;
   o.seed = 9;
   o.components = BBC_COMPONENT_CAUSTICS;
-  REQUIRE(bbc_render(f.scene, f.accel, &o, image, NULL) == BBC_OK);
+  bbc_image *image = fixture_render(&f, o, w, h, NULL);
+  REQUIRE(image);
   const bbc_point_light *light = &f.scene->point_lights[0];
   const double box[4] = {0.05, 3.95, -1.95, 1.95};
   int checked = 0, bad = 0, control = 0, n;
@@ -225,9 +223,10 @@ TEST(glossy_floor_under_flat_mirror_is_exact) {
   CHECK(control > checked / 2);
 
   o.method = BBC_METHOD_PT;
-  o.cache = NULL;
   o.components = BBC_COMPONENT_DIRECT;
-  REQUIRE(bbc_render(f.scene, f.accel, &o, image, NULL) == BBC_OK);
+  bbc_image_free(image);
+  image = fixture_render(&f, o, w, h, NULL);
+  REQUIRE(image);
   checked = bad = 0;
   for (int k = 0; k < 3; k++) {
     glossy_light g = {&bsdf, light->position, f.scene->camera.position, light->intensity[k], k, 0};

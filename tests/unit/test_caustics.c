@@ -22,22 +22,15 @@ static int setup(fixture *f, const char *path, int max_level) {
 static bbc_image *render_gamma(const fixture *f, bbc_method method, uint32_t spp, uint64_t seed,
                                uint32_t w, uint32_t h, uint32_t max_depth, double gamma,
                                bbc_render_stats *stats) {
-  bbc_image *image = NULL;
-  if (bbc_image_create(&image, w, h) != BBC_OK) return NULL;
   bbc_render_options o;
   memset(&o, 0, sizeof o);
   o.method = method;
-  o.cache = f->cache;
   o.spp = spp;
   o.seed = seed;
   o.components = BBC_COMPONENT_CAUSTICS;
   o.gamma_value = gamma;
   o.max_depth = max_depth;
-  if (bbc_render(f->scene, f->accel, &o, image, stats) != BBC_OK) {
-    bbc_image_free(image);
-    return NULL;
-  }
-  return image;
+  return fixture_render(f, o, w, h, stats);
 }
 
 /* gamma 2: P < 1 for most tuples, so sampling really happens. */

@@ -19,21 +19,14 @@ static int setup(fixture *f, const char *path, uint32_t chains) {
 
 static bbc_image *render(const fixture *f, bbc_method method, uint32_t components, uint32_t spp,
                          uint32_t w, uint32_t h) {
-  bbc_image *image = NULL;
-  if (bbc_image_create(&image, w, h) != BBC_OK) return NULL;
   bbc_render_options o;
   memset(&o, 0, sizeof o);
   o.method = method;
-  o.cache = method == BBC_METHOD_PT ? NULL : f->cache;
   o.spp = spp;
   o.seed = 3;
   o.components = components;
   o.gamma_value = 2;
-  if (bbc_render(f->scene, f->accel, &o, image, NULL) != BBC_OK) {
-    bbc_image_free(image);
-    return NULL;
-  }
-  return image;
+  return fixture_render(f, o, w, h, NULL);
 }
 
 /* The flat mirror (x = 0, facing +x) spans y in [y0, y1], z in [z0, z1]; the floor is

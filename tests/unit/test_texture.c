@@ -404,16 +404,14 @@ TEST(checker_floor_caustic_is_mirrored_light_times_texture) {
   REQUIRE(setup(&f, TEST_SCENE("flat-mirror-checker.gltf")));
   REQUIRE(f.scene->texture_count == 1);
   const uint32_t w = 40, h = 30;
-  bbc_image *image = NULL;
-  REQUIRE(bbc_image_create(&image, w, h) == BBC_OK);
   bbc_render_options o;
   memset(&o, 0, sizeof o);
   o.method = BBC_METHOD_ENUMERATE;
-  o.cache = f.cache;
   o.spp = 2;
   o.seed = 5;
   o.components = BBC_COMPONENT_CAUSTICS;
-  REQUIRE(bbc_render(f.scene, f.accel, &o, image, NULL) == BBC_OK);
+  bbc_image *image = fixture_render(&f, o, w, h, NULL);
+  REQUIRE(image);
   const bbc_point_light *light = &f.scene->point_lights[0];
   double box[4] = {0.05, 3.95, -1.95, 1.95};
   int checked = 0, bad = 0, control_bad = 0;
@@ -449,9 +447,10 @@ TEST(checker_floor_caustic_is_mirrored_light_times_texture) {
   /* The path tracer's direct light uses the same albedo: the light itself times the
    * texture (the mirror does not shadow the floor). */
   o.method = BBC_METHOD_PT;
-  o.cache = NULL;
   o.components = BBC_COMPONENT_DIRECT;
-  REQUIRE(bbc_render(f.scene, f.accel, &o, image, NULL) == BBC_OK);
+  bbc_image_free(image);
+  image = fixture_render(&f, o, w, h, NULL);
+  REQUIRE(image);
   int direct_checked = 0, direct_bad = 0;
   for (int channel = 0; channel < 3; channel++) {
     checker_light cl = {light->position, light->intensity[channel], channel, 0};
