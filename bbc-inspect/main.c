@@ -106,7 +106,7 @@ static const char help[] =
     "usage, 130 when merge is interrupted (OUT.bbc is then not written).\n";
 
 static bbc_cache *open_cache(const char *path) {
-  bbc_cache_options o = {cli_print_first_message, NULL};
+  bbc_cache_options o = {cli_print_first_message, NULL, 0};
   bbc_cache *c = NULL;
   if (bbc_cache_open(&c, path, &o) != BBC_OK) exit(1); /* the callback printed the line */
   return c;

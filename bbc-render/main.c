@@ -507,6 +507,9 @@ int main(int argc, char **argv) {
     bbc_cache_options cache_options;
     memset(&cache_options, 0, sizeof cache_options);
     cache_options.error_fn = cli_print_first_message;
+    /* The chunks the validation decodes are kept for the render's threads, up to 256 MiB
+     * of decoded lists (a cursor keeps up to 256 chunks of its own beyond that). */
+    cache_options.keep_decoded = (size_t)256 << 20;
     if (bbc_cache_open(&cache, cache_path, &cache_options) != BBC_OK) goto done;
     if (verify && bbc_cache_validate(cache, cli_print_first_message, NULL) != BBC_OK) goto done;
     /* The cache reports what differs through its error callback, in one line. */

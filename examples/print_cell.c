@@ -24,7 +24,7 @@ int main(int argc, char **argv) {
     fprintf(stderr, "usage: print_cell CACHE.bbc [CELL]\n");
     return 2;
   }
-  bbc_cache_options options = {print_error, NULL};
+  bbc_cache_options options = {print_error, NULL, 0};
   bbc_cache *cache = NULL;
   bbc_result r = bbc_cache_open(&cache, argv[1], &options);
   if (r != BBC_OK) {

@@ -59,6 +59,10 @@ struct bbc_cache {
   uint32_t chunk_count;
   uint64_t nonempty_cells, entry_count;
   atomic_uchar *chunk_verified; /* R-CHK-3: 1 once a chunk's checksum matched */
+  /* Decoded chunks kept for every cursor (options.keep_decoded): per chunk its 6N bytes
+   * once one decode succeeded, else NULL; the bytes they take, within the budget. */
+  _Atomic(uint8_t *) *kept;
+  atomic_size_t kept_bytes;
   char writer[128];
   int is_shard; /* SHRD present and checked (R-SHR-*) */
   bbc_cache_shard shard;
@@ -580,7 +584,9 @@ static bbc_result open_bytes(bbc_cache *c) {
   if (r == BBC_OK) r = check_chunks_and_cells(c);
   if (r != BBC_OK) return r;
   c->chunk_verified = calloc(c->chunk_count ? c->chunk_count : 1, sizeof *c->chunk_verified);
-  if (!c->chunk_verified) return fail(c, BBC_ERR_OUT_OF_MEMORY, "CHNK", 0, "out of memory");
+  c->kept = calloc(c->chunk_count ? c->chunk_count : 1, sizeof *c->kept);
+  if (!c->chunk_verified || !c->kept)
+    return fail(c, BBC_ERR_OUT_OF_MEMORY, "CHNK", 0, "out of memory");
   if (c->sec[K_INFO]) {
     size_t n = (size_t)c->sec_size[K_INFO];
     if (!bbc__info_text_valid(c->sec[K_INFO], n))
@@ -608,6 +614,8 @@ void bbc_cache_close(bbc_cache *c) {
   free(c->copy);
   free(c->receivers);
   free((void *)c->chunk_verified);
+  for (uint32_t k = 0; c->kept && k < c->chunk_count; k++) free(atomic_load(&c->kept[k]));
+  free((void *)c->kept);
   free(c);
 }
 
@@ -859,16 +867,68 @@ static bbc_result decode_chunk(const reporter *rp, ZSTD_DCtx *dctx, uint32_t k, 
   return BBC_OK;
 }
 
-/* Decodes one list (Sec. 7.2) from a decoded chunk of n entries. */
+/* Chunk k as kept by the cache, or NULL. */
+static const uint8_t *kept_chunk(const bbc_cache *c, uint32_t k) {
+  return atomic_load_explicit(&c->kept[k], memory_order_acquire);
+}
+
+/* Decodes chunk k into a buffer the cache keeps, if its budget has room; sets *planes to
+ * the kept bytes (those another thread kept first, if it won the race), or to NULL when
+ * there is no room. A chunk that fails to decode is not kept: every later use decodes
+ * it again and fails again. */
+static bbc_result decode_kept(const reporter *rp, ZSTD_DCtx *dctx, uint32_t k, int force_crc,
+                              const uint8_t **planes) {
+  bbc_cache *c = (bbc_cache *)rp->c; /* only its atomics change */
+  *planes = NULL;
+  size_t need = (size_t)bbc__ld32(c->sec[K_CHNK] + BBC__CHNK_SIZE * (size_t)k + 12) *
+                BBC__ENTRY_BYTES;
+  size_t before = atomic_fetch_add_explicit(&c->kept_bytes, need, memory_order_relaxed);
+  uint8_t *mine = before + need <= c->options.keep_decoded ? malloc(need) : NULL;
+  if (!mine) {
+    atomic_fetch_sub_explicit(&c->kept_bytes, need, memory_order_relaxed);
+    return BBC_OK;
+  }
+  bbc_result r = decode_chunk(rp, dctx, k, mine, force_crc);
+  uint8_t *expected = NULL;
+  if (r == BBC_OK &&
+      atomic_compare_exchange_strong_explicit(&c->kept[k], &expected, mine, memory_order_acq_rel,
+                                              memory_order_acquire)) {
+    *planes = mine;
+    return BBC_OK;
+  }
+  free(mine);
+  atomic_fetch_sub_explicit(&c->kept_bytes, need, memory_order_relaxed);
+  if (r == BBC_OK) *planes = expected;
+  return r;
+}
+
+/* Decodes one list (Sec. 7.2) from a decoded chunk of n entries into out, or only checks
+ * it when out is NULL. The ids grow along the list, so the last one is the largest; the
+ * loop keeps the largest code, and only a list that fails is read again for the entry to
+ * report. */
 static bbc_result decode_list(const reporter *rp, const uint8_t *planes, uint32_t n, uint32_t first,
                               uint32_t count, uint64_t cell, bbc_cache_entry *out) {
   (void)n;
+  const uint8_t *list = planes + BBC__ENTRY_BYTES * (size_t)first;
   uint64_t id = 0;
+  uint16_t largest = 0;
   for (uint32_t j = 0; j < count; j++) {
-    const uint8_t *rec = planes + BBC__ENTRY_BYTES * ((size_t)first + j);
+    const uint8_t *rec = list + BBC__ENTRY_BYTES * (size_t)j;
     uint64_t d = bbc__ld32(rec);
     uint16_t code = bbc__ld16(rec + 4);
     id = j == 0 ? d : id + 1 + d;
+    largest = code > largest ? code : largest;
+    if (out) {
+      out[j].tuple = (uint32_t)id;
+      out[j].bound = bbc__bound_decode(code);
+    }
+  }
+  if (id < rp->c->tuple_count && largest <= BBC__CODE_INF) return BBC_OK;
+  id = 0;
+  for (uint32_t j = 0; j < count; j++) {
+    const uint8_t *rec = list + BBC__ENTRY_BYTES * (size_t)j;
+    uint16_t code = bbc__ld16(rec + 4);
+    id = j == 0 ? bbc__ld32(rec) : id + 1 + bbc__ld32(rec);
     if (id >= rp->c->tuple_count)
       return rfail(rp, BBC_ERR_CORRUPT, "CIDX", rp->c->sec_offset[K_CIDX] + BBC__CIDX_SIZE * cell,
                    "cell %llu: tuple id %llu not below %u (R-CHK-5)", (unsigned long long)cell,
@@ -877,10 +937,8 @@ static bbc_result decode_list(const reporter *rp, const uint8_t *planes, uint32_
       return rfail(rp, BBC_ERR_CORRUPT, "CIDX", rp->c->sec_offset[K_CIDX] + BBC__CIDX_SIZE * cell,
                    "cell %llu: bound code 0x%04x is not a number (R-BND-1)",
                    (unsigned long long)cell, code);
-    out[j].tuple = (uint32_t)id;
-    out[j].bound = bbc__bound_decode(code);
   }
-  return BBC_OK;
+  return BBC_ERR_CORRUPT; /* not reached: the first pass found a bad entry */
 }
 
 /* Decoded chunks a cursor keeps (allocated as they are first used). A render thread
@@ -933,20 +991,11 @@ void bbc_cache_cursor_free(bbc_cache_cursor *cur) {
   free(cur);
 }
 
-bbc_result bbc_cache_cell(bbc_cache_cursor *cur, uint64_t cell, const bbc_cache_entry **entries,
-                          uint32_t *count) {
-  if (entries) *entries = NULL;
-  if (count) *count = 0;
-  if (!cur || !entries || !count) return BBC_ERR_INVALID_ARGUMENT;
-  const bbc_cache *c = cur->c;
-  if (cell >= c->grid.cell_count) return BBC_ERR_INVALID_ARGUMENT;
-  const uint8_t *e = c->sec[K_CIDX] + BBC__CIDX_SIZE * cell;
-  uint32_t k = bbc__ld32(e), first = bbc__ld32(e + 4), n = bbc__ld32(e + 8);
-  if (n == 0) return BBC_OK;
-  reporter rp = {c, c->options.error_fn, c->options.user};
-
+/* Chunk k from the cursor's own slots, decoded into the least recently used one if it
+ * is not there. */
+static bbc_result cursor_chunk(bbc_cache_cursor *cur, const reporter *rp, uint32_t k,
+                               uint32_t chunk_entries, const uint8_t **planes) {
   int s = cur->slot_of[k];
-  uint32_t chunk_entries = bbc__ld32(c->sec[K_CHNK] + BBC__CHNK_SIZE * (size_t)k + 12);
   if (s < 0) {
     s = 0;
     for (int i = 1; i < CURSOR_SLOTS; i++)
@@ -961,13 +1010,38 @@ bbc_result bbc_cache_cell(bbc_cache_cursor *cur, uint64_t cell, const bbc_cache_
     }
     if (cur->slot[s].valid) cur->slot_of[cur->slot[s].chunk] = -1;
     cur->slot[s].valid = 0;
-    bbc_result r = decode_chunk(&rp, cur->dctx, k, cur->slot[s].planes, 0);
+    bbc_result r = decode_chunk(rp, cur->dctx, k, cur->slot[s].planes, 0);
     if (r != BBC_OK) return r;
     cur->slot[s].valid = 1;
     cur->slot[s].chunk = k;
     cur->slot_of[k] = s;
   }
   cur->slot[s].used = ++cur->clock;
+  *planes = cur->slot[s].planes;
+  return BBC_OK;
+}
+
+bbc_result bbc_cache_cell(bbc_cache_cursor *cur, uint64_t cell, const bbc_cache_entry **entries,
+                          uint32_t *count) {
+  if (entries) *entries = NULL;
+  if (count) *count = 0;
+  if (!cur || !entries || !count) return BBC_ERR_INVALID_ARGUMENT;
+  const bbc_cache *c = cur->c;
+  if (cell >= c->grid.cell_count) return BBC_ERR_INVALID_ARGUMENT;
+  const uint8_t *e = c->sec[K_CIDX] + BBC__CIDX_SIZE * cell;
+  uint32_t k = bbc__ld32(e), first = bbc__ld32(e + 4), n = bbc__ld32(e + 8);
+  if (n == 0) return BBC_OK;
+  reporter rp = {c, c->options.error_fn, c->options.user};
+  uint32_t chunk_entries = bbc__ld32(c->sec[K_CHNK] + BBC__CHNK_SIZE * (size_t)k + 12);
+  const uint8_t *planes = kept_chunk(c, k);
+  if (!planes && c->options.keep_decoded) {
+    bbc_result r = decode_kept(&rp, cur->dctx, k, 0, &planes);
+    if (r != BBC_OK) return r;
+  }
+  if (!planes) {
+    bbc_result r = cursor_chunk(cur, &rp, k, chunk_entries, &planes);
+    if (r != BBC_OK) return r;
+  }
   if (n > cur->out_cap) {
     bbc_cache_entry *o = realloc(cur->out, sizeof *o * (size_t)n);
     if (!o) return BBC_ERR_OUT_OF_MEMORY;
@@ -975,7 +1049,7 @@ bbc_result bbc_cache_cell(bbc_cache_cursor *cur, uint64_t cell, const bbc_cache_
     cur->out_cap = n;
   }
   /* Open checked first + n <= chunk entries (R-CIX-2). */
-  bbc_result r = decode_list(&rp, cur->slot[s].planes, chunk_entries, first, n, cell, cur->out);
+  bbc_result r = decode_list(&rp, planes, chunk_entries, first, n, cell, cur->out);
   if (r != BBC_OK) return r;
   *entries = cur->out;
   *count = n;
@@ -1017,11 +1091,9 @@ bbc_result bbc_cache_validate(const bbc_cache *c, bbc_message_fn report, void *u
     if (n > max_entries) max_entries = n;
   }
   uint8_t *planes = malloc((size_t)max_entries * BBC__ENTRY_BYTES + 1);
-  bbc_cache_entry *list = malloc(sizeof *list * ((size_t)max_entries + 1));
   ZSTD_DCtx *dctx = ZSTD_createDCtx();
-  if (!planes || !list || !dctx) {
+  if (!planes || !dctx) {
     free(planes);
-    free(list);
     ZSTD_freeDCtx(dctx);
     return BBC_ERR_OUT_OF_MEMORY;
   }
@@ -1031,7 +1103,15 @@ bbc_result bbc_cache_validate(const bbc_cache *c, bbc_message_fn report, void *u
   uint64_t cell = 0;
   for (uint32_t k = 0; k < c->chunk_count; k++) {
     uint32_t n = bbc__ld32(c->sec[K_CHNK] + BBC__CHNK_SIZE * (size_t)k + 12);
-    bbc_result r = decode_chunk(&rp, dctx, k, planes, 1);
+    /* Into a buffer the cache keeps when it keeps chunks and has room (a chunk kept
+     * before is checked again all the same, in the scratch buffer). */
+    const uint8_t *decoded = NULL;
+    bbc_result r = BBC_OK;
+    if (c->options.keep_decoded && !kept_chunk(c, k)) r = decode_kept(&rp, dctx, k, 1, &decoded);
+    if (r == BBC_OK && !decoded) {
+      r = decode_chunk(&rp, dctx, k, planes, 1);
+      decoded = planes;
+    }
     NOTE(r);
     for (; cell < c->grid.cell_count; cell++) {
       const uint8_t *e = x + BBC__CIDX_SIZE * cell;
@@ -1039,13 +1119,12 @@ bbc_result bbc_cache_validate(const bbc_cache *c, bbc_message_fn report, void *u
       if (count == 0) continue;
       if (ck != k) break;
       if (r == BBC_OK) {
-        bbc_result lr = decode_list(&rp, planes, n, bbc__ld32(e + 4), count, cell, list);
+        bbc_result lr = decode_list(&rp, decoded, n, bbc__ld32(e + 4), count, cell, NULL);
         NOTE(lr);
       }
     }
   }
   free(planes);
-  free(list);
   ZSTD_freeDCtx(dctx);
   return first;
 #undef NOTE

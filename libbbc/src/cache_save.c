@@ -34,7 +34,7 @@ static bbc_result save_file(void *ctx, const char *tmp_path) {
   bbc_result r = bbc__cache_builder_write_file(job->b, tmp_path, job->path, job->o);
   if (r != BBC_OK) return r;
   relay rl = {job, 0};
-  bbc_cache_options co = {relay_message, &rl};
+  bbc_cache_options co = {relay_message, &rl, 0};
   bbc_cache *c = NULL;
   r = bbc_cache_open(&c, tmp_path, &co);
   if (r == BBC_OK) r = bbc_cache_validate(c, relay_message, &rl);

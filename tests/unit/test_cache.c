@@ -43,7 +43,7 @@ static void on_message(void *user, bbc_result code, const char *message) {
 
 /* Opens and fully validates bytes: the first failure's code, as a reader sees it. */
 static bbc_result open_and_validate(const void *bytes, size_t size, messages *m) {
-  bbc_cache_options o = {on_message, m};
+  bbc_cache_options o = {on_message, m, 0};
   bbc_cache *c = NULL;
   bbc_result r = bbc_cache_open_memory(&c, bytes, size, &o);
   if (r == BBC_OK) {
@@ -487,7 +487,7 @@ TEST(round_trip_file_and_memory) {
   expected_cell *want = expected_cells(bbc_cache_builder_grid(b), &rec);
   bbc_cache *from_file = NULL, *from_memory = NULL;
   messages m = {0};
-  bbc_cache_options o = {on_message, &m};
+  bbc_cache_options o = {on_message, &m, 0};
   REQUIRE(bbc_cache_open(&from_file, path, &o) == BBC_OK);
   REQUIRE(bbc_cache_open_memory(&from_memory, bytes, size, &o) == BBC_OK);
   for (int which = 0; which < 2; which++) {
@@ -512,6 +512,30 @@ TEST(round_trip_file_and_memory) {
     const bbc_tuple *t = bbc_cache_tuples(c);
     CHECK_INT(t[2].chain, BBC_CHAIN_TT);
     CHECK(t[0].specular[1] == BBC_NO_TRIANGLE);
+  }
+  CHECK_INT(m.count, 0);
+  /* Chunks kept for all cursors (keep_decoded) give the same lists: kept by the
+   * validation before any lookup (as bbc-render does), or by the first lookup, with a
+   * budget for every chunk and one for about half of them (the rest decoded by the
+   * cursor itself). */
+  uint64_t decoded_bytes = 0;
+  {
+    bbc_cache_info info;
+    bbc_cache_get_info(from_memory, &info);
+    decoded_bytes = info.decoded_bytes;
+  }
+  CHECK(decoded_bytes > 0);
+  for (int variant = 0; variant < 4; variant++) {
+    bbc_cache_options ko = o;
+    ko.keep_decoded = variant < 2 ? (size_t)decoded_bytes : (size_t)decoded_bytes / 2;
+    bbc_cache *c = NULL;
+    REQUIRE(bbc_cache_open_memory(&c, bytes, size, &ko) == BBC_OK);
+    if (variant % 2 == 0) CHECK_INT(bbc_cache_validate(c, on_message, &m), BBC_OK);
+    uint64_t entries = 0;
+    compare_cells(c, want, &entries);
+    CHECK_INT(entries, built_entries);
+    CHECK_INT(bbc_cache_validate(c, on_message, &m), BBC_OK);
+    bbc_cache_close(c);
   }
   CHECK_INT(m.count, 0);
   /* The file and the memory image are the same bytes. */
@@ -907,7 +931,7 @@ TEST(invalid_corpus_files_replayed) {
     char path[4096];
     snprintf(path, sizeof path, "%s/%s", INVALID_DIR, e->d_name);
     messages m = {0};
-    bbc_cache_options o = {on_message, &m};
+    bbc_cache_options o = {on_message, &m, 0};
     bbc_cache *c = NULL;
     bbc_result r = bbc_cache_open(&c, path, &o);
     if (r == BBC_OK) r = bbc_cache_validate(c, on_message, &m);
@@ -1077,36 +1101,46 @@ TEST(validate_reports_every_damaged_chunk) {
   /* Damage the first byte of chunks 0 and 2. */
   b[cdat + fx_ld64(b + chnk)] ^= 0xFF;
   b[cdat + fx_ld64(b + chnk + 48)] ^= 0xFF;
-  messages m = {0};
-  bbc_cache_options o = {on_message, &m};
-  bbc_cache *c = NULL;
-  REQUIRE(bbc_cache_open_memory(&c, b, size, &o) == BBC_OK);
-  /* A lookup in the damaged chunk fails with the checksum error; others work. */
-  bbc_cache_cursor *cur = NULL;
-  REQUIRE(bbc_cache_cursor_create(&cur, c) == BBC_OK);
-  const bbc_grid *g = bbc_cache_grid(c);
-  int checksum = 0, ok = 0;
-  for (uint64_t i = 0; i < g->cell_count; i++) {
-    const bbc_cache_entry *e;
-    uint32_t n;
-    bbc_result r = bbc_cache_cell(cur, i, &e, &n);
-    if (r == BBC_ERR_CHECKSUM) checksum++;
-    if (r == BBC_OK && n > 0) ok++;
+  /* Without kept chunks, with them (lookups first), and with them after a validation
+   * (as bbc-render does): a damaged chunk is never kept, so every lookup in it fails. */
+  for (int variant = 0; variant < 3; variant++) {
+    messages m = {0};
+    bbc_cache_options o = {on_message, &m, variant ? (size_t)1 << 30 : 0};
+    bbc_cache *c = NULL;
+    REQUIRE(bbc_cache_open_memory(&c, b, size, &o) == BBC_OK);
+    if (variant == 2) {
+      messages v = {0};
+      CHECK_INT(bbc_cache_validate(c, on_message, &v), BBC_ERR_CHECKSUM);
+      CHECK_INT(v.count, 3);
+    }
+    /* A lookup in the damaged chunk fails with the checksum error; others work. */
+    bbc_cache_cursor *cur = NULL;
+    REQUIRE(bbc_cache_cursor_create(&cur, c) == BBC_OK);
+    const bbc_grid *g = bbc_cache_grid(c);
+    int checksum = 0, ok = 0;
+    for (int pass = 0; pass < 2; pass++)
+      for (uint64_t i = 0; i < g->cell_count; i++) {
+        const bbc_cache_entry *e;
+        uint32_t n;
+        bbc_result r = bbc_cache_cell(cur, i, &e, &n);
+        if (r == BBC_ERR_CHECKSUM) checksum++;
+        if (r == BBC_OK && n > 0) ok++;
+      }
+    CHECK(checksum > 0 && checksum % 2 == 0);
+    CHECK(ok > 0 && ok % 2 == 0);
+    CHECK_STR_CONTAINS(m.last, "R-CHK-3");
+    bbc_cache_cursor_free(cur);
+    messages v = {0};
+    CHECK_INT(bbc_cache_validate(c, on_message, &v), BBC_ERR_CHECKSUM);
+    CHECK_INT(v.count, 3); /* the CDAT section and the two chunks */
+    bbc_cache_close(c);
   }
-  CHECK(checksum > 0);
-  CHECK(ok > 0);
-  CHECK_STR_CONTAINS(m.last, "R-CHK-3");
-  bbc_cache_cursor_free(cur);
-  messages v = {0};
-  CHECK_INT(bbc_cache_validate(c, on_message, &v), BBC_ERR_CHECKSUM);
-  CHECK_INT(v.count, 3); /* the CDAT section and the two chunks */
-  bbc_cache_close(c);
   free(base);
 }
 
 TEST(open_reports_io_errors) {
   messages m = {0};
-  bbc_cache_options o = {on_message, &m};
+  bbc_cache_options o = {on_message, &m, 0};
   bbc_cache *c = (bbc_cache *)&m;
   CHECK_INT(bbc_cache_open(&c, "/tmp/no-such-file.bbc", &o), BBC_ERR_IO);
   CHECK(c == NULL);
@@ -1132,7 +1166,7 @@ TEST(check_scene_rejects_another_scene_or_parameters) {
   REQUIRE(bbc_cache_builder_write_memory(b, &bytes, &size, NULL) == BBC_OK);
   bbc_cache_builder_free(b);
   messages m = {0};
-  bbc_cache_options o = {on_message, &m};
+  bbc_cache_options o = {on_message, &m, 0};
   bbc_cache *c = NULL;
   REQUIRE(bbc_cache_open_memory(&c, bytes, size, &o) == BBC_OK);
   CHECK_INT(bbc_cache_check_scene(c, pool), BBC_OK);
@@ -1392,7 +1426,7 @@ static bbc_result write_candidates(const shard_setup *s, uint32_t index, uint32_
 static bbc_result merge_bytes(void *const *shard_bytes, const size_t *shard_sizes, size_t n,
                               int threads, messages *m, void **bytes, size_t *size) {
   bbc_cache **c = calloc(n, sizeof *c);
-  bbc_cache_options co = {on_message, m};
+  bbc_cache_options co = {on_message, m, 0};
   bbc_result r = BBC_OK;
   for (size_t i = 0; i < n && r == BBC_OK; i++)
     r = bbc_cache_open_memory(&c[i], shard_bytes[i], shard_sizes[i], &co);

@@ -166,6 +166,12 @@ typedef struct bbc_cache bbc_cache;
 typedef struct bbc_cache_options {
   bbc_message_fn error_fn; /* optional: one line per failure (file, section, offset) */
   void *user;
+  /* Bytes of decoded chunks the cache may keep for every cursor to share (0: none, each
+   * cursor decodes what it needs for itself). A chunk is kept the first time it decodes
+   * without a fault, by bbc_cache_validate or by a cursor, while the total stays within
+   * this budget; chunks beyond it are decoded by each cursor that needs them. A render
+   * that validates first then decodes each chunk once, not once more per thread. */
+  size_t keep_decoded;
 } bbc_cache_options;
 
 /* Maps a .bbc file read-only and checks its structure and every checksum except the
@@ -174,8 +180,9 @@ typedef struct bbc_cache_options {
  * BBC_ERR_CORRUPT or BBC_ERR_OUT_OF_MEMORY, with one line to options->error_fn.
  * options may be NULL; the options are kept for later messages (lookups, checks).
  *
- * Thread-safety: an open cache is immutable; any number of threads may use it at once,
- * each through its own cursor. */
+ * Thread-safety: an open cache is immutable but for the decoded chunks it keeps
+ * (options->keep_decoded), which are published atomically and never change once kept;
+ * any number of threads may use it at once, each through its own cursor. */
 BBC_API bbc_result bbc_cache_open(bbc_cache **out, const char *path,
                                   const bbc_cache_options *options);
 
@@ -253,9 +260,10 @@ typedef struct bbc_cache_entry {
   float bound;
 } bbc_cache_entry;
 
-/* A per-thread decoding context: it keeps up to 256 decoded chunks (least recently used
- * ones are replaced). One cursor must
- * not be used by two threads at once; make one per thread. */
+/* A per-thread decoding context: it reads the chunks the cache keeps
+ * (bbc_cache_options.keep_decoded) and keeps up to 256 decoded chunks of its own for the
+ * rest (least recently used ones are replaced). One cursor must not be used by two
+ * threads at once; make one per thread. */
 typedef struct bbc_cache_cursor bbc_cache_cursor;
 
 BBC_API bbc_result bbc_cache_cursor_create(bbc_cache_cursor **out, const bbc_cache *cache);
