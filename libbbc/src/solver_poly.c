@@ -662,36 +662,23 @@ static void try_candidate(solve_state *st, double u, double v) {
 /* Scaled Bernstein coefficients on a triangle: the coefficient of the multi-index
  * (k0, k1, k2) (powers of the corners' barycentrics) times its multinomial, so that a
  * product is the plain convolution. Degree 2: the six multi-indices in the order
- * 200, 020, 002, 110, 101, 011; degree 4: the fifteen in tp4_index's order. */
-typedef struct tp4_table {
-  unsigned char a, b, r; /* r's coefficient gains a's times b's */
-} tp4_table;
-static tp4_table tp4_products[36];
-static double tp4_multinomial[15];
-static once_flag tp4_once = ONCE_FLAG_INIT;
-
-static int tp4_index(int k1, int k2) {
-  return k1 * (11 - k1) / 2 + k2; /* (k1, k2) with k1 + k2 <= 4 */
-}
-
-static void tp4_init(void) {
-  static const int e2[6][3] = {{2, 0, 0}, {0, 2, 0}, {0, 0, 2}, {1, 1, 0}, {1, 0, 1}, {0, 1, 1}};
-  static const double f[5] = {1, 1, 2, 6, 24};
-  int n = 0;
-  for (int a = 0; a < 6; a++)
-    for (int b = 0; b < 6; b++) {
-      tp4_products[n].a = (unsigned char)a;
-      tp4_products[n].b = (unsigned char)b;
-      tp4_products[n].r = (unsigned char)tp4_index(e2[a][1] + e2[b][1], e2[a][2] + e2[b][2]);
-      n++;
-    }
-  for (int k1 = 0; k1 <= 4; k1++)
-    for (int k2 = 0; k1 + k2 <= 4; k2++)
-      tp4_multinomial[tp4_index(k1, k2)] = f[4] / (f[k1] * f[k2] * f[4 - k1 - k2]);
-}
+ * 200, 020, 002, 110, 101, 011; degree 4: the fifteen (k1, k2), k1 + k2 <= 4, in the
+ * order k1 * (11 - k1) / 2 + k2. tp4_product[6 a + b] is where the product of degree-2
+ * coefficients a and b lands; tp4_multinomial[k] is 4! / (k0! k1! k2!). Constants, so
+ * that the compiler unrolls the convolution with fixed indices. */
+static const unsigned char tp4_product[36] = {
+    0, 9, 2, 5, 1, 6,
+    9, 14, 11, 12, 10, 13,
+    2, 11, 4, 7, 3, 8,
+    5, 12, 7, 9, 6, 10,
+    1, 10, 3, 6, 2, 7,
+    6, 13, 8, 10, 7, 11,
+};
+static const double tp4_multinomial[15] = {1, 4, 6, 4, 1, 4, 12, 12, 4, 6, 12, 6, 4, 4, 1};
 
 /* out (degree 2, scaled) += s a b for affine a, b given by their corner values. */
-static void tp2_muladd(double out[6], const double a[3], const double b[3], double s) {
+static inline __attribute__((always_inline)) void tp2_muladd(double out[6], const double a[3],
+                                                              const double b[3], double s) {
   out[0] += s * a[0] * b[0];
   out[1] += s * a[1] * b[1];
   out[2] += s * a[2] * b[2];
@@ -709,7 +696,6 @@ typedef struct reflection_corners {
 /* 1 if F has no zero on the triangle with corner values r: some component's Bernstein
  * coefficients all exceed margin, or all lie below -margin. */
 static int reflection_ruled_out(const reflection_corners *r, double margin) {
-  call_once(&tp4_once, tp4_init);
   double nn[6] = {0}, an[6] = {0};
   for (int c = 0; c < 3; c++) {
     tp2_muladd(nn, r->n[c], r->n[c], 1.0);
@@ -722,10 +708,8 @@ static int reflection_ruled_out(const reflection_corners *r, double margin) {
     tp2_muladd(ab, r->d0[z], r->d1[y], -1.0);
     tp2_muladd(nb, r->n[y], r->d1[z], 1.0);
     tp2_muladd(nb, r->n[z], r->d1[y], -1.0);
-    for (int k = 0; k < 36; k++) {
-      const tp4_table e = tp4_products[k];
-      f[e.r] += nn[e.a] * ab[e.b] + an[e.a] * nb[e.b];
-    }
+#pragma GCC unroll 36
+    for (int k = 0; k < 36; k++) f[tp4_product[k]] += nn[k / 6] * ab[k % 6] + an[k / 6] * nb[k % 6];
     int positive = 1, negative = 1;
     for (int k = 0; k < 15 && (positive || negative); k++) {
       const double m = margin * tp4_multinomial[k];
