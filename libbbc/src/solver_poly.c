@@ -106,17 +106,29 @@ static void bp_axpy(bpoly *r, const bpoly *a, double s) {
   if (a->deg > r->deg) r->deg = a->deg;
 }
 
-/* r += s a b (r distinct from a and b). Callers never exceed BP_MAXD: the forms have
- * degree at most 6. */
-static void bp_muladd(bpoly *r, const bpoly *a, const bpoly *b, double s) {
-  assert(a->deg + b->deg <= BP_MAXD && r != a && r != b);
-  for (int i = 0; i <= a->deg; i++)
-    for (int j = 0; i + j <= a->deg; j++) {
+/* r += s a b for a of degree da and b of degree db; inlined where the degrees are
+ * constants, so that the loops unroll. */
+static inline __attribute__((always_inline)) void bp_muladd_kernel(bpoly *r, const bpoly *a,
+                                                                   const bpoly *b, double s,
+                                                                   int da, int db) {
+  for (int i = 0; i <= da; i++)
+    for (int j = 0; i + j <= da; j++) {
       double ac = s * a->c[i][j];
       if (ac == 0) continue;
-      for (int k = 0; k <= b->deg; k++)
-        for (int l = 0; k + l <= b->deg; l++) r->c[i + k][j + l] += ac * b->c[k][l];
+      for (int k = 0; k <= db; k++)
+        for (int l = 0; k + l <= db; l++) r->c[i + k][j + l] += ac * b->c[k][l];
     }
+}
+
+/* r += s a b (r distinct from a and b). Callers never exceed BP_MAXD: the forms have
+ * degree at most 6. Products of two affine forms, the most frequent, take the unrolled
+ * kernel (the same operations in the same order). */
+static void bp_muladd(bpoly *r, const bpoly *a, const bpoly *b, double s) {
+  assert(a->deg + b->deg <= BP_MAXD && r != a && r != b);
+  if (a->deg == 1 && b->deg == 1)
+    bp_muladd_kernel(r, a, b, s, 1, 1);
+  else
+    bp_muladd_kernel(r, a, b, s, a->deg, b->deg);
   if (a->deg + b->deg > r->deg) r->deg = a->deg + b->deg;
 }
 
