@@ -2,9 +2,13 @@
  * first vertex x1 and the outgoing direction d1 over all of T1, then walk a BVH over the
  * next triangles (receivers, or specular casters for a second bounce) keeping every node
  * whose box B can meet the beam: the bound of (x - x1) x d1 over x in B must contain
- * zero, and (x - x1) . d1 must be able to be positive. A prefix (light, T1, T2) extends
- * the same way with the beam of T2: x2 over T2's box and d2 scattered from d1 by T2's
- * normals, in interval arithmetic. Never all pairs: the work follows the beam. */
+ * zero, and (x - x1) . d1 must be able to be positive. A second triangle is searched
+ * with the beams of sixteenths of T1, and each one the walk finds is then tested
+ * exactly, by Bernstein bounds of the ray's Plucker edge functions (beam_hits). A prefix
+ * (light, T1, T2) extends the same way with the beam of T2: x2 over T2's box and d2
+ * scattered by T2's normals from the d1 of the parts of T1 that reach T2, in interval
+ * arithmetic. Never all pairs: the work follows the beam. */
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -17,9 +21,10 @@
 #include "orient_internal.h"
 #include "vec_internal.h"
 
-/* T2 is searched with the beams of the boxes of a BEAM_SPLIT x BEAM_SPLIT grid over T1's
- * unit box that meet the triangle. */
+/* T2 is searched with the beams of the BEAM_BOXES boxes of a BEAM_SPLIT x BEAM_SPLIT
+ * grid over T1's unit box that meet the triangle (at most 16: a uint16_t mask each). */
 #define BEAM_SPLIT 4
+#define BEAM_BOXES (BEAM_SPLIT * (BEAM_SPLIT + 1) / 2)
 
 typedef struct bvh_node {
   double lo[3], hi[3];
@@ -127,25 +132,150 @@ static int compare_u32(const void *a, const void *b) {
   return (x > y) - (x < y);
 }
 
-/* The beam of T1: x1 over the triangle and d1 over the whole domain, bounded with the
- * chain forms of the root piece (the receiver is irrelevant here; T1 stands in). */
+/* The beam of a box of T1's unit box: the interval boxes of x1 and d1 (for the BVH walk)
+ * and, for the exact test against one triangle (beam_hits), the Bernstein forms of x1,
+ * of d1 and of the moment m = x1 x d1 (the ray's Plucker coordinates; d1e is d1 at m's
+ * degrees) with the magnitudes of their bounds, from the chain forms of the box (the
+ * receiver is irrelevant here; T1 stands in). The forms live in the arena until it is
+ * reset below them. */
+typedef struct beam {
+  bbc_ivec3 x, d;
+  const bbc_poly *forms[12]; /* d1e, m, d1, x1 (three coordinates each) */
+  double size[12];           /* the larger magnitude of each one's bound */
+  bbc_poly3 x1, d1, d1e, m;
+} beam;
+
 static bbc_result beam_of(bbc_arena *arena, const bbc_tuple_geometry *g, const double box[4],
-                          bbc_ivec3 *x, bbc_ivec3 *d) {
-  bbc_arena_reset(arena, 0);
+                          beam *out) {
   bbc_space space;
   memset(&space, 0, sizeof space);
   int s_axis, t_axis;
   bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &s_axis);
   bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &t_axis);
   chain_forms f;
-  bbc_result r = bbc__chain_forms(arena, &space, g, box, s_axis, t_axis, CHAIN_SQRT_PRIMAL, &f);
+  bbc_result r =
+      bbc__chain_forms_prefix(arena, &space, g, box, s_axis, t_axis, CHAIN_SQRT_PRIMAL, &f);
+  if (r == BBC_OK) r = bbc_poly3_cross(arena, &out->m, &f.x1, &f.d1);
+  out->x1 = f.x1;
+  out->d1 = f.d1;
+  /* d1 and m at their common degrees, so that no combination of them elevates. */
+  bbc_poly *e[6] = {&out->d1e.x, &out->d1e.y, &out->d1e.z, &out->m.x, &out->m.y, &out->m.z};
+  const bbc_poly *d[3] = {&f.d1.x, &f.d1.y, &f.d1.z};
+  unsigned char deg[BBC_POLY_MAX_AXES];
+  for (int j = 0; j < BBC_POLY_MAX_AXES; j++) {
+    deg[j] = 0;
+    for (int k = 0; k < 6; k++) {
+      const bbc_poly *p = k < 3 ? d[k] : e[k];
+      if (p->deg[j] > deg[j]) deg[j] = p->deg[j];
+    }
+  }
+  for (int k = 0; k < 6 && r == BBC_OK; k++) r = bbc_poly_elevate(arena, e[k], k < 3 ? d[k] : e[k], deg);
   if (r != BBC_OK) return r;
-  x->x = bbc_poly_bound(&f.x1.x);
-  x->y = bbc_poly_bound(&f.x1.y);
-  x->z = bbc_poly_bound(&f.x1.z);
-  d->x = bbc_poly_bound(&f.d1.x);
-  d->y = bbc_poly_bound(&f.d1.y);
-  d->z = bbc_poly_bound(&f.d1.z);
+  const bbc_poly *x[3] = {&out->x1.x, &out->x1.y, &out->x1.z};
+  const bbc_poly *dd[3] = {&out->d1.x, &out->d1.y, &out->d1.z};
+  const bbc_poly *mm[3] = {&out->m.x, &out->m.y, &out->m.z};
+  for (int k = 0; k < 3; k++) {
+    out->forms[k] = e[k];
+    out->forms[3 + k] = mm[k];
+    out->forms[6 + k] = dd[k];
+    out->forms[9 + k] = x[k];
+  }
+  for (int k = 0; k < 12; k++) {
+    bbc_interval range = bbc_poly_bound(out->forms[k]);
+    out->size[k] = fmax(fabs(range.lo), fabs(range.hi));
+  }
+  out->x = (bbc_ivec3){bbc_poly_bound(x[0]), bbc_poly_bound(x[1]), bbc_poly_bound(x[2])};
+  out->d = (bbc_ivec3){bbc_poly_bound(dd[0]), bbc_poly_bound(dd[1]), bbc_poly_bound(dd[2])};
+  return BBC_OK;
+}
+
+/* What beam_hits needs of a triangle q (edges ab in cyclic order, n = (q1 - q0) x
+ * (q2 - q0)), in outward-rounded interval arithmetic on the exact vertices: per edge
+ * a x b and b - a, then n and n . q0. */
+typedef struct triangle_planes {
+  bbc_ivec3 cross[3], edge[3], n;
+  bbc_interval offset;
+} triangle_planes;
+
+static void triangle_planes_of(const bbc_scene *scene, uint32_t t, triangle_planes *out) {
+  bbc_ivec3 q[3];
+  for (int c = 0; c < 3; c++)
+    q[c] = bbc_ivec3_point(v3_load(scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t + c]));
+  for (int e = 0; e < 3; e++) {
+    out->cross[e] = bbc_ivec3_cross(q[e], q[(e + 1) % 3]);
+    out->edge[e] = bbc_ivec3_sub(q[(e + 1) % 3], q[e]);
+  }
+  out->n = bbc_ivec3_cross(out->edge[0], bbc_ivec3_sub(q[2], q[0]));
+  out->offset = bbc_ivec3_dot(out->n, q[0]);
+}
+
+/* The bound of c + sum_k v[k] forms[first + k] over the beam's box for enclosures v[k],
+ * c of constants: their midpoints enter the Bernstein form (one linear combination),
+ * what the midpoints may miss the error radius. */
+static bbc_result combination_bound(bbc_arena *arena, const beam *b, int first, int n,
+                                    const bbc_interval *v, bbc_interval c, bbc_interval *out) {
+  double mid[6], radius = 0;
+  for (int k = 0; k < n; k++) {
+    mid[k] = 0.5 * v[k].lo + 0.5 * v[k].hi;
+    radius += fmax(v[k].hi - mid[k], mid[k] - v[k].lo) * b->size[first + k];
+  }
+  const double cm = 0.5 * c.lo + 0.5 * c.hi;
+  radius += fmax(c.hi - cm, cm - c.lo);
+  bbc_poly p;
+  size_t mark = bbc_arena_mark(arena);
+  bbc_result r = bbc_poly_lincomb(arena, &p, n, mid, b->forms + first);
+  if (r == BBC_OK && cm != 0) r = bbc_poly_add_scalar(arena, &p, &p, cm);
+  if (r == BBC_OK) {
+    /* The radii, their products and sums rounded: a few ulps more cover them. */
+    bbc_poly_widen(&p, radius * (1 + 16 * DBL_EPSILON) + DBL_EPSILON * fabs(cm) + DBL_MIN);
+    *out = bbc_poly_bound(&p);
+  }
+  bbc_arena_reset(arena, mark);
+  return r;
+}
+
+/* Whether some ray of the beam (x1 + t d1, t > 0, over the beam's box of T1) can meet
+ * the triangle, by Bernstein bounds of the exact conditions (Plucker's test): the line
+ * meets the triangle where the three edge functions
+ *   S_ab = d1 . ((a - x1) x (b - x1)) = d1 . (a x b) + (b - a) . m
+ * of its edges ab in cyclic order have one sign, and then their sum is kappa = d1 . n
+ * and the hit lies ahead of x1 where tau = n . (q0 - x1) has kappa's sign. The triangle
+ * is missed when neither sign can hold for all five at once at any point, which is
+ * proved when, for each sign, one of them is bounded away from it over the whole box.
+ * tau is affine on T1, so the sign it can take strictly somewhere on T1 is that of a
+ * vertex of T1, which plane_sides decides exactly: sides bit 0 when tau > 0 somewhere,
+ * bit 1 when tau < 0 somewhere. Where tau = 0 the hit
+ * would be x1 itself, no path (a neighbour of T1 seen from their shared vertex). The
+ * constants are enclosed in interval arithmetic, so the test never rejects a triangle
+ * some ray meets. */
+static bbc_result beam_hits(bbc_arena *arena, const beam *b, const triangle_planes *q, int sides,
+                            int *hit) {
+  /* tau and kappa first (the cheapest), then the edge functions, until both signs
+   * are ruled out. */
+  const bbc_interval zero = bbc_interval_point(0);
+  const bbc_interval vn[3] = {q->n.x, q->n.y, q->n.z};
+  const bbc_interval vm[3] = {bbc_interval_neg(q->n.x), bbc_interval_neg(q->n.y),
+                              bbc_interval_neg(q->n.z)};
+  int positive = (sides & 1) != 0, negative = (sides & 2) != 0, unknown = 0;
+  for (int k = 0; k < 5 && (positive || negative) && !unknown; k++) {
+    bbc_interval f;
+    bbc_result r;
+    if (k == 0) {
+      r = combination_bound(arena, b, 9, 3, vm, q->offset, &f);
+    } else if (k == 1) {
+      r = combination_bound(arena, b, 6, 3, vn, zero, &f);
+    } else {
+      const int e = k - 2;
+      const bbc_interval v[6] = {q->cross[e].x, q->cross[e].y, q->cross[e].z,
+                                 q->edge[e].x,  q->edge[e].y,  q->edge[e].z};
+      r = combination_bound(arena, b, 0, 6, v, zero, &f);
+    }
+    if (r != BBC_OK) return r;
+    unknown |= isnan(f.lo) || isnan(f.hi);
+    positive &= f.hi >= 0;
+    negative &= f.lo <= 0;
+  }
+  *hit = unknown || positive || negative;
   return BBC_OK;
 }
 
@@ -244,17 +374,21 @@ static int second_beam(const bbc_tuple_geometry *g, const bbc_ivec3 *d1, bbc_ive
   return 1;
 }
 
-/* Whether T1 lies in T2's plane (exactly, on the float data). A segment from a point
- * of that plane to another one lies in the plane, so it meets T2 edge-on or not at all:
- * no path goes from T1 to T2, whatever the shading normals. */
-static int coplanar(const bbc_scene *scene, uint32_t t1, uint32_t t2) {
+/* The sides of T2's plane that T1's vertices lie strictly on (exactly, on the float
+ * data): bit 0 behind (tau > 0 in beam_hits: orient3d has the sign of n . (p - q0) =
+ * -tau(p)), bit 1 in front. 0 when T1 lies in T2's plane: a segment from a point of that
+ * plane to another one lies in the plane, so it meets T2 edge-on or not at all, and no
+ * path goes from T1 to T2, whatever the shading normals. */
+static int plane_sides(const bbc_scene *scene, uint32_t t1, uint32_t t2) {
   const float *q[3];
   for (int k = 0; k < 3; k++) q[k] = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t2 + k];
+  int sides = 0;
   for (int k = 0; k < 3; k++) {
     const float *p = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t1 + k];
-    if (bbc__orient3d(q[0], q[1], q[2], p) != 0) return 0;
+    int o = bbc__orient3d(q[0], q[1], q[2], p);
+    sides |= o < 0 ? 1 : o > 0 ? 2 : 0;
   }
-  return 1;
+  return sides;
 }
 
 /* The medium rule (media_internal.h) for T2, over every x1 of T1: 1 when light in
@@ -346,12 +480,14 @@ static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int 
   uint32_t *found = malloc((scene->triangle_count + 1) * sizeof *found);
   uint32_t *found2 = malloc(((size_t)scene->triangle_count + 1) * sizeof *found2);
   uint32_t *seen = calloc((size_t)scene->triangle_count + 1, sizeof *seen);
+  bbc_ivec3 *reach = malloc(((size_t)scene->triangle_count + 1) * sizeof *reach);
+  uint16_t *boxes = malloc(((size_t)scene->triangle_count + 1) * sizeof *boxes);
   uint32_t *stack = malloc(2 * ((size_t)scene->triangle_count + 1) * sizeof *stack);
   tuple_list list = {NULL, 0, 0};
   uint32_t stamp = 0; /* one per (light, T1) prefix, for `seen` */
   bbc_result result = bvh_init(&receivers, scene, BBC_ROLE_RECEIVER);
   if (result == BBC_OK && (chains & doubles)) result = bvh_init(&casters, scene, BBC_ROLE_CASTER);
-  if (result == BBC_OK && (!arena_memory || !found || !found2 || !seen || !stack))
+  if (result == BBC_OK && (!arena_memory || !found || !found2 || !seen || !reach || !boxes || !stack))
     result = BBC_ERR_OUT_OF_MEMORY;
   if (result != BBC_OK || receivers.node_count == 0) goto done;
   bbc_arena arena;
@@ -395,12 +531,13 @@ static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int 
       if (g.light_model.kind != BBC_LIGHT_AREA &&
           v3_dot(ng, bbc__light_d0(g.light, &g.light_model, g.p[0])) == 0)
         continue;
-      bbc_ivec3 x, d;
+      beam whole_beam;
       static const double whole[4] = {0, 1, 0, 1};
-      if ((result = beam_of(&arena, &g, whole, &x, &d)) != BBC_OK) break;
+      bbc_arena_reset(&arena, 0);
+      if ((result = beam_of(&arena, &g, whole, &whole_beam)) != BBC_OK) break;
       /* Tuples in the order (T2, receiver) with single scattering first (T2 = none). */
       if (chains & (1u << single)) {
-        uint32_t n = bvh_beam(&receivers, scene, &x, &d, stack, found);
+        uint32_t n = bvh_beam(&receivers, scene, &whole_beam.x, &whole_beam.d, stack, found);
         for (uint32_t i = 0; i < n && result == BBC_OK; i++) {
           tuple.receiver = found[i];
           if (!tuple_push(&list, &tuple)) result = BBC_ERR_OUT_OF_MEMORY;
@@ -409,32 +546,70 @@ static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int 
       if (!(chains & (after[0] | after[1])) || casters.node_count == 0) continue;
       /* T2 from the beams of the BEAM_SPLIT x BEAM_SPLIT boxes of T1's unit box that
        * meet the triangle (far tighter than T1's whole beam, whose box of u1 is twice
-       * the triangle), merged: `seen` marks the T2 already found for this prefix. */
+       * the triangle): the BVH walk with each box's interval beam finds candidates
+       * (boxes[T2] marks the boxes whose walk found T2; `seen` the T2 found for this
+       * prefix), then each box's rays are tested exactly against each of its candidates
+       * (beam_hits). A T2 is kept when some box reaches it, and reach[T2] gathers the
+       * d1 boxes of those that do: the only directions in which light from T1 arrives
+       * at T2. */
       uint32_t n2 = 0;
       if (++stamp == 0) { /* wrapped: start the marks afresh */
         memset(seen, 0, ((size_t)scene->triangle_count + 1) * sizeof *seen);
         stamp = 1;
       }
+      beam beams[BEAM_BOXES];
+      int nb = 0;
+      bbc_arena_reset(&arena, 0);
       for (int i = 0; i < BEAM_SPLIT && result == BBC_OK; i++) {
-        for (int j = 0; i + j < BEAM_SPLIT && result == BBC_OK; j++) {
+        for (int j = 0; i + j < BEAM_SPLIT && result == BBC_OK; j++, nb++) {
           const double box[4] = {(double)i / BEAM_SPLIT, (double)(i + 1) / BEAM_SPLIT,
                                  (double)j / BEAM_SPLIT, (double)(j + 1) / BEAM_SPLIT};
-          bbc_ivec3 xq, dq;
-          if ((result = beam_of(&arena, &g, box, &xq, &dq)) != BBC_OK) break;
-          uint32_t n = bvh_beam(&casters, scene, &xq, &dq, stack, found);
-          for (uint32_t k = 0; k < n; k++)
-            if (seen[found[k]] != stamp) {
-              seen[found[k]] = stamp;
-              found2[n2++] = found[k];
+          if ((result = beam_of(&arena, &g, box, &beams[nb])) != BBC_OK) break;
+          uint32_t n = bvh_beam(&casters, scene, &beams[nb].x, &beams[nb].d, stack, found);
+          for (uint32_t k = 0; k < n; k++) {
+            const uint32_t t2 = found[k];
+            if (t2 == t) continue;
+            if (seen[t2] != stamp) {
+              seen[t2] = stamp;
+              boxes[t2] = 0;
+              found2[n2++] = t2;
             }
+            boxes[t2] |= 1u << nb;
+          }
         }
       }
       if (result != BBC_OK) break;
+      uint32_t kept = 0;
+      for (uint32_t k = 0; k < n2 && result == BBC_OK; k++) {
+        const uint32_t t2 = found2[k];
+        const int sides = plane_sides(scene, t, t2);
+        if (!sides) continue;
+        triangle_planes planes;
+        triangle_planes_of(scene, t2, &planes);
+        int reached = 0;
+        for (int bi = 0; bi < nb && result == BBC_OK; bi++) {
+          if (!(boxes[t2] & (1u << bi))) continue;
+          int hit = 0;
+          if ((result = beam_hits(&arena, &beams[bi], &planes, sides, &hit)) != BBC_OK || !hit)
+            continue;
+          if (!reached) {
+            reach[t2] = beams[bi].d;
+          } else {
+            reach[t2].x = bbc_interval_hull(reach[t2].x, beams[bi].d.x);
+            reach[t2].y = bbc_interval_hull(reach[t2].y, beams[bi].d.y);
+            reach[t2].z = bbc_interval_hull(reach[t2].z, beams[bi].d.z);
+          }
+          reached = 1;
+        }
+        if (reached) found2[kept++] = t2;
+      }
+      if (result != BBC_OK) break;
+      n2 = kept;
       qsort(found2, n2, sizeof *found2, compare_u32);
       for (uint32_t j = 0; j < n2 && result == BBC_OK; j++) {
         const uint32_t t2 = found2[j];
         int second = scattering_of(scene, t2);
-        if (t2 == t || second < 0 || !(chains & after[second]) || coplanar(scene, t, t2)) continue;
+        if (second < 0 || !(chains & after[second])) continue;
         if (second == 1 && !second_refraction_possible(scene, medium, t, t2)) continue;
         bbc_tuple pair = tuple;
         pair.chain = (uint32_t)(first ? (second ? BBC_CHAIN_TT : BBC_CHAIN_TR)
@@ -443,7 +618,7 @@ static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int 
         bbc_tuple_geometry g2;
         if ((result = bbc_tuple_geometry_init(&g2, scene, &pair)) != BBC_OK) break;
         bbc_ivec3 x2, d2;
-        if (!second_beam(&g2, &d, &x2, &d2)) continue;
+        if (!second_beam(&g2, &reach[t2], &x2, &d2)) continue;
         uint32_t n = bvh_beam(&receivers, scene, &x2, &d2, stack, found);
         for (uint32_t i = 0; i < n && result == BBC_OK; i++) {
           pair.receiver = found[i];
@@ -459,6 +634,8 @@ done:
   free(found);
   free(found2);
   free(seen);
+  free(reach);
+  free(boxes);
   free(stack);
   if (result != BBC_OK) {
     free(list.items);
