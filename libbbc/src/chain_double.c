@@ -272,12 +272,96 @@ static void slope_linear(double l, double r, double *a, double *b, bbc_interval 
   err->hi = fmax(el.hi, er.hi);
 }
 
+/* The most Newton steps sqrt_newton takes, and the residual at which it stops. */
+#define NEWTON_STEPS 6
+#define NEWTON_RESIDUAL 1e-9
+
+/* sqrt(beta) and its derivatives where beta's range [l, r] has 0 < l: y ~ 1/sqrt(beta)
+ * by Newton's iteration for the inverse square root, y <- y (3 - beta y^2) / 2, in
+ * polynomial arithmetic (each iterate reduced to FLATTEN_DEGREE), from the chord of
+ * 1/sqrt over [l, r]. The iterates are only approximants and are taken as exact; what
+ * makes the result an enclosure is the residual rho = 1 - beta y^2, bounded over the
+ * box (beta's error radius included) by [rho_lo, rho_hi] with rho_hi < 1, and y > 0:
+ * then at every point 1/sqrt(beta) = y / sqrt(1 - rho) = y (1 + g) with
+ * g = 1/sqrt(1 - rho) - 1 in [g(rho_lo), g(rho_hi)] (g increases), so
+ *   sqrt(beta) = beta y (1 + g),   (sqrt(beta))' = beta' / (2 sqrt(beta)) = beta' y (1 + g) / 2,
+ * the polynomials beta y and beta' y / 2 with their magnitudes times max |g| added to
+ * their error radii. The error is that of the fit, where the chord's (first order in
+ * r - l) is larger than the quantity itself when beta nears 0 over a wide range (total
+ * internal reflection close by). Returns 0 in *ok when the residual does not allow the
+ * enclosure (the caller falls back to the linearisations). */
+static bbc_result sqrt_newton(const dual_ctx *c, dscal *out, const dscal *beta, double l, double r,
+                              int *ok) {
+  *ok = 0;
+  const double fl = 1 / sqrt(l), fr = 1 / sqrt(r);
+  const double A = r > l ? (fr - fl) / (r - l) : 0.0;
+  if (!isfinite(A) || !isfinite(fl)) return BBC_OK;
+  bbc_poly y, y2, by2;
+  TRY(bbc_poly_scale(c->arena, &y, &beta->v, A));
+  TRY(bbc_poly_add_scalar(c->arena, &y, &y, fl - A * l));
+  bbc_interval rho = bbc_interval_entire();
+  for (int step = 0;; step++) {
+    TRY(bbc__flatten(c->arena, c->space, &y, &y, FLATTEN_DEGREE));
+    y.err = 0; /* an approximant: exact by choice */
+    TRY(bbc_poly_mul(c->arena, &y2, &y, &y));
+    TRY(bbc_poly_mul(c->arena, &by2, &beta->v, &y2));
+    bbc_interval b = bbc_poly_bound(&by2);
+    rho = bbc_interval_sub(bbc_interval_point(1.0), b);
+    if (step == NEWTON_STEPS || !(fmax(fabs(rho.lo), fabs(rho.hi)) > NEWTON_RESIDUAL)) break;
+    bbc_poly t;
+    TRY(bbc_poly_scale(c->arena, &t, &by2, -0.5));
+    TRY(bbc_poly_add_scalar(c->arena, &t, &t, 1.5));
+    TRY(bbc_poly_mul(c->arena, &y, &y, &t));
+  }
+  if (!(rho.hi < 1) || !(bbc_poly_bound(&y).lo > 0)) return BBC_OK;
+  bbc_interval g = bbc_interval_sub(
+      bbc_interval_div(bbc_interval_point(1.0),
+                       bbc_interval_sqrt(bbc_interval_sub(bbc_interval_point(1.0), rho))),
+      bbc_interval_point(1.0));
+  const double G = fmax(fabs(g.lo), fabs(g.hi));
+  if (!isfinite(G)) return BBC_OK;
+  /* |P g| <= max |P| G for P = beta y and beta' y / 2, rounded up a few ulps. */
+  bbc_poly *parts[3] = {&out->v, &out->s, &out->t};
+  const bbc_poly *factors[3] = {&beta->v, &beta->s, &beta->t};
+  for (int k = 0; k < (c->derivatives ? 3 : 1); k++) {
+    TRY(bbc_poly_mul(c->arena, parts[k], factors[k], &y));
+    if (k) TRY(bbc_poly_scale(c->arena, parts[k], parts[k], 0.5));
+    bbc_interval m = bbc_poly_bound(parts[k]);
+    bbc_poly_widen(parts[k], fmax(fabs(m.lo), fabs(m.hi)) * G * (1 + 4 * DBL_EPSILON) + DBL_MIN);
+  }
+  TRY(bbc__flatten(c->arena, c->space, &out->v, &out->v, FLATTEN_DEGREE));
+  *ok = 1;
+  return BBC_OK;
+}
+
 /* sqrt(beta) with beta >= 0 where it matters: the value by the primal linearisation and
  * its remainder axis, flattened so the axis is free again; the derivatives beta' times
  * 1 / (2 sqrt(beta)), linearised in beta over beta's range (slope_linear).
  * *slope_enclosed is cleared when beta's range reaches down to 0, where that slope is
  * unbounded. */
+static bbc_result ds_sqrt_linear(const dual_ctx *c, dscal *out, const dscal *beta,
+                                 int *slope_enclosed);
+
+/* Both enclosures are valid: each part keeps the one with the smaller error radius. */
 static bbc_result ds_sqrt(const dual_ctx *c, dscal *out, const dscal *beta, int *slope_enclosed) {
+  int enclosed = 1, ok = 0;
+  TRY(ds_sqrt_linear(c, out, beta, &enclosed));
+  bbc_interval range = bbc_poly_bound(&beta->v);
+  dscal newton;
+  if (c->derivatives && range.lo > 0 && isfinite(range.hi))
+    TRY(sqrt_newton(c, &newton, beta, range.lo, range.hi, &ok));
+  if (ok) {
+    if (newton.v.err < out->v.err) out->v = newton.v;
+    if (newton.s.err < out->s.err || !enclosed) out->s = newton.s;
+    if (newton.t.err < out->t.err || !enclosed) out->t = newton.t;
+  } else if (!enclosed) {
+    *slope_enclosed = 0;
+  }
+  return BBC_OK;
+}
+
+static bbc_result ds_sqrt_linear(const dual_ctx *c, dscal *out, const dscal *beta,
+                                 int *slope_enclosed) {
   bbc_poly root;
   int axis = -1;
   TRY(bbc_poly_sqrt_primal(c->arena, c->space, &root, &beta->v, NULL, NULL, &axis));
