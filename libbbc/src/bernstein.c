@@ -698,17 +698,15 @@ static BBC__KERNEL void mul2(const double *a, const double *b, double *dst, int 
  * tensors seen through those axes only (an axis of degree 0 contributes a factor 1 to
  * every size and index). Same operations in the same order as the general code. */
 #define MULN_AXES 4
-#define MULN_MAXC 1024
 
-static inline __attribute__((always_inline)) void muln_kernel(const double *restrict a,
-                                                              const double *restrict b,
-                                                              double *restrict dst, int a0,
-                                                              int a1, int a2, int a3, int b0,
-                                                              int b1, int b2, int b3) {
+/* ta and tb hold the scaled operands (as many coefficients as a and b). */
+static inline __attribute__((always_inline)) void muln_kernel(
+    const double *restrict a, const double *restrict b, double *restrict dst,
+    double *restrict ta, double *restrict tb, int a0, int a1, int a2, int a3, int b0, int b1,
+    int b2, int b3) {
   const int da[MULN_AXES] = {a0, a1, a2, a3}, db[MULN_AXES] = {b0, b1, b2, b3};
   int dout[MULN_AXES];
   for (int k = 0; k < MULN_AXES; k++) dout[k] = da[k] + db[k];
-  double ta[MULN_MAXC], tb[MULN_MAXC];
   /* a's and b's coefficients times their binomials, axis by axis in axis order. */
   const double *src[2] = {a, b};
   double *to[2] = {ta, tb};
@@ -755,9 +753,9 @@ static inline __attribute__((always_inline)) void muln_kernel(const double *rest
           dst[k] = (((dst[k] / c0[k0]) / c1[k1]) / c2[k2]) / c3[k3];
 }
 
-static BBC__KERNEL void muln_any(const double *a, const double *b, double *dst,
-                                 const int da[MULN_AXES], const int db[MULN_AXES]) {
-  muln_kernel(a, b, dst, da[0], da[1], da[2], da[3], db[0], db[1], db[2], db[3]);
+static BBC__KERNEL void muln_any(const double *a, const double *b, double *dst, double *ta,
+                                 double *tb, const int da[MULN_AXES], const int db[MULN_AXES]) {
+  muln_kernel(a, b, dst, ta, tb, da[0], da[1], da[2], da[3], db[0], db[1], db[2], db[3]);
 }
 
 #define MULN_KEY(a0, a1, a2, a3, b0, b1, b2, b3)                                             \
@@ -766,17 +764,27 @@ static BBC__KERNEL void muln_any(const double *a, const double *b, double *dst,
    ((uint32_t)(b2) << 4) | (uint32_t)(b3))
 #define MULN_CASE(a0, a1, a2, a3, b0, b1, b2, b3)            \
   case MULN_KEY(a0, a1, a2, a3, b0, b1, b2, b3):             \
-    muln_kernel(a, b, dst, a0, a1, a2, a3, b0, b1, b2, b3); \
+    muln_kernel(a, b, dst, ta, tb, a0, a1, a2, a3, b0, b1, b2, b3); \
     return
 
-/* The common shapes of the implicit differentiation (the receiver's two barycentrics as
- * extra axes, Eq. 17-19) at the flattening degree 3, by their share of the work. */
-static BBC__KERNEL void muln(const double *a, const double *b, double *dst,
-                             const int da[MULN_AXES], const int db[MULN_AXES]) {
+/* The common shapes: the explicit Jacobian of single refraction (two remainder axes of
+ * sqrt(beta) and the piece's two), then the implicit differentiation (the receiver's two
+ * barycentrics as extra axes, Eq. 17-19) at the flattening degree 3, by their share of
+ * the work. */
+static BBC__KERNEL void muln(const double *a, const double *b, double *dst, double *ta,
+                             double *tb, const int da[MULN_AXES], const int db[MULN_AXES]) {
   int small = 1;
   for (int k = 0; k < MULN_AXES; k++) small &= da[k] <= 15 && db[k] <= 15;
   if (small) {
     switch (MULN_KEY(da[0], da[1], da[2], da[3], db[0], db[1], db[2], db[3])) {
+      MULN_CASE(1, 1, 6, 6, 2, 2, 10, 10);
+      MULN_CASE(1, 1, 5, 5, 2, 2, 11, 11);
+      MULN_CASE(2, 2, 10, 10, 1, 1, 5, 5);
+      MULN_CASE(1, 1, 5, 4, 1, 1, 5, 6);
+      MULN_CASE(1, 1, 4, 5, 1, 1, 6, 5);
+      MULN_CASE(1, 1, 6, 5, 1, 1, 5, 6);
+      MULN_CASE(1, 1, 5, 6, 1, 1, 6, 5);
+      MULN_CASE(1, 1, 5, 5, 1, 1, 5, 5);
       MULN_CASE(1, 1, 3, 3, 1, 1, 3, 3);
       MULN_CASE(0, 0, 3, 3, 2, 2, 6, 6);
       MULN_CASE(2, 2, 3, 3, 0, 0, 6, 6);
@@ -793,13 +801,13 @@ static BBC__KERNEL void muln(const double *a, const double *b, double *dst,
         break;
     }
   }
-  muln_any(a, b, dst, da, db);
+  muln_any(a, b, dst, ta, tb, da, db);
 }
 
 /* The degrees of a and b on the at most MULN_AXES active axes of the output (deg), in axis
- * order, right-aligned (leading entries 0); 0 when there are more active axes, no active
+ * order, right-aligned (leading entries 0); 0 when there are more active axes or no active
  * axis (the general code multiplies two constants directly, without the accumulation from
- * 0), or the operands do not fit on the stack. */
+ * 0). */
 static int muln_shape(const bbc_poly *a, const bbc_poly *b, const unsigned char deg[NAX],
                       int da[MULN_AXES], int db[MULN_AXES]) {
   int m = 0;
@@ -813,12 +821,7 @@ static int muln_shape(const bbc_poly *a, const bbc_poly *b, const unsigned char 
     db[k] = b->deg[j];
     k++;
   }
-  size_t na = 1, nb = 1;
-  for (int j = 0; j < MULN_AXES; j++) {
-    na *= (size_t)da[j] + 1;
-    nb *= (size_t)db[j] + 1;
-  }
-  return na <= MULN_MAXC && nb <= MULN_MAXC;
+  return 1;
 }
 
 /* Whether a * b (output degrees deg) goes through mul2: degrees only on the last two axes,
@@ -843,7 +846,15 @@ static bbc_result mul_into(bbc_arena *arena, const bbc_poly *a, const bbc_poly *
     int da[MULN_AXES], db[MULN_AXES];
     if (muln_shape(a, b, deg, da, db)) {
       (void)bbc__binomial_row(0);
-      muln(a->coef, b->coef, dst, da, db);
+      size_t mark = bbc_arena_mark(arena);
+      double *ta = (double *)bbc_arena_alloc(arena, na * sizeof(double));
+      double *tb = (double *)bbc_arena_alloc(arena, nb * sizeof(double));
+      if (!ta || !tb) {
+        bbc_arena_reset(arena, mark);
+        return BBC_ERR_OUT_OF_MEMORY;
+      }
+      muln(a->coef, b->coef, dst, ta, tb, da, db);
+      bbc_arena_reset(arena, mark);
     } else {
       bbc_result status = BBC_OK;
       mul_general(arena, a, b, deg, dst, &status);
