@@ -158,6 +158,43 @@ static int clip_unit(const bbc_range *r, double *lo, double *hi, int *wide) {
 
 typedef enum verdict { VERDICT_DISCARD, VERDICT_PARTIAL, VERDICT_FULL } verdict;
 
+/* The cuts of a position bound (bbc_piece.cut) across the two sides of the image of the
+ * piece, u_k = up / kappa, v_k = vp / kappa over the axes s and t: their directions are
+ * taken from the image of the box's corners (plain floating point: they only choose
+ * where to cut), their ranges bounded like the octagon's. */
+static bbc_result side_cuts(bbc_arena *arena, const bbc_poly *up, const bbc_poly *vp,
+                            const bbc_poly *kappa, int s_axis, int t_axis, double cut[2][4]) {
+  memset(cut, 0, 2 * sizeof cut[0]);
+  double x[BBC_POLY_MAX_AXES], c[4][2];
+  for (int i = 0; i < BBC_POLY_MAX_AXES; i++) x[i] = 0.5;
+  for (int k = 0; k < 4; k++) {
+    x[s_axis] = k & 1, x[t_axis] = k >> 1;
+    double q = bbc_poly_eval(kappa, x);
+    c[k][0] = bbc_poly_eval(up, x) / q, c[k][1] = bbc_poly_eval(vp, x) / q;
+  }
+  /* The sides along s and along t, each the mean of its two opposite edges. */
+  const double side[2][2] = {{c[1][0] - c[0][0] + c[3][0] - c[2][0], c[1][1] - c[0][1] + c[3][1] - c[2][1]},
+                             {c[2][0] - c[0][0] + c[3][0] - c[1][0], c[2][1] - c[0][1] + c[3][1] - c[1][1]}};
+  for (int j = 0; j < 2; j++) {
+    /* The normal of the side, scaled to a largest component of 1. */
+    double a = -side[j][1], b = side[j][0], m = fmax(fabs(a), fabs(b));
+    if (!(m > 0 && m < INFINITY)) continue;
+    a /= m, b /= m;
+    const double alpha[2] = {a, b};
+    const bbc_poly *terms[2] = {up, vp};
+    size_t mark = bbc_arena_mark(arena);
+    bbc_poly w;
+    bbc_range rw;
+    bbc_result r = bbc_poly_lincomb(arena, &w, 2, alpha, terms);
+    if (r == BBC_OK) r = bbc_rational_bound(arena, &w, kappa, &rw);
+    bbc_arena_reset(arena, mark);
+    if (r != BBC_OK) return r;
+    if (rw.kind != BBC_RANGE_BOUNDED) continue;
+    cut[j][0] = a, cut[j][1] = b, cut[j][2] = rw.lo, cut[j][3] = rw.hi;
+  }
+  return BBC_OK;
+}
+
 /* Where a ray lands on a triangle with u = up / kappa, v = vp / kappa, moving forward
  * where tnum kappa > 0: sets *partial to -1 when no path of the piece can land inside
  * (forward), to 1 when some may move backward; *wide when the bound reaches past the
@@ -271,6 +308,8 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
   if (partial < 0) return BBC_OK;
   piece->uk_lo = box_k[0], piece->uk_hi = box_k[1], piece->vk_lo = box_k[2], piece->vk_hi = box_k[3];
   piece->sk_lo = box_k[4], piece->sk_hi = box_k[5], piece->dk_lo = box_k[6], piece->dk_hi = box_k[7];
+  if ((r = side_cuts(arena, &f->up, &f->vp, &f->kappa, s_axis, t_axis, piece->cut)) != BBC_OK)
+    return r;
   /* Every path of the piece lands inside T2 and the receiver: nothing to trim off. */
   if (contained) *contained = inside && inside2;
   *out = partial || wide ? VERDICT_PARTIAL : VERDICT_FULL;
@@ -694,6 +733,20 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
   double span = fmax(hi_u - lo_u, hi_v - lo_v);
   while (root->level < DOMAIN_INIT_LEVELS && span <= ldexp(1.0, -(root->level + 1))) root->level++;
   return BBC_OK;
+}
+
+int bbc_piece_position_contains(const bbc_piece *p, double u, double v) {
+  const double s = u + v, d = u - v;
+  if (!(u >= p->uk_lo && u <= p->uk_hi && v >= p->vk_lo && v <= p->vk_hi && s >= p->sk_lo &&
+        s <= p->sk_hi && d >= p->dk_lo && d <= p->dk_hi))
+    return 0;
+  for (int j = 0; j < 2; j++) {
+    const double *c = p->cut[j];
+    if (c[0] == 0 && c[1] == 0) continue;
+    const double w = c[0] * u + c[1] * v;
+    if (!(w >= c[2] && w <= c[3])) return 0;
+  }
+  return 1;
 }
 
 bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,

@@ -387,14 +387,20 @@ int bbc_grid_splat_range(const bbc_grid *grid, uint32_t triangle, double b1_lo, 
   return 1;
 }
 
+/* Room for the clipped polygon: the box's 4 vertices and one more per cut in exact
+ * arithmetic, with room to spare for rounding. */
+#define POLYGON_MAX 24
+
 /* Sutherland-Hodgman: the part of polygon p (n vertices in barycentrics) where
- * sign * (b1 + k b2) <= c, into q; returns its vertex count. */
-static int clip_polygon(const double (*p)[2], int n, double k, double sign, double c,
+ * ka b1 + kb b2 <= c, into q; returns its vertex count, or -1 when it would not fit (n
+ * may be -1 then too). */
+static int clip_polygon(const double (*p)[2], int n, double ka, double kb, double c,
                         double (*q)[2]) {
   int m = 0;
+  if (n < 0 || 2 * n > POLYGON_MAX) return -1;
   for (int i = 0; i < n; i++) {
     const double *a = p[i], *b = p[(i + 1) % n];
-    double fa = sign * (a[0] + k * a[1]) - c, fb = sign * (b[0] + k * b[1]) - c;
+    double fa = ka * a[0] + kb * a[1] - c, fb = ka * b[0] + kb * b[1] - c;
     if (fa <= 0) q[m][0] = a[0], q[m][1] = a[1], m++;
     if ((fa < 0 && fb > 0) || (fa > 0 && fb < 0)) {
       double t = fa / (fa - fb);
@@ -408,8 +414,9 @@ static int clip_polygon(const double (*p)[2], int n, double k, double sign, doub
   return m;
 }
 
-int bbc_grid_splat_octagon(const bbc_grid *grid, uint32_t triangle, const double region[8],
-                           bbc_cell_range *out, uint32_t *x0, uint32_t *x1) {
+int bbc_grid_splat_polygon(const bbc_grid *grid, uint32_t triangle, const double region[8],
+                           const double cut[2][4], bbc_cell_range *out, uint32_t *x0,
+                           uint32_t *x1) {
   if (!bbc_grid_splat_range(grid, triangle, region[0], region[1], region[2], region[3], out))
     return 0;
   const bbc_receiver *r = &grid->receivers[out->receiver];
@@ -419,24 +426,37 @@ int bbc_grid_splat_octagon(const bbc_grid *grid, uint32_t triangle, const double
   if (!(b2_lo >= 0)) b2_lo = 0;
   if (!(b1_hi <= 1)) b1_hi = 1;
   if (!(b2_hi <= 1)) b2_hi = 1;
-  /* The cuts, moved out by 2^-40 (barycentrics are of order 1, so this is far above the
-   * rounding of the clipping below and far below a cell); the triangle's own b1 + b2 <= 1
-   * and unknown (NaN) cuts included. */
+  /* The cuts, moved out by 2^-40 (barycentrics and the cuts' coefficients are of order
+   * 1, so this is far above the rounding of the clipping below and far below a cell);
+   * the triangle's own b1 + b2 <= 1 and unknown (NaN) cuts included. Each cut adds at
+   * most one vertex to the box's four. */
   const double pad = 0x1p-40;
   double s_lo = region[4] >= 0 ? region[4] : 0, s_hi = region[5] <= 1 ? region[5] : 1;
   double d_lo = region[6] >= -1 ? region[6] : -1, d_hi = region[7] <= 1 ? region[7] : 1;
-  double poly[12][2] = {{b1_lo, b2_lo}, {b1_hi, b2_lo}, {b1_hi, b2_hi}, {b1_lo, b2_hi}}, tmp[12][2];
+  double poly[POLYGON_MAX][2] = {{b1_lo, b2_lo}, {b1_hi, b2_lo}, {b1_hi, b2_hi}, {b1_lo, b2_hi}};
+  double tmp[POLYGON_MAX][2];
   int n = 4;
   n = clip_polygon((const double(*)[2])poly, n, 1, 1, s_hi + pad, tmp);
-  n = clip_polygon((const double(*)[2])tmp, n, 1, -1, -(s_lo - pad), poly);
-  n = clip_polygon((const double(*)[2])poly, n, -1, 1, d_hi + pad, tmp);
-  n = clip_polygon((const double(*)[2])tmp, n, -1, -1, -(d_lo - pad), poly);
+  n = clip_polygon((const double(*)[2])tmp, n, -1, -1, -(s_lo - pad), poly);
+  n = clip_polygon((const double(*)[2])poly, n, 1, -1, d_hi + pad, tmp);
+  n = clip_polygon((const double(*)[2])tmp, n, -1, 1, -(d_lo - pad), poly);
+  for (int j = 0; cut && j < 2 && n > 0; j++) {
+    const double *c = cut[j];
+    if (c[0] == 0 && c[1] == 0) continue;
+    n = clip_polygon((const double(*)[2])poly, n, c[0], c[1], c[3] + pad, tmp);
+    n = clip_polygon((const double(*)[2])tmp, n, -c[0], -c[1], -(c[2] - pad), poly);
+  }
   if (n == 0) return 0;
+  if (n < 0) {
+    /* Not expected: the box's range, every row whole, is conservative too. */
+    for (uint32_t y = out->y0; y <= out->y1; y++) x0[y - out->y0] = out->x0, x1[y - out->y0] = out->x1;
+    return 1;
+  }
   double gmax = 0;
   for (int k = 0; k < 6; k++)
     if (fabs(g[k]) > gmax) gmax = fabs(g[k]);
   const double margin = ldexp(1.0, -30) * (1.0 + gmax);
-  double px[12], py[12], ylo = INFINITY, yhi = -INFINITY;
+  double px[POLYGON_MAX], py[POLYGON_MAX], ylo = INFINITY, yhi = -INFINITY;
   for (int i = 0; i < n; i++) {
     px[i] = affine(g, 0, poly[i][0], poly[i][1]);
     py[i] = affine(g, 1, poly[i][0], poly[i][1]);

@@ -35,14 +35,26 @@ typedef struct coverage {
   uint32_t x0, y0, w, h; /* the receiver triangle's cell rectangle */
   uint32_t tx0, ty0, tx1, ty1;
   int touched;
-  uint32_t *row_x0, *row_x1; /* a piece's columns per row (bbc_grid_splat_octagon) */
+  uint32_t *row_x0, *row_x1; /* a piece's columns per row (bbc_grid_splat_polygon) */
   size_t rows;
 } coverage;
 
-/* The octagon of a piece's position bound (bbc_grid_splat_octagon's region). */
-static void piece_region(const bbc_piece *p, double region[8]) {
+/* A piece's position bound as bbc_grid_splat_polygon takes it. */
+typedef struct footprint {
+  double region[8];
+  double cut[2][4];
+} footprint;
+
+static void piece_footprint(const bbc_piece *p, footprint *f) {
+  double *region = f->region;
   region[0] = p->uk_lo, region[1] = p->uk_hi, region[2] = p->vk_lo, region[3] = p->vk_hi;
   region[4] = p->sk_lo, region[5] = p->sk_hi, region[6] = p->dk_lo, region[7] = p->dk_hi;
+  memcpy(f->cut, p->cut, sizeof f->cut);
+}
+
+static int splat_footprint(const bbc_grid *grid, uint32_t receiver, const footprint *f,
+                           bbc_cell_range *r, uint32_t *x0, uint32_t *x1) {
+  return bbc_grid_splat_polygon(grid, receiver, f->region, (const double(*)[4])f->cut, r, x0, x1);
 }
 
 /* Room for a row per cell row of the grid's tallest receiver. */
@@ -67,7 +79,7 @@ typedef struct tuple_sink {
   /* The last region splatted and its result (coverage_range): a piece is judged after
    * its position bound, again after its irradiance bound and then kept, on one region. */
   int cached, cached_hit;
-  double cached_region[8];
+  footprint cached_footprint;
   bbc_cell_range cached_range;
 } tuple_sink;
 
@@ -101,19 +113,19 @@ static void coverage_end(coverage *c) {
  * none. Splats of the triangle's points stay in its rectangle, the raster's. */
 static int coverage_range(tuple_sink *s, const bbc_piece *p, bbc_cell_range *r) {
   const coverage *c = s->cover;
-  double region[8];
-  piece_region(p, region);
-  if (s->cached && memcmp(region, s->cached_region, sizeof region) == 0) {
+  footprint f;
+  piece_footprint(p, &f);
+  if (s->cached && memcmp(&f, &s->cached_footprint, sizeof f) == 0) {
     *r = s->cached_range;
     return s->cached_hit;
   }
   int hit = c->w != 0 &&
-            bbc_grid_splat_octagon(s->grid, s->receiver, region, r, c->row_x0, c->row_x1) &&
+            splat_footprint(s->grid, s->receiver, &f, r, c->row_x0, c->row_x1) &&
             r->x0 >= c->x0 && r->y0 >= c->y0 && r->x1 < c->x0 + c->w && r->y1 < c->y0 + c->h;
   /* The row arrays hold this region's columns until the next splat. */
   s->cached = c->w != 0;
   s->cached_hit = hit;
-  memcpy(s->cached_region, region, sizeof region);
+  s->cached_footprint = f;
   if (hit) s->cached_range = *r;
   return hit;
 }
@@ -229,9 +241,9 @@ static bbc_result record_tuple(bbc_cache_builder *builder, const bbc_grid *grid,
   for (size_t k = 0; k < pieces->count; k++) {
     const bbc_piece *p = &pieces->items[k];
     bbc_cell_range c;
-    double region[8];
-    piece_region(p, region);
-    if (!bbc_grid_splat_octagon(grid, tuple->receiver, region, &c, r->row_x0, r->row_x1)) continue;
+    footprint f;
+    piece_footprint(p, &f);
+    if (!splat_footprint(grid, tuple->receiver, &f, &c, r->row_x0, r->row_x1)) continue;
     /* Products of non-negative doubles, pushed up by an ulp: the stored bound stays
      * above the true one. */
     double e = isfinite(p->e_hi) ? nextafter(p->e_hi * power, INFINITY) : INFINITY;
@@ -337,7 +349,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       int id = omp_get_thread_num();
       bbc_tuple_geometry g;
       pieces[i].count = 0;
-      tuple_sink sink = {&pieces[i], &covers[id], grid, tuples[first + i].receiver, 0, 0, {0}, {0}};
+      tuple_sink sink = {&pieces[i], &covers[id], grid, tuples[first + i].receiver, 0, 0, {{0}, {{0}}}, {0}};
       int ok = bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) == BBC_OK &&
                coverage_begin(&covers[id], grid, sink.receiver) == BBC_OK;
       if (ok) {

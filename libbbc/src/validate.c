@@ -354,10 +354,7 @@ bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, cons
       continue;
     }
     uint32_t kinds = 0;
-    const double sk = path.uk[0] + path.uk[1], dk = path.uk[0] - path.uk[1];
-    if (!(path.uk[0] >= piece->uk_lo && path.uk[0] <= piece->uk_hi && path.uk[1] >= piece->vk_lo &&
-          path.uk[1] <= piece->vk_hi && sk >= piece->sk_lo && sk <= piece->sk_hi &&
-          dk >= piece->dk_lo && dk <= piece->dk_hi)) {
+    if (!bbc_piece_position_contains(piece, path.uk[0], path.uk[1])) {
       kinds |= BBC_VALIDATION_POSITION;
       acc->position_violations++;
     }

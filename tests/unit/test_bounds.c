@@ -84,10 +84,7 @@ static void check_tuple(bbc_bounder *b, const bbc_tuple_geometry *g, const bbc_b
         fprintf(stderr, "valid path at u1=(%.17g, %.17g) in a discarded piece\n", a, c);
       continue;
     }
-    const double sk = path.uk + path.vk, dk = path.uk - path.vk;
-    int inside = path.uk >= hit->uk_lo && path.uk <= hit->uk_hi && path.vk >= hit->vk_lo &&
-                 path.vk <= hit->vk_hi && sk >= hit->sk_lo && sk <= hit->sk_hi &&
-                 dk >= hit->dk_lo && dk <= hit->dk_hi;
+    int inside = bbc_piece_position_contains(hit, path.uk, path.vk);
     int upper = path.irradiance <= hit->e_hi;
     int lower = path.irradiance >= hit->e_lo;
     if (!inside || !upper) {

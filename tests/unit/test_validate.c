@@ -83,6 +83,11 @@ static void oracle_tuple(bbc_bounder *b, const bbc_scene *scene, const bbc_tuple
     }
     int inside = path.uk >= hit->uk_lo && path.uk <= hit->uk_hi && path.vk >= hit->vk_lo &&
                  path.vk <= hit->vk_hi;
+    /* The position bound's cuts across the image's sides (a = b = 0: none). */
+    for (int j = 0; j < 2; j++) {
+      const double *c = hit->cut[j], w = c[0] * path.uk + c[1] * path.vk;
+      if ((c[0] != 0 || c[1] != 0) && !(w >= c[2] && w <= c[3])) inside = 0;
+    }
     if (!inside || !(path.irradiance <= hit->e_hi) || !(path.irradiance >= hit->e_lo)) t->failing++;
     if (isfinite(hit->e_hi))
       add_ratio(t, log10(hit->e_hi / path.irradiance));

@@ -114,12 +114,20 @@ typedef struct bbc_piece {
   /* Kept pieces: bounds of u_k + v_k and u_k - v_k (clipped to [0, 1] and [-1, 1]),
    * which cut the box's corners: the position bound is the octagon of all three. */
   double sk_lo, sk_hi, dk_lo, dk_hi;
+  /* Kept pieces: two more cuts of the position bound, across the sides of the piece's
+   * image, {a, b, lo, hi} for lo <= a u_k + b v_k <= hi (|a|, |b| <= 1; a = b = 0: no
+   * cut). They make the octagon's slanted images a tight polygon. */
+  double cut[2][4];
   double e_lo, e_hi;
   /* Area lights: the box of the emitter's square parameters (a, b) the piece covers, and
    * its subdivision level (the u1 box's is `level`); [0, 1]^2 and 0 for other lights. */
   double a_lo, a_hi, b_lo, b_hi;
   int light_level;
 } bbc_piece;
+
+/* Whether the receiver barycentrics (u, v) lie in the piece's position bound (its box,
+ * octagon and cuts). */
+BBC_API int bbc_piece_position_contains(const bbc_piece *piece, double u, double v);
 
 /* Statistics of bounding, summed over calls (the paper's Table 2 precompute columns). */
 typedef struct bbc_bound_stats {

@@ -93,15 +93,17 @@ BBC_API int bbc_grid_locate(const bbc_grid *grid, uint32_t triangle, double b1, 
 BBC_API int bbc_grid_splat_range(const bbc_grid *grid, uint32_t triangle, double b1_lo,
                                  double b1_hi, double b2_lo, double b2_hi, bbc_cell_range *out);
 
-/* The cells of an octagonal position bound: the box of bbc_grid_splat_range cut by
+/* The cells of a polygonal position bound: the box of bbc_grid_splat_range cut by
  * s_lo <= b1 + b2 <= s_hi and d_lo <= b1 - b2 <= d_hi (region = {b1_lo, b1_hi, b2_lo,
- * b2_hi, s_lo, s_hi, d_lo, d_hi}), by the same conservative rule: every point of the
- * region that lies in the triangle is located in a listed cell. Fills *out with the
- * cells' bounding range and, for each row y of it, the columns x0[y - out->y0] ..
- * x1[y - out->y0] (x0 > x1: the row is empty); the arrays need room for the receiver's
- * height. Returns 0 as bbc_grid_splat_range does. */
-BBC_API int bbc_grid_splat_octagon(const bbc_grid *grid, uint32_t triangle, const double region[8],
-                                   bbc_cell_range *out, uint32_t *x0, uint32_t *x1);
+ * b2_hi, s_lo, s_hi, d_lo, d_hi}) and, for each cut {a, b, lo, hi} with |a|, |b| <= 1
+ * and not a = b = 0 (cut may be NULL), lo <= a b1 + b b2 <= hi, by the same
+ * conservative rule: every point of the region that lies in the triangle is located in
+ * a listed cell. Fills *out with the cells' bounding range and, for each row y of it,
+ * the columns x0[y - out->y0] .. x1[y - out->y0] (x0 > x1: the row is empty); the
+ * arrays need room for the receiver's height. Returns 0 as bbc_grid_splat_range does. */
+BBC_API int bbc_grid_splat_polygon(const bbc_grid *grid, uint32_t triangle, const double region[8],
+                                   const double cut[2][4], bbc_cell_range *out, uint32_t *x0,
+                                   uint32_t *x1);
 
 /* The global index of a cell: receivers[r].first_cell + y * width + x. */
 static inline uint64_t bbc_grid_cell_index(const bbc_grid *grid, bbc_cell cell) {
