@@ -4,7 +4,7 @@
 # and the unit and CLI tests find the scenes in BBC_TEST_SCENES.
 #
 # Sizes are kept small so that precomputing caches for them stays quick in the suite;
-# scenes/scenegen.c documents each set-up (positions, lights, cameras).
+# scenes/kinds.c documents each set-up (positions, lights, cameras).
 set -e
 
 if [ "$#" -ne 2 ]; then
