@@ -2,7 +2,12 @@
 # The comparison benchmark: quality against CPU time of the caustic alone.
 #
 #   sh bench/compare.sh [--scale K] [--part all|flat|scenes] [--scenes DIR] [--width W]
+#                       [--seeds "7 8 9 10 11 12 13 14"]
 #   (BBC_BENCH_SCENES="plane1k pool4k" limits the shared scenes to those named)
+#
+# Every budget (method, spp) is rendered once per seed of --seeds (eight by default: one
+# seed can be an outlier for every method), and reported by its mean relMSE and mean
+# CPU-seconds over the seeds; every method uses the same seeds (the same camera samples).
 #
 # 1. flat mirror (bbc-scenegen flat-mirror, 100 triangles, 160x120, 2 threads): the exact
 #    image (bench/flat_mirror_exact), POV-Ray 3.7 photon mapping of the scene translated
@@ -10,8 +15,10 @@
 #    which must match the exact image to relMSE < 1e-6), and bbc (default precompute,
 #    then bbc-render --only caustics at several --spp);
 # 2. the shared scenes plane1k, plane7k, pool4k (one bounce) and ball320 (two, at
-#    --max-level 3, --max-depth 4), W pixels wide (80 by default): bbc, uniform and
-#    enumerate at several --spp against a reference, 3/4 a long bbc render and 1/4 a long
+#    --max-level 3, --max-depth 4), W pixels wide (80 by default): bbc at 1-32 spp, uniform
+#    and enumerate from 1 spp doubling until their mean CPU-seconds reach bbc's largest
+#    (so that equal CPU is interpolated, not extrapolated), against a reference, 3/4 a
+#    long bbc render and 1/4 a long
 #    enumeration; a second one from other seeds must agree with it ten times better
 #    than the smallest relMSE reported (cached in bench/work/refs; they take most of the
 #    time of a first run, about 10 CPU-minutes).
@@ -27,17 +34,24 @@ scale=1
 part=all
 scenes=$root/../shared/scenes
 scene_width=80
+seeds="7 8 9 10 11 12 13 14"
 while [ $# -gt 0 ]; do
   case $1 in
     --scale) scale=$2; shift 2 ;;
     --part) part=$2; shift 2 ;;
     --scenes) scenes=$2; shift 2 ;;
     --width) scene_width=$2; shift 2 ;;
-    *) echo "usage: sh bench/compare.sh [--scale K] [--part all|flat|scenes] [--scenes DIR] [--width W]" >&2
+    --seeds) seeds=$2; shift 2 ;;
+    *) echo "usage: sh bench/compare.sh [--scale K] [--part all|flat|scenes] [--scenes DIR] [--width W] [--seeds \"S...\"]" >&2
        exit 1 ;;
   esac
 done
 case $part in all | flat | scenes) ;; *) echo "compare.sh: --part all, flat or scenes" >&2; exit 1 ;; esac
+for k in $seeds; do
+  case $k in *[!0-9]*) echo "compare.sh: --seeds takes non-negative integers" >&2; exit 1 ;; esac
+done
+nseeds=$(echo $seeds | wc -w)
+[ "$nseeds" -gt 0 ] || { echo "compare.sh: --seeds is empty" >&2; exit 1; }
 
 sh "$root/scripts/install-deps.sh" --bench
 for t in gnuplot povray /usr/bin/time; do
@@ -76,6 +90,25 @@ cpu() {
 }
 
 err() { "$bin/bench/image_error" "$1" "$2"; }   # "relMSE R lit_mean_ratio Q"
+
+# seeded PREFIX REF CMD...: runs CMD --seed K --stats -o PREFIX-K.exr (log PREFIX-K.log)
+# for every K of the seeds, each against REF, keeping "seed CPU-s relMSE lit-mean
+# solutions-per-solved-tuple" in PREFIX.seeds; prints the means over the seeds of the
+# CPU-s, relMSE and lit-mean ratio, and the first seed's solutions per solved tuple.
+seeded() {
+  pfx=$1
+  refimg=$2
+  shift 2
+  : > "$pfx.seeds"
+  for k in $seeds; do
+    c=$(cpu "$pfx-$k.log" "$@" --seed "$k" --stats -o "$pfx-$k.exr")
+    e=$(err "$pfx-$k.exr" "$refimg" | awk '{ print $2, $4 }')
+    sols=$(sed -n 's/.*, \([0-9.]*\) per solved tuple.*/\1/p' "$pfx-$k.log")
+    echo "$k $c $e ${sols:-?}" >> "$pfx.seeds"
+  done
+  awk '{ c += $2; e += $3; q += $4; if (NR == 1) s = $5 }
+    END { printf "%.3f %.4g %.6f %s", c / NR, e / NR, q / NR, s }' "$pfx.seeds"
+}
 
 machine="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //'), $(nproc) cores"
 
@@ -182,12 +215,10 @@ flat() {
   : > "$d/bbc.dat"
   for spp in 1 2 4 8 16 32 64 128 256; do
     spp=$(n $spp)
-    c=$(cpu "$d/bbc-$spp.log" "$ren" "$scene" --cache "$d/flat.bbc" --only caustics --width $w \
-      --height $h --threads 2 --spp "$spp" --seed 7 --stats --no-progress -o "$d/bbc-$spp.exr")
-    set -- $(err "$d/bbc-$spp.exr" "$d/exact.exr")
-    sols=$(sed -n 's/.*, \([0-9.]*\) per solved tuple.*/\1/p' "$d/bbc-$spp.log")
-    total=$(awk -v a="$c" -v b="$pre_cpu" 'BEGIN { printf "%.3f", a + b }')
-    echo "$spp $c $total $2 $4 ${sols:-?}" >> "$d/bbc.dat"
+    set -- $(seeded "$d/bbc-$spp" "$d/exact.exr" "$ren" "$scene" --cache "$d/flat.bbc" --only caustics \
+      --width $w --height $h --threads 2 --spp "$spp" --no-progress)
+    total=$(awk -v a="$1" -v b="$pre_cpu" 'BEGIN { printf "%.3f", a + b }')
+    echo "$spp $1 $total $2 $3 $4" >> "$d/bbc.dat"
   done
 
   # Curves and acceptance figures.
@@ -243,7 +274,8 @@ EOF
     echo
     echo "bbc: \`bbc-precompute SCENE -o C.bbc --threads 2\` (defaults, every chain type):"
     echo "**$pre_cpu CPU-s**, $tuples tuples; then"
-    echo "\`bbc-render SCENE --cache C.bbc --only caustics --width $w --height $h --threads 2 --spp N --seed 7\`."
+    echo "\`bbc-render SCENE --cache C.bbc --only caustics --width $w --height $h --threads 2 --spp N --seed K\`"
+    echo "for each seed K of $seeds: CPU-s, relMSE and lit-mean ratio are means over the seeds."
     echo
     echo "| spp | render CPU-s | total CPU-s | relMSE | lit-mean ratio | solutions per solved tuple |"
     echo "|---|---|---|---|---|---|"
@@ -260,7 +292,7 @@ EOF
   {
     awk -v e="$pov_best_err" -v c="$pov_best_cpu" -v p="$pre_cpu" -v r="$bbc_reach" '
       $3 <= 10 { best = sprintf("%.2g at %s CPU-s in total (%s spp)", $4, $3, $1) }
-      END { printf "| flat mirror (vs exact) | POV-Ray photon mapping, best: %.2g in %s CPU-s | precompute %s CPU-s; POV-Ray'"'"'s best reached at %s CPU-s in total; %s |\n", e, c, p, r, best }' "$d/bbc.dat"
+      END { printf "| flat mirror (vs exact) | POV-Ray photon mapping, best: %.2g in %s CPU-s | precompute %s CPU-s; POV-Ray'"'"'s best reached at %s CPU-s in total; %s (means of '"$nseeds"' seeds) |\n", e, c, p, r, best }' "$d/bbc.dat"
   } > "$work/flat/readme-row.md"
 }
 
@@ -271,7 +303,7 @@ scenes_part() {
   w=$scene_width
   : > "$d/summary.dat"
   # scene:chain:level:reference spp (bbc):check spp (enumerate)
-  for spec in plane1k:R::2048:128 plane7k:R::2048:128 pool4k:T::1024:256 ball320:TT:3:1024:1024; do
+  for spec in plane1k:R::2048:128 plane7k:R::2048:128 pool4k:T::2048:512 ball320:TT:3:1024:1024; do
     s=${spec%%:*}
     case " ${BBC_BENCH_SCENES:-$s} " in *" $s "*) ;; *) continue ;; esac
     rest=${spec#*:}
@@ -330,21 +362,27 @@ scenes_part() {
     refcpu=$(cat "$r-bbc-$refspp-1001.exr.cpu" "$r-bbc-$refspp-1002.exr.cpu" | awk '{ s += $1 } END { printf "%.0f", s }')
     chkcpu=$(cat "$r-enumerate-$chkspp-1001.exr.cpu" "$r-enumerate-$chkspp-1002.exr.cpu" | awk '{ s += $1 } END { printf "%.0f", s }')
     : > "$d/$s.dat"
+    # bbc at 1-32 spp; the others from 1 spp, doubling until their mean CPU reaches bbc's
+    # largest (at most 256 spp), so that equal CPU lies within every curve.
+    top=$(n 32)
+    bc=0
     for m in bbc uniform enumerate; do
       : > "$d/$s-$m.xy"
-      list="1 2 4 8 16 32"
-      [ $m = enumerate ] && list="1 2 4"
-      for spp in $list; do
-        spp=$(n $spp)
-        c=$(cpu "$d/$s-$m-$spp.log" "$ren" $common --method $m --spp "$spp" --seed 7 --stats -o "$d/$s-$m-$spp.exr")
-        set -- $(err "$d/$s-$m-$spp.exr" "$refa")
-        sols=$(sed -n 's/.*, \([0-9.]*\) per solved tuple.*/\1/p' "$d/$s-$m-$spp.log")
-        echo "$m $spp $c $2 $4 ${sols:-?}" >> "$d/$s.dat"
-        echo "$c $2" >> "$d/$s-$m.xy"
+      spp=1
+      while :; do
+        set -- $(seeded "$d/$s-$m-$(n $spp)" "$refa" "$ren" $common --method $m --spp "$(n $spp)")
+        echo "$m $(n $spp) $1 $2 $3 $4" >> "$d/$s.dat"
+        echo "$1 $2" >> "$d/$s-$m.xy"
+        if [ $m = bbc ]; then
+          [ "$(n $spp)" -lt "$top" ] || break
+        else
+          awk -v c="$1" -v b="$bc" 'BEGIN { exit !(c < b) }' && [ $spp -lt 256 ] || break
+        fi
+        spp=$((spp * 2))
       done
+      [ $m = bbc ] && bc=$1
     done
     # At equal CPU: the others interpolated at bbc's largest budget.
-    bc=$(tail -1 "$d/$s-bbc.xy" | cut -d' ' -f1)
     be=$(tail -1 "$d/$s-bbc.xy" | cut -d' ' -f2)
     ue=$(interpolate "$d/$s-uniform.xy" "$bc")
     ee=$(interpolate "$d/$s-enumerate.xy" "$bc")
@@ -380,7 +418,10 @@ EOF
     echo
     echo "\`bbc-precompute SCENE -o C.bbc --chains CHAIN [--max-level L] --threads 2\`, then"
     echo "\`bbc-render SCENE --cache C.bbc --only caustics --max-depth D --width $w --threads 2"
-    echo "--method M --spp N --seed 7\` (D = 2 + the chain's length: the caustic path's segments). References: long renders by \`--method bbc\` and"
+    echo "--method M --spp N --seed K\` (D = 2 + the chain's length: the caustic path's segments), for"
+    echo "each seed K of $seeds (every method the same seeds); CPU-s, relMSE and lit-mean"
+    echo "ratio below are means over the seeds. bbc runs at 1-32 spp, uniform and enumerate from 1"
+    echo "spp doubling until their mean CPU-s reach bbc's at 32 spp. References: long renders by \`--method bbc\` and"
     echo "\`--method enumerate\`, seeds 1001 and 1002 each (cached in bench/work/refs); reference 1"
     echo "is 3/4 the seed-1001 bbc image and 1/4 the seed-1001 enumeration, reference 2 the same of"
     echo "the seed-1002 ones (the enumeration is the noisier for its CPU time). Errors"
@@ -410,15 +451,18 @@ EOF
     echo
     echo "All runs:"
     echo
-    echo "| scene | method | spp | render CPU-s | relMSE | lit-mean ratio | solutions per solved tuple |"
-    echo "|---|---|---|---|---|---|---|"
+    echo "| scene | method | spp | render CPU-s | relMSE | relMSE per seed | lit-mean ratio | solutions per solved tuple |"
+    echo "|---|---|---|---|---|---|---|---|"
     while read -r s rest; do
-      awk -v s="$s" '{ printf "| %s | %s | %s | %s | %.3g | %.4f | %s |\n", s, $1, $2, $3, $4, $5, $6 }' "$d/$s.dat"
+      while read -r m spp rest; do
+        per=$(awk '{ printf "%s%.2g", (NR > 1 ? " / " : ""), $3 }' "$d/$s-$m-$spp.seeds")
+        echo "$m $spp $rest" | awk -v s="$s" -v per="$per" '{ printf "| %s | %s | %s | %s | %.3g | %s | %.4f | %s |\n", s, $1, $2, $3, $4, per, $5, $6 }'
+      done < "$d/$s.dat"
     done < "$d/summary.dat"
     echo
     echo "Curves: bench/results/scenes.png."
   } > "$scenes_md"
-  awk '{ printf "| %s (vs enumeration) | at %s render CPU-s: uniform %.3g, enumerate %.3g | bbc %.3g (%.1fx below uniform, %.1fx below enumerate) |\n",
+  awk '{ printf "| %s (vs enumeration) | at %s render CPU-s (mean of '"$nseeds"' seeds): uniform %.3g, enumerate %.3g | bbc %.3g (%.1fx below uniform, %.1fx below enumerate) |\n",
          $1, $9, $11, $12, $10, $11 / $10, $12 / $10 }' "$d/summary.dat" > "$work/scenes/readme-rows.md"
 }
 
@@ -430,7 +474,7 @@ case $part in all | scenes) scenes_part ;; esac
 {
   echo "# Caustic quality against CPU time"
   echo
-  echo "Generated by \`sh bench/compare.sh --scale $scale\` at commit $commit; $machine; $(date -u +%Y-%m-%d)."
+  echo "Generated by \`sh bench/compare.sh --scale $scale --seeds \"$seeds\"\` at commit $commit; $machine; $(date -u +%Y-%m-%d)."
   echo "CPU-s: user + sys of each process (/usr/bin/time), precompute counted separately."
   echo "relMSE: mean over pixels of the mean over RGB of (I - R)^2 / (R^2 + eps), eps = 1e-2"
   echo "(bbc_image_relmse, as \`bbc-render --reference\`). Lit-mean ratio: the image's mean over"
