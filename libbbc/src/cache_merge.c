@@ -225,7 +225,10 @@ bbc_result bbc_cache_merge(bbc_cache_builder **out, const bbc_cache *const *shar
     /* Candidate indices of different shards differ (their residues differ), so the
      * order is total. */
     qsort(order, total, sizeof *order, by_candidate);
-    if (bbc__cache_builder_from_cache(&b, refs[0].cache) != BBC_OK) r = out_of_memory(o);
+    bbc_cache_info info;
+    bbc_cache_get_info(refs[0].cache, &info);
+    if (bbc__cache_builder_from_parts(&b, &info, bbc_cache_grid(refs[0].cache)) != BBC_OK)
+      r = out_of_memory(o);
   }
   for (uint64_t i = 0; i < total && r == BBC_OK; i++) {
     const merged_tuple *m = &order[i];

@@ -39,9 +39,11 @@ bbc_result bbc__cache_builder_shard(bbc_cache_builder *b, uint32_t index, uint32
  * rules of R-SHR-3 and fails with BBC_ERR_INVALID_ARGUMENT if they do not hold. */
 bbc_result bbc__cache_builder_set_candidate(bbc_cache_builder *b, uint32_t id, uint64_t candidate);
 
-/* A builder for the scene and parameters of an open cache, with copies of its grid,
- * parameters, fingerprint and scene counts and no tuple. */
-bbc_result bbc__cache_builder_from_cache(bbc_cache_builder **out, const bbc_cache *c);
+/* A builder for the scene and parameters of an open cache, given its information and
+ * grid (bbc_cache_get_info, bbc_cache_grid): copies of its grid, parameters, fingerprint
+ * and scene counts, and no tuple. */
+bbc_result bbc__cache_builder_from_parts(bbc_cache_builder **out, const bbc_cache_info *info,
+                                         const bbc_grid *g);
 
 /* The INFO text the builder writes instead of "bbc <version>": `size` bytes of `text`
  * (at most 4096), or no INFO section when text is NULL. */

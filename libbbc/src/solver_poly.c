@@ -57,6 +57,7 @@
 #include <threads.h>
 
 #include "bbc/solver.h"
+#include "solver_internal.h"
 #include "vec_internal.h"
 
 /* The highest total degree of the constraint polynomials. */
@@ -571,51 +572,6 @@ static int resultant_roots(const bpoly *c, const bpoly *a, double lo, double hi,
 }
 
 /* ------------------------------------------------------------------------------------ */
-/* Polishing and verification. */
-
-static double opt_triangle_tol(const bbc_solver_options *o) {
-  return o && o->triangle_tolerance > 0 ? o->triangle_tolerance : 1e-9;
-}
-static double opt_angle_tol(const bbc_solver_options *o) {
-  return o && o->angle_tolerance > 0 ? o->angle_tolerance : 1e-7;
-}
-
-int bbc_solver_verify(const bbc_path_geometry *g, bbc_vec3 xk, double u, double v,
-                      const bbc_solver_options *options, bbc_solution *out) {
-  bbc_solution local;
-  bbc_solution *s = out ? out : &local;
-  memset(s, 0, sizeof *s);
-  if (!g || (g->length != 1 && g->length != 2)) return 0;
-  if (bbc_specular_path_trace(g, u, v, &s->path) != BBC_OK) return 0;
-  const bbc_specular_path *p = &s->path;
-  s->u1[0] = u, s->u1[1] = v;
-  s->x1 = p->x1;
-  if (g->length == 2) {
-    s->u2[0] = p->u2[0], s->u2[1] = p->u2[1];
-    s->x2 = p->x2;
-  }
-  s->irradiance = p->irradiance;
-  if (!p->complete) return 0;
-  /* Inside tests get a tolerance here instead of the trace's exact ones; x_k is given, so
-   * whether it lies in the receiver triangle is the caller's business. */
-  uint32_t hard = BBC_PATH_REJECT & ~(uint32_t)(BBC_PATH_OUTSIDE_T1 | BBC_PATH_OUTSIDE_T2 |
-                                                BBC_PATH_OUTSIDE_RECEIVER);
-  if (p->flags & hard) return 0;
-  double tol = opt_triangle_tol(options);
-  if (!(u >= -tol && v >= -tol && u + v <= 1 + tol)) return 0;
-  if (g->length == 2 && !(p->u2[0] >= -tol && p->u2[1] >= -tol && p->u2[0] + p->u2[1] <= 1 + tol))
-    return 0;
-  /* The last segment must point at x_k: compare directions from the last specular
-   * vertex, which is robust to grazing receivers and to x_k slightly off the plane. */
-  bbc_vec3 last = g->length == 2 ? p->x2 : p->x1;
-  bbc_vec3 a = v3_sub(p->xk, last), b = v3_sub(xk, last);
-  double la = v3_length(a), lb = v3_length(b);
-  if (!(la > 0 && lb > 0) || v3_dot(a, b) <= 0) return 0;
-  double sine = v3_length(v3_cross(a, b)) / (la * lb);
-  return sine <= opt_angle_tol(options);
-}
-
-/* ------------------------------------------------------------------------------------ */
 
 typedef struct solve_state {
   const bbc_path_geometry *g;
@@ -763,7 +719,7 @@ static int reflection_ruled_out_split(const reflection_corners *r, double margin
 /* T1's corners grown by the verifier's tolerance (at least the root search's pad), in
  * barycentrics: (-d, -d), (1 + 2d, -d), (-d, 1 + 2d). */
 static void grown_corners(const bbc_solver_options *options, double corner[3][2]) {
-  double d = fmax(SEARCH_PAD, opt_triangle_tol(options));
+  double d = fmax(SEARCH_PAD, bbc__solver_triangle_tolerance(options));
   corner[0][0] = -d, corner[0][1] = -d;
   corner[1][0] = 1 + 2 * d, corner[1][1] = -d;
   corner[2][0] = -d, corner[2][1] = 1 + 2 * d;
@@ -830,7 +786,7 @@ static int reflection_possible(const bbc_path_geometry *g, bbc_vec3 xk,
     d1max = fmax(d1max, v3_length(b));
   }
   /* |F| <= tolerance |r| |d1| <= tolerance 3 N^2 D0 D1 at an accepted path. */
-  double margin = opt_angle_tol(options) * 3 * nmax * nmax * d0max * d1max;
+  double margin = bbc__solver_angle_tolerance(options) * 3 * nmax * nmax * d0max * d1max;
   if (!isfinite(margin) || !(margin > 0)) return 1;
   return !reflection_ruled_out_split(&r, margin, REFLECTION_SPLITS);
 }
