@@ -303,7 +303,7 @@ scenes_part() {
   w=$scene_width
   : > "$d/summary.dat"
   # scene:chain:level:reference spp (bbc):check spp (enumerate)
-  for spec in plane1k:R::2048:128 plane7k:R::2048:128 pool4k:T::2048:512 ball320:TT:3:1024:1024; do
+  for spec in plane1k:R::2048:128 plane7k:R::2048:128 pool4k:T::2048:512 ball320:TT:3:2048:2048; do
     s=${spec%%:*}
     case " ${BBC_BENCH_SCENES:-$s} " in *" $s "*) ;; *) continue ;; esac
     rest=${spec#*:}

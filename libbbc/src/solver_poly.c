@@ -791,10 +791,195 @@ static int reflection_possible(const bbc_path_geometry *g, bbc_vec3 xk,
   return !reflection_ruled_out_split(&r, margin, REFLECTION_SPLITS);
 }
 
+/* ------------------------------------------------------------------------------------ */
+/* The refraction pre-test. A refracted path through x1, with d0 = x1 - x0 (for a sun its
+ * direction D), d1 = x_k - x1 and n the interpolated normal (unnormalised, affine on T1),
+ * obeys, at the side where d0 . n has the sign s (the trace's eta: the ior when the ray
+ * leaves with the normal, s > 0, 1 / ior when it enters against it):
+ *   coplanarity  C = (d0 x d1) . n = 0                          (degree 2: d0 x d1 is
+ *                affine, (x1 - x0) x (x_k - x0) or D x (x_k - x1)),
+ *   transmission s (d1 . n) > 0: the ray goes on through the surface (degree 2),
+ *   Snell        G = eta^2 |d0 x n|^2 |d1|^2 - |d1 x n|^2 |d0|^2 = 0, the squared
+ *                sin(theta_t) = eta sin(theta_i) times |d0|^2 |d1|^2 |n|^2 (degree 6).
+ * A piece of T1 where C or G keeps a sign, or s (d1 . n) stays negative, beyond the
+ * margins below, holds no path. T1 (grown by the triangle tolerance) is tested whole,
+ * then in its four halves and their quarters, as the reflection pre-test is. The
+ * margins are the verifier's: an accepted path's last segment d1 makes an angle of at
+ * most asin(tol) <= (pi / 2) tol with the traced refracted direction t, for which C = 0,
+ * s (t . n) > 0 and |t x n| / |n| = eta |d0 x n| / (|d0| |n|) hold exactly; so there
+ * |C| <= 2 tol D0 D1 N, s (d1 . n) >= -2 tol D1 N and, the sines differing by at most
+ * that angle, |G| <= 4 tol N^2 D0^2 D1^2 (N, D0, D1 the largest |n|, |d0|, |d1| over the
+ * triangle, reached at a corner since each is affine). The side s must be one over the
+ * whole triangle (every coefficient of d0 . n of one sign), else the test answers "a
+ * path may exist". */
+#define REFRACTION_SPLITS 1
+
+/* tp6_multinomial[k] is 6! / (k0! k1! k2!) for the 28 multi-indices of degree 6 in the
+ * order k1 * (15 - k1) / 2 + k2; tp6_product[6 a + b] is where the product of the
+ * degree-4 coefficient a (tp4's order) and the degree-2 one b (tp2_muladd's) lands;
+ * tp2_multinomial is 2! / (k0! k1! k2!) in tp2_muladd's order. */
+static const double tp6_multinomial[28] = {1,  6,  15, 20, 15, 6,  1,  6,  30, 60,
+                                           60, 30, 6,  15, 60, 90, 60, 15, 20, 60,
+                                           60, 20, 15, 30, 15, 6,  6,  1};
+static const unsigned char tp6_product[90] = {
+    0,  13, 2,  7,  1,  8,  1,  14, 3,  8,  2,  9,  2,  15, 4,  9,  3,  10,
+    3,  16, 5,  10, 4,  11, 4,  17, 6,  11, 5,  12, 7,  18, 9,  13, 8,  14,
+    8,  19, 10, 14, 9,  15, 9,  20, 11, 15, 10, 16, 10, 21, 12, 16, 11, 17,
+    13, 22, 15, 18, 14, 19, 14, 23, 16, 19, 15, 20, 15, 24, 17, 20, 16, 21,
+    18, 25, 20, 22, 19, 23, 19, 26, 21, 23, 20, 24, 22, 27, 24, 25, 23, 26};
+static const double tp2_multinomial[6] = {1, 1, 1, 2, 2, 2};
+
+/* The affine factors at a triangle's three corners: component c at corner k in [c][k];
+ * f is the coplanarity factor d0 x d1. */
+typedef struct refraction_corners {
+  double d0[3][3], d1[3][3], n[3][3], f[3][3];
+} refraction_corners;
+
+typedef struct refraction_margins {
+  double eta2;     /* eta^2 */
+  double side;     /* s */
+  double coplanar; /* of C */
+  double through;  /* of s (d1 . n) */
+  double snell;    /* of G */
+} refraction_margins;
+
+/* 1 if every scaled coefficient c[k] exceeds margin times mult[k], or every one lies
+ * below minus that. */
+static int keeps_sign(const double *c, const double *mult, int count, double margin) {
+  int positive = 1, negative = 1;
+  for (int k = 0; k < count && (positive || negative); k++) {
+    const double m = margin * mult[k];
+    if (!(c[k] > m)) positive = 0;
+    if (!(c[k] < -m)) negative = 0;
+  }
+  return positive || negative;
+}
+
+/* 1 if no refracted path crosses the triangle with corner values r. */
+static int refraction_ruled_out(const refraction_corners *r, const refraction_margins *m) {
+  double cop[6] = {0}, through[6] = {0};
+  for (int c = 0; c < 3; c++) {
+    tp2_muladd(cop, r->f[c], r->n[c], 1.0);
+    tp2_muladd(through, r->d1[c], r->n[c], m->side);
+  }
+  if (keeps_sign(cop, tp2_multinomial, 6, m->coplanar)) return 1;
+  int behind = 1;
+  for (int k = 0; k < 6 && behind; k++)
+    if (!(through[k] < -m->through * tp2_multinomial[k])) behind = 0;
+  if (behind) return 1;
+  double a2[15] = {0}, b2[15] = {0}, d0sq[6] = {0}, d1sq[6] = {0};
+  for (int c = 0; c < 3; c++) {
+    const int y = (c + 1) % 3, z = (c + 2) % 3;
+    double a[6] = {0}, b[6] = {0};
+    tp2_muladd(a, r->d0[y], r->n[z], 1.0);
+    tp2_muladd(a, r->d0[z], r->n[y], -1.0);
+    tp2_muladd(b, r->d1[y], r->n[z], 1.0);
+    tp2_muladd(b, r->d1[z], r->n[y], -1.0);
+    /* The squares, each product of two distinct coefficients once, doubled. */
+#pragma GCC unroll 6
+    for (int i = 0; i < 6; i++) {
+      a2[tp4_product[7 * i]] += a[i] * a[i];
+      b2[tp4_product[7 * i]] += b[i] * b[i];
+#pragma GCC unroll 6
+      for (int j = i + 1; j < 6; j++) {
+        a2[tp4_product[6 * i + j]] += 2 * (a[i] * a[j]);
+        b2[tp4_product[6 * i + j]] += 2 * (b[i] * b[j]);
+      }
+    }
+    tp2_muladd(d0sq, r->d0[c], r->d0[c], 1.0);
+    tp2_muladd(d1sq, r->d1[c], r->d1[c], 1.0);
+  }
+  double gq[28] = {0};
+#pragma GCC unroll 15
+  for (int i = 0; i < 15; i++) {
+    const double ea = m->eta2 * a2[i], eb = b2[i];
+#pragma GCC unroll 6
+    for (int j = 0; j < 6; j++) gq[tp6_product[6 * i + j]] += ea * d1sq[j] - eb * d0sq[j];
+  }
+  return keeps_sign(gq, tp6_multinomial, 28, m->snell);
+}
+
+/* 1 if refraction_ruled_out holds on every piece of r split `depth` times into four
+ * (the pieces as in reflection_ruled_out_split). */
+static int refraction_ruled_out_split(const refraction_corners *r, const refraction_margins *m,
+                                      int depth) {
+  if (refraction_ruled_out(r, m)) return 1;
+  if (depth == 0) return 0;
+  static const int piece[4][3][2] = {{{0, 0}, {0, 1}, {0, 2}},
+                                     {{0, 1}, {1, 1}, {1, 2}},
+                                     {{0, 2}, {1, 2}, {2, 2}},
+                                     {{1, 2}, {0, 2}, {0, 1}}};
+  for (int s = 0; s < 4; s++) {
+    refraction_corners q;
+    for (int k = 0; k < 3; k++) {
+      const int a = piece[s][k][0], b = piece[s][k][1];
+      for (int c = 0; c < 3; c++) {
+        q.d0[c][k] = 0.5 * (r->d0[c][a] + r->d0[c][b]);
+        q.d1[c][k] = 0.5 * (r->d1[c][a] + r->d1[c][b]);
+        q.n[c][k] = 0.5 * (r->n[c][a] + r->n[c][b]);
+        q.f[c][k] = 0.5 * (r->f[c][a] + r->f[c][b]);
+      }
+    }
+    if (!refraction_ruled_out_split(&q, m, depth - 1)) return 0;
+  }
+  return 1;
+}
+
+/* The refraction half: 0 when no refracted path crosses T1 (grown). */
+static int refraction_possible(const bbc_path_geometry *g, bbc_vec3 xk,
+                               const bbc_solver_options *options) {
+  const bbc_specular_triangle *t = &g->specular[0];
+  if (!t->refract || !(t->ior > 0)) return 1;
+  double corner[3][2];
+  grown_corners(options, corner);
+  const int sun = g->light_model.kind == BBC_LIGHT_DIRECTIONAL;
+  bbc_vec3 e1 = v3_sub(t->p[1], t->p[0]), e2 = v3_sub(t->p[2], t->p[0]);
+  bbc_vec3 m1 = v3_sub(t->n[1], t->n[0]), m2 = v3_sub(t->n[2], t->n[0]);
+  bbc_vec3 w = v3_sub(xk, g->light);
+  refraction_corners r;
+  double nmax = 0, d0max = 0, d1max = 0;
+  for (int k = 0; k < 3; k++) {
+    const double u = corner[k][0], v = corner[k][1];
+    bbc_vec3 x1 = v3_add(t->p[0], v3_add(v3_scale(e1, u), v3_scale(e2, v)));
+    bbc_vec3 a = sun ? g->light_model.direction : v3_sub(x1, g->light);
+    bbc_vec3 b = v3_sub(xk, x1);
+    bbc_vec3 n = v3_add(t->n[0], v3_add(v3_scale(m1, u), v3_scale(m2, v)));
+    bbc_vec3 f = sun ? v3_cross(a, b) : v3_cross(a, w);
+    r.d0[0][k] = a.x, r.d0[1][k] = a.y, r.d0[2][k] = a.z;
+    r.d1[0][k] = b.x, r.d1[1][k] = b.y, r.d1[2][k] = b.z;
+    r.n[0][k] = n.x, r.n[1][k] = n.y, r.n[2][k] = n.z;
+    r.f[0][k] = f.x, r.f[1][k] = f.y, r.f[2][k] = f.z;
+    nmax = fmax(nmax, v3_length(n));
+    d0max = fmax(d0max, v3_length(a));
+    d1max = fmax(d1max, v3_length(b));
+  }
+  const double tol = bbc__solver_angle_tolerance(options);
+  /* The side: d0 . n of one sign over the whole triangle, beyond its rounding. */
+  double dn[6] = {0};
+  for (int c = 0; c < 3; c++) tp2_muladd(dn, r.d0[c], r.n[c], 1.0);
+  const double rounding = 1e-12 * d0max * nmax;
+  int positive = 1, negative = 1;
+  for (int k = 0; k < 6; k++) {
+    if (!(dn[k] > rounding * tp2_multinomial[k])) positive = 0;
+    if (!(dn[k] < -rounding * tp2_multinomial[k])) negative = 0;
+  }
+  if (!positive && !negative) return 1;
+  refraction_margins m;
+  const double eta = positive ? t->ior : 1.0 / t->ior;
+  m.eta2 = eta * eta;
+  m.side = positive ? 1.0 : -1.0;
+  m.coplanar = 2 * tol * d0max * d1max * nmax;
+  m.through = 2 * tol * d1max * nmax;
+  m.snell = 4 * tol * nmax * nmax * d0max * d0max * d1max * d1max;
+  if (!isfinite(m.snell) || !(m.snell > 0) || !isfinite(m.eta2)) return 1;
+  return !refraction_ruled_out_split(&r, &m, REFRACTION_SPLITS);
+}
+
 int bbc_solver_single_possible(const bbc_path_geometry *g, bbc_vec3 xk,
                                const bbc_solver_options *options) {
   if (!g || g->length != 1) return 1;
-  return coplanar_possible(g, xk, options) && reflection_possible(g, xk, options);
+  return coplanar_possible(g, xk, options) && reflection_possible(g, xk, options) &&
+         refraction_possible(g, xk, options);
 }
 
 /* A mirror whose three vertex normals are equal reflects with one unit normal n
@@ -1121,7 +1306,7 @@ bbc_result bbc_solver_single(const bbc_path_geometry *g, bbc_vec3 xk,
     st.stats.excluded = 1;
   else if (!(options && options->no_closed_form) && solve_flat_mirror(&st))
     ;
-  else if (pretest && !reflection_possible(g, xk, options))
+  else if (pretest && (!reflection_possible(g, xk, options) || !refraction_possible(g, xk, options)))
     st.stats.excluded = 1;
   else
     solve_polynomials(&st);

@@ -441,15 +441,16 @@ TEST(flat_mirror_closed_form_agrees_with_poly) {
   CHECK_INT(mismatched, 0);
 }
 
-/* The coplanarity pre-test (bbc_solver_single_possible) never rules out a point that a
- * path reaches, and rules out a good share of random points, all of which the solver
+/* The pre-test (bbc_solver_single_possible: coplanarity, the reflection's direction, the
+ * refraction's side and Snell's law) never rules out a point that a path reaches, and
+ * rules out a good share of random points, all of which the solver
  * (with the pre-test bypassed by calling it on the same geometry) confirms hold no path
  * but at T1's edges. Curved random triangles, reflection and refraction, point lights
  * and suns. */
 TEST(single_pretest_is_exact) {
   const long samples = harness_scale(20000, 400000);
   long traced = 0, suns = 0, wrongly_excluded = 0, random_points = 0, excluded = 0,
-       solved_excluded = 0;
+       solved_excluded = 0, refracted_points = 0, refracted_excluded = 0;
   for (long i = 0; i < samples; i++) {
     bbc_path_geometry g;
     memset(&g, 0, sizeof g);
@@ -485,8 +486,10 @@ TEST(single_pretest_is_exact) {
     bbc_vec3 xk = v3_add(p.complete ? p.xk : rp,
                          v3_add(v3_scale(a, 2 * rnd() - 1), v3_scale(b, 2 * rnd() - 1)));
     random_points++;
+    refracted_points += t->refract;
     if (bbc_solver_single_possible(&g, xk, NULL)) continue;
     excluded++;
+    refracted_excluded += t->refract;
     /* The polynomial solve itself, without the pre-test: a solution far from T1's
      * edges would mean the pre-test was wrong. */
     bbc_solver_options opts;
@@ -500,13 +503,16 @@ TEST(single_pretest_is_exact) {
   }
   fprintf(stderr,
           "%ld traced paths (%ld from suns), %ld wrongly excluded; %ld random points, %ld "
-          "excluded (%.1f %%), %ld of them with a solution\n",
+          "excluded (%.1f %%; refraction %.1f %%), %ld of them with a solution\n",
           traced, suns, wrongly_excluded, random_points, excluded, 100.0 * excluded / random_points,
-          solved_excluded);
+          100.0 * refracted_excluded / refracted_points, solved_excluded);
   CHECK(traced > samples / 10 && suns > samples / 50);
   CHECK_INT(wrongly_excluded, 0);
   CHECK_INT(solved_excluded, 0);
   CHECK(excluded > random_points / 10);
+  /* Coplanarity alone rules out about 68 % of the refraction points; with the
+   * transmission side and Snell's law on T1 and its quarters, 90 %. */
+  CHECK(refracted_excluded * 10 > refracted_points * 8);
 }
 
 /* ------------------------------------------------------------------------------------ */

@@ -125,7 +125,13 @@ BBC_API bbc_result bbc_solver_single(const bbc_path_geometry *g, bbc_vec3 xk,
  * its pieces split up to twice into four, beyond the verifier's angle tolerance times
  * the bound 3 |n|^2 |d0| |d1| of |r| |d1|, no path exists either: a path the verifier
  * would accept has |r x d1| below that. bbc_solver_single skips this second half for
- * mirrors solved in closed form. */
+ * mirrors solved in closed form. For a refraction whose d0 . n keeps one sign s on T1
+ * (which fixes the trace's eta), a path also needs s (d1 . n) > 0 (the ray goes on
+ * through) and Snell's law squared, G = eta^2 |d0 x n|^2 |d1|^2 - |d1 x n|^2 |d0|^2 = 0
+ * (degree 6); when on T1 (grown), or on each of its four halves, the coplanarity C or G
+ * keeps a sign or s (d1 . n) stays negative beyond the verifier's angle tolerance times
+ * 2 |d0| |d1| |n|, 2 |d1| |n| and 4 |n|^2 |d0|^2 |d1|^2 (bounds of |C|, of the side's
+ * slack and of |G| at a path the verifier would accept), no path exists. */
 BBC_API int bbc_solver_single_possible(const bbc_path_geometry *g, bbc_vec3 xk,
                                        const bbc_solver_options *options);
 
