@@ -6,7 +6,7 @@
 # Installed anywhere but /usr, the tree is relocatable (RUNPATH $ORIGIN/../LIBDIR, bbc.pc
 # and bbcConfig.cmake name their prefix relative to themselves); installed to /usr (the
 # Debian package), the tools carry no RUNPATH and bbc.pc says prefix=/usr, so
-# pkg-config drops its system -I and -L. Private headers (libbbc/src/*_internal.h) are never
+# pkg-config drops its system -I and -L. Private headers (libbbc/src/*/*_internal.h) are never
 # installed. Components: "runtime" (tools, libbbc.so.*, man pages) and "development"
 # (headers, libbbc.so, libbbc.a, CMake package, bbc.pc).
 include(CMakePackageConfigHelpers)

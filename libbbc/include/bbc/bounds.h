@@ -153,6 +153,19 @@ BBC_API bbc_result bbc_bound_tuple(bbc_bounder *bounder, const bbc_tuple_geometr
                                    const bbc_bound_params *params, bbc_piece_fn fn, void *user,
                                    bbc_bound_stats *stats);
 
+/* The candidate tuples of the scene for the chain types in `chains` (a mask of
+ * BBC_CHAIN_BIT), in the deterministic order bbc_precompute uses: by light, then first
+ * specular triangle, then second specular triangle (none first), then receiver. *out
+ * is allocated with malloc. */
+BBC_API bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
+                                   size_t *count);
+
+/* The candidate tuples of the scene's area lights (emissive triangles; their light
+ * index is point_light_count + the emitter's index, scene.h) for the single-scattering
+ * chain types of `chains` (R, T; the others are ignored), in the same order. */
+BBC_API bbc_result bbc_tuples_find_area(const bbc_scene *scene, uint32_t chains,
+                                        bbc_tuple **out, size_t *count);
+
 #ifdef __cplusplus
 }
 #endif

@@ -19,10 +19,6 @@ extern "C" {
 
 /* ------------------------------------------------------------------ parameters */
 
-/* Bit of chain type c in bbc_precompute_params.chains. */
-#define BBC_CHAIN_BIT(c) (1u << (c))
-#define BBC_CHAIN_MASK_ALL 0x3Fu
-
 /* The precompute parameters a cache was computed with, stored as given (spec Sec. 5.1)
  * and part of its fingerprint. A plain value type. */
 typedef struct bbc_precompute_params {

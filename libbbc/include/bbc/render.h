@@ -149,12 +149,6 @@ BBC_API bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
                               const bbc_render_options *options, bbc_image *image,
                               bbc_render_stats *stats);
 
-/* The primary ray through film position (px, py) in pixels of a width x height film
- * ((0,0) is the top-left corner). The film's aspect ratio is width / height and the
- * camera's yfov spans its height; dir is unit length. */
-BBC_API void bbc_camera_ray(const bbc_camera *camera, uint32_t width, uint32_t height, double px,
-                            double py, bbc_vec3 *origin, bbc_vec3 *dir);
-
 #ifdef __cplusplus
 }
 #endif

@@ -165,6 +165,12 @@ typedef struct bbc_camera {
   double time_start, time_end;
 } bbc_camera;
 
+/* The primary ray through film position (px, py) in pixels of a width x height film
+ * ((0,0) is the top-left corner). The film's aspect ratio is width / height and the
+ * camera's yfov spans its height; dir is unit length. */
+BBC_API void bbc_camera_ray(const bbc_camera *camera, uint32_t width, uint32_t height, double px,
+                            double py, bbc_vec3 *origin, bbc_vec3 *dir);
+
 struct bbc__camera_motion; /* internal: what moves each camera */
 
 typedef struct bbc_scene {

@@ -21,6 +21,10 @@ typedef enum bbc_chain {
   BBC_CHAIN_COUNT = 6
 } bbc_chain;
 
+/* Bit of chain type c in a mask of chain types (bbc_precompute_params.chains). */
+#define BBC_CHAIN_BIT(c) (1u << (c))
+#define BBC_CHAIN_MASK_ALL 0x3Fu
+
 /* Marks an unused specular slot (single-scattering chains). */
 #define BBC_NO_TRIANGLE UINT32_MAX
 

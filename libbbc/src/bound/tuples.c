@@ -14,7 +14,7 @@
 #include <string.h>
 
 #include "bbc/interval.h"
-#include "bbc/precompute.h"
+#include "bbc/bounds.h"
 #include "chain_internal.h"
 #include "light_internal.h"
 #include "media_internal.h"

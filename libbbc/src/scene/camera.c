@@ -1,5 +1,5 @@
 /* The pinhole camera, its placement from a node's matrix, and camera animation. */
-#include "bbc/render.h"
+#include "bbc/scene.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -3,7 +3,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "bbc/precompute.h"
+#include "bbc/cache.h"
 #include "cache_format_internal.h"
 
 void bbc_precompute_params_default(bbc_precompute_params *p) {
