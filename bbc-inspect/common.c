@@ -47,3 +47,13 @@ bbc_cache *inspect_open_cache_for(const char *path, const bbc_scene *scene) {
 void inspect_set_threads(const cli_args *a, const char *text) {
   if (text) omp_set_num_threads((int)cli_parse_int(a, "--threads", text, 1, 4096));
 }
+
+int inspect_is_cache(const char *path) {
+  static const unsigned char magic[4] = {0x89, 'B', 'B', 'C'};
+  unsigned char head[4];
+  FILE *f = fopen(path, "rb");
+  if (!f) return 0;
+  size_t n = fread(head, 1, sizeof head, f);
+  fclose(f);
+  return n == sizeof head && memcmp(head, magic, sizeof head) == 0;
+}

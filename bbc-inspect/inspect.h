@@ -20,6 +20,8 @@ bbc_cache *inspect_open_cache_for(const char *path, const bbc_scene *scene);
 bbc_scene *inspect_load_scene(const char *path, bbc_light_units light_units);
 /* A chain-type mask as "R,T". */
 const char *inspect_chains_text(uint32_t mask, char *out, size_t size);
+/* 1 if the file starts as a .bbc cache does (to tell swapped arguments apart). */
+int inspect_is_cache(const char *path);
 /* --threads N, when given. */
 void inspect_set_threads(const cli_args *a, const char *text);
 /* --receiver R of the cache's grid. */

@@ -125,6 +125,9 @@ int main(int argc, char **argv) {
     if (a.i + 1 >= argc || argv[a.i][0] == '-' || argv[a.i + 1][0] == '-')
       cli_usage_error(usage, "%s needs %s", cmd, is_diff ? "A.bbc B.bbc" : "SCENE.gltf CACHE.bbc");
     const char *first = argv[a.i++], *second = argv[a.i++];
+    if (!is_diff && inspect_is_cache(first) && !inspect_is_cache(second))
+      cli_usage_error(usage, "%s needs SCENE.gltf CACHE.bbc: %s is a cache (swapped?)", cmd,
+                      first);
     if (is_diff) {
       if (a.i < argc) cli_usage_error(usage, "unexpected argument '%s'", argv[a.i]);
       return cmd_diff(first, second);

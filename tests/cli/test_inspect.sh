@@ -249,6 +249,12 @@ test_new_commands_bad_usage_exits_2() {
   grep -q "^bbc-inspect: unknown option '--bogus'" "$TMP/err" || fail "$(cat "$TMP/err")"
   expect_status 2 "$INSPECT" solutions "$S"
   expect_status 2 "$INSPECT" solutions "$S" "$TMP/a.bbc" --samples -1
+  # The cache before the scene: said so, not a glTF parse error.
+  for cmd in check-bounds solutions; do
+    expect_status 2 "$INSPECT" $cmd "$TMP/a.bbc" "$S"
+    grep -q "^bbc-inspect: $cmd needs SCENE.gltf CACHE.bbc: $TMP/a.bbc is a cache (swapped?)" \
+      "$TMP/err" || fail "$(cat "$TMP/err")"
+  done
   expect_status 2 "$INSPECT" diff "$TMP/a.bbc"
   expect_status 2 "$INSPECT" diff "$TMP/a.bbc" "$TMP/a.bbc" extra
   grep -q "usage:" "$TMP/err" || fail "no usage"
