@@ -81,7 +81,8 @@ typedef bbc_piece_need (*bbc_piece_need_fn)(void *user, const struct bbc_piece *
 /* Parameters of the subdivision; a zero-initialised struct means the defaults. */
 typedef struct bbc_bound_params {
   int max_level;    /* deepest subdivision level of the u1 box; 0 = 10, negative = 0
-                     * (the root piece only) */
+                     * (the root piece only). Two bounces: a piece whose irradiance
+                     * bound is unbounded may be split once more (if max_level > 0) */
   double sigma;     /* stop when the position bound's area is below this; 0 = 1e-4 */
   double alpha;     /* stop when E_hi / E_lo is below this; 0 = 2 for one specular
                        vertex, 10 for two (Sec. 6.1) */
