@@ -462,7 +462,7 @@ EOF
     echo
     echo "Curves: bench/results/scenes.png."
   } > "$scenes_md"
-  awk '{ printf "| %s (vs enumeration) | at %s render CPU-s (mean of '"$nseeds"' seeds): uniform %.3g, enumerate %.3g | bbc %.3g (%.1fx below uniform, %.1fx below enumerate) |\n",
+  awk '{ printf "| %s (vs enumeration) | at %s render CPU-s (mean of '"$nseeds"' seeds): uniform %.3g, enumerate %.3g | bbc %.3g (%.2fx below uniform, %.2fx below enumerate) |\n",
          $1, $9, $11, $12, $10, $11 / $10, $12 / $10 }' "$d/summary.dat" > "$work/scenes/readme-rows.md"
 }
 
