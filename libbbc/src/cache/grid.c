@@ -460,8 +460,10 @@ int bbc_grid_splat_polygon(const bbc_grid *grid, uint32_t triangle, const double
   for (int i = 0; i < n; i++) {
     px[i] = affine(g, 0, poly[i][0], poly[i][1]);
     py[i] = affine(g, 1, poly[i][0], poly[i][1]);
-    ylo = fmin(ylo, py[i]);
-    yhi = fmax(yhi, py[i]);
+    /* Comparisons rather than fmin/fmax (library calls here): NaN is skipped alike, and
+     * the sign of a zero end does not matter below (ends are moved by the margin). */
+    if (py[i] < ylo) ylo = py[i];
+    if (py[i] > yhi) yhi = py[i];
   }
   /* Rows: within the box's range (itself conservative) and the polygon's. */
   uint32_t y0 = cell_of(ylo - margin, r->height), y1 = cell_of(yhi + margin, r->height);
@@ -477,14 +479,19 @@ int bbc_grid_splat_polygon(const bbc_grid *grid, uint32_t triangle, const double
     for (int i = 0; i < n; i++) {
       int j = (i + 1) % n;
       double ya = py[i], yb = py[j], xa = px[i], xb = px[j];
-      if (ya >= lo && ya <= hi) xmin = fmin(xmin, xa), xmax = fmax(xmax, xa);
+      if (ya >= lo && ya <= hi) {
+        if (xa < xmin) xmin = xa;
+        if (xa > xmax) xmax = xa;
+      }
       if ((ya < lo && yb > lo) || (ya > lo && yb < lo)) {
         double x = xa + (lo - ya) / (yb - ya) * (xb - xa);
-        xmin = fmin(xmin, x), xmax = fmax(xmax, x);
+        if (x < xmin) xmin = x;
+        if (x > xmax) xmax = x;
       }
       if ((ya < hi && yb > hi) || (ya > hi && yb < hi)) {
         double x = xa + (hi - ya) / (yb - ya) * (xb - xa);
-        xmin = fmin(xmin, x), xmax = fmax(xmax, x);
+        if (x < xmin) xmin = x;
+        if (x > xmax) xmax = x;
       }
     }
     if (!(xmin <= xmax)) continue;

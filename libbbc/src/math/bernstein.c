@@ -670,7 +670,8 @@ static BBC__KERNEL void mul2_any(const double *a, const double *b, double *dst,
     return
 
 /* The shapes of a double-scattering piece at the flattening degree 3 (products of
- * flattened quantities, their derivatives and constants), most frequent first. */
+ * flattened quantities, their derivatives and constants), most frequent first, then
+ * those of single reflection. */
 static BBC__KERNEL void mul2(const double *a, const double *b, double *dst, int a0, int a1, int b0, int b1) {
   switch (MUL2_KEY(a0, a1, b0, b1)) {
     MUL2_CASE(3, 3, 3, 3);
@@ -689,6 +690,15 @@ static BBC__KERNEL void mul2(const double *a, const double *b, double *dst, int 
     MUL2_CASE(6, 6, 6, 6);
     MUL2_CASE(3, 3, 6, 6);
     MUL2_CASE(7, 7, 1, 1);
+    /* Single reflection's irradiance (Eq. 16; an interpolated normal makes p, r of
+     * degree 4 and q of degree 3, their derivatives one lower on their axis). */
+    MUL2_CASE(4, 4, 6, 6);
+    MUL2_CASE(3, 2, 3, 4);
+    MUL2_CASE(2, 3, 4, 3);
+    MUL2_CASE(4, 3, 3, 4);
+    MUL2_CASE(3, 4, 4, 3);
+    MUL2_CASE(3, 3, 7, 7);
+    MUL2_CASE(2, 2, 10, 10);
     default:
       mul2_any(a, b, dst, a0, a1, b0, b1);
   }

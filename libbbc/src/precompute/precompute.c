@@ -35,8 +35,10 @@ typedef struct coverage {
   uint32_t x0, y0, w, h; /* the receiver triangle's cell rectangle */
   uint32_t tx0, ty0, tx1, ty1;
   int touched;
-  uint32_t *row_x0, *row_x1; /* a piece's columns per row (bbc_grid_splat_polygon) */
-  size_t rows;
+  /* A piece's columns per row (bbc_grid_splat_polygon), for each of the two regions
+   * remembered (tuple_sink). */
+  uint32_t *row_x0[2], *row_x1[2];
+  size_t rows[2];
 } coverage;
 
 /* A piece's position bound as bbc_grid_splat_polygon takes it. */
@@ -71,24 +73,34 @@ static bbc_result rows_reserve(const bbc_grid *grid, uint32_t **x0, uint32_t **x
   return *rows ? BBC_OK : BBC_ERR_OUT_OF_MEMORY;
 }
 
+/* A region splatted and its result (coverage_range). */
+typedef struct splat_memo {
+  int valid, hit;
+  footprint footprint;
+  bbc_cell_range range;
+} splat_memo;
+
 typedef struct tuple_sink {
   piece_list *pieces;
   coverage *cover;
   const bbc_grid *grid;
   uint32_t receiver;
-  /* The last region splatted and its result (coverage_range): a piece is judged after
-   * its position bound, again after its irradiance bound and then kept, on one region. */
-  int cached, cached_hit;
-  footprint cached_footprint;
-  bbc_cell_range cached_range;
+  /* The last two regions splatted (coverage_range), the older one replaced first: a
+   * piece is judged on its parent's region, then after its position bound, again after
+   * its irradiance bound and then kept on its own, and its three siblings come next,
+   * judged on the same parent's region first. */
+  splat_memo memo[2];
+  int newest;
 } tuple_sink;
 
 static bbc_result coverage_begin(coverage *c, const bbc_grid *grid, uint32_t receiver) {
   bbc_cell_range t;
   c->touched = 0;
   c->w = c->h = 0;
-  bbc_result res = rows_reserve(grid, &c->row_x0, &c->row_x1, &c->rows);
-  if (res != BBC_OK) return res;
+  for (int i = 0; i < 2; i++) {
+    bbc_result res = rows_reserve(grid, &c->row_x0[i], &c->row_x1[i], &c->rows[i]);
+    if (res != BBC_OK) return res;
+  }
   if (!bbc_grid_splat_range(grid, receiver, 0, 1, 0, 1, &t)) return BBC_OK;
   size_t w = (size_t)t.x1 - t.x0 + 1, h = (size_t)t.y1 - t.y0 + 1;
   if (w * h > c->capacity) {
@@ -109,24 +121,36 @@ static void coverage_end(coverage *c) {
   c->touched = 0;
 }
 
-/* The piece's cells (rows r->y0..r->y1, columns in c->row_x0/x1); 0 when it reaches
- * none. Splats of the triangle's points stay in its rectangle, the raster's. */
-static int coverage_range(tuple_sink *s, const bbc_piece *p, bbc_cell_range *r) {
+/* The piece's cells (rows r->y0..r->y1, columns in (*x0)[y - r->y0] ..
+ * (*x1)[y - r->y0], arrays valid until the second-next call); 0 when it reaches none.
+ * Splats of the triangle's points stay in its rectangle, the raster's. */
+static int coverage_range(tuple_sink *s, const bbc_piece *p, bbc_cell_range *r,
+                          const uint32_t **x0, const uint32_t **x1) {
   const coverage *c = s->cover;
   footprint f;
   piece_footprint(p, &f);
-  if (s->cached && memcmp(&f, &s->cached_footprint, sizeof f) == 0) {
-    *r = s->cached_range;
-    return s->cached_hit;
+  for (int k = 0; k < 2; k++) {
+    const int i = (s->newest + k) & 1;
+    splat_memo *m = &s->memo[i];
+    if (m->valid && memcmp(&f, &m->footprint, sizeof f) == 0) {
+      *r = m->range;
+      *x0 = c->row_x0[i], *x1 = c->row_x1[i];
+      s->newest = i;
+      return m->hit;
+    }
   }
+  const int i = s->newest ^ 1; /* the older one */
+  splat_memo *m = &s->memo[i];
   int hit = c->w != 0 &&
-            splat_footprint(s->grid, s->receiver, &f, r, c->row_x0, c->row_x1) &&
+            splat_footprint(s->grid, s->receiver, &f, r, c->row_x0[i], c->row_x1[i]) &&
             r->x0 >= c->x0 && r->y0 >= c->y0 && r->x1 < c->x0 + c->w && r->y1 < c->y0 + c->h;
-  /* The row arrays hold this region's columns until the next splat. */
-  s->cached = c->w != 0;
-  s->cached_hit = hit;
-  s->cached_footprint = f;
-  if (hit) s->cached_range = *r;
+  /* The row arrays hold this region's columns until they are reused. */
+  m->valid = c->w != 0;
+  m->hit = hit;
+  m->footprint = f;
+  if (hit) m->range = *r;
+  s->newest = i;
+  *x0 = c->row_x0[i], *x1 = c->row_x1[i];
   return hit;
 }
 
@@ -134,11 +158,12 @@ static bbc_piece_need piece_need(void *user, const bbc_piece *piece) {
   tuple_sink *s = user;
   const coverage *c = s->cover;
   bbc_cell_range r;
-  if (!coverage_range(s, piece, &r)) return BBC_NEED_NONE; /* it reaches no cell */
+  const uint32_t *rx0, *rx1;
+  if (!coverage_range(s, piece, &r, &rx0, &rx1)) return BBC_NEED_NONE; /* it reaches no cell */
   int dominated = 1, cells = 0;
   for (uint32_t y = r.y0; y <= r.y1 && dominated; y++) {
     const double *row = c->cells + (size_t)(y - c->y0) * c->w - c->x0;
-    const uint32_t x0 = c->row_x0[y - r.y0], x1 = c->row_x1[y - r.y0];
+    const uint32_t x0 = rx0[y - r.y0], x1 = rx1[y - r.y0];
     cells += x0 <= x1 ? (int)(x1 - x0 + 1) : 0;
     for (uint32_t x = x0; x <= x1; x++)
       if (!(row[x] > 0 && row[x] >= piece->e_hi)) {
@@ -156,7 +181,8 @@ static int keep_piece(void *user, const bbc_piece *piece) {
   if (piece->status != BBC_PIECE_KEPT) return 0;
   coverage *c = s->cover;
   bbc_cell_range r;
-  if (coverage_range(s, piece, &r)) {
+  const uint32_t *rx0, *rx1;
+  if (coverage_range(s, piece, &r, &rx0, &rx1)) {
     /* A piece that raises no cell (each already holds a positive bound at least its
      * E_hi, from pieces kept before it) changes nothing record_tuple computes, the
      * maximum per cell: it is not stored. The first piece kept always raises a cell, so
@@ -164,7 +190,7 @@ static int keep_piece(void *user, const bbc_piece *piece) {
     int raises = 0;
     for (uint32_t y = r.y0; y <= r.y1; y++) {
       double *row = c->cells + (size_t)(y - c->y0) * c->w - c->x0;
-      for (uint32_t x = c->row_x0[y - r.y0]; x <= c->row_x1[y - r.y0]; x++)
+      for (uint32_t x = rx0[y - r.y0]; x <= rx1[y - r.y0]; x++)
         if (!(row[x] > 0 && row[x] >= piece->e_hi)) {
           raises = 1;
           if (!(row[x] >= piece->e_hi)) row[x] = piece->e_hi;
@@ -349,7 +375,10 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       int id = omp_get_thread_num();
       bbc_tuple_geometry g;
       pieces[i].count = 0;
-      tuple_sink sink = {&pieces[i], &covers[id], grid, tuples[first + i].receiver, 0, 0, {{0}, {{0}}}, {0}};
+      tuple_sink sink;
+      memset(&sink, 0, sizeof sink);
+      sink.pieces = &pieces[i], sink.cover = &covers[id], sink.grid = grid;
+      sink.receiver = tuples[first + i].receiver;
       int ok = bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) == BBC_OK &&
                coverage_begin(&covers[id], grid, sink.receiver) == BBC_OK;
       if (ok) {
@@ -435,8 +464,10 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   free(rasters);
   for (int i = 0; covers && i < threads; i++) {
     free(covers[i].cells);
-    free(covers[i].row_x0);
-    free(covers[i].row_x1);
+    for (int k = 0; k < 2; k++) {
+      free(covers[i].row_x0[k]);
+      free(covers[i].row_x1[k]);
+    }
   }
   free(covers);
   free(thread_stats);
