@@ -24,11 +24,36 @@
  * [0,1] range asks for subdivision. */
 #define POSITION_TOLERANCE 1.0
 
+/* Single reflection from a point, spot or directional light: a piece's forms are those
+ * of its parent halved (polys_quadrant) instead of being computed again. The forms a
+ * piece needs for its position and irradiance bounds (Eq. 4-5, 16): */
+#define PIECE_FORMS 6 /* up, vp, kappa, tnum, facing, dist2 */
+/* Room for their coefficients, one after the other: with interpolated normals up and vp
+ * have degree 4 on both axes, kappa 3, facing and dist2 2, tnum 1 (25 + 25 + 16 + 9 + 9 +
+ * 4 = 88). */
+#define PIECE_FORM_COEFS 88
+
+/* A queued piece's forms, by value (degrees, radii, coefficients). */
+typedef struct piece_polys {
+  unsigned char deg[PIECE_FORMS][BBC_POLY_MAX_AXES];
+  double err[PIECE_FORMS];
+  double coef[PIECE_FORM_COEFS];
+} piece_polys;
+
 struct bbc_bounder {
   bbc_arena arena;
   void *memory;
   bbc_piece *queue; /* breadth-first queue of pieces to examine */
   size_t queue_capacity;
+  /* With split_forms, a queued piece's forms are a quadrant of its parent's: origin[i]
+   * is 8 (parent_base + k) + q for parents[k] and the quadrant q (0-3, the order of
+   * polys_quadrant; 4: the parent's forms whole, for the root). Parents are a FIFO
+   * too, since children are queued and examined in their parents' order. */
+  int split_forms;
+  uint64_t *origin;
+  piece_polys *parents;
+  size_t parent_capacity, parent_head, parent_count;
+  uint64_t parent_base;
 };
 
 bbc_result bbc_bounder_create(bbc_bounder **out) {
@@ -38,7 +63,10 @@ bbc_result bbc_bounder_create(bbc_bounder **out) {
   b->memory = malloc(BOUNDER_ARENA_BYTES);
   b->queue_capacity = 1024;
   b->queue = malloc(b->queue_capacity * sizeof *b->queue);
-  if (!b->memory || !b->queue) {
+  b->origin = malloc(b->queue_capacity * sizeof *b->origin);
+  b->parent_capacity = 256;
+  b->parents = malloc(b->parent_capacity * sizeof *b->parents);
+  if (!b->memory || !b->queue || !b->origin || !b->parents) {
     bbc_bounder_free(b);
     return BBC_ERR_OUT_OF_MEMORY;
   }
@@ -51,6 +79,8 @@ void bbc_bounder_free(bbc_bounder *b) {
   if (!b) return;
   free(b->memory);
   free(b->queue);
+  free(b->origin);
+  free(b->parents);
   free(b);
 }
 
@@ -158,19 +188,44 @@ static int clip_unit(const bbc_range *r, double *lo, double *hi, int *wide) {
 
 typedef enum verdict { VERDICT_DISCARD, VERDICT_PARTIAL, VERDICT_FULL } verdict;
 
+/* p at x, a corner of the axes s and t (x[s], x[t] in {0, 1}): when p depends on no
+ * other axis, its coefficients are finite and the corner's is not zero, that corner
+ * coefficient, which is exactly what de Casteljau's evaluation (bbc_poly_eval) returns
+ * there (each step adds a product by 0, a finite zero, to the corner's value); otherwise
+ * bbc_poly_eval (whose zeros' signs and NaNs this does not reproduce). */
+static double corner_value(const bbc_poly *p, int s_axis, int t_axis, const double *x) {
+  size_t stride_s = 1, stride_t = 1;
+  for (int j = BBC_POLY_MAX_AXES - 1; j >= 0; j--) {
+    if (j == s_axis || j == t_axis || p->deg[j] == 0) continue;
+    return bbc_poly_eval(p, x);
+  }
+  /* Last axis fastest: the stride of an axis is the product of the later axes' sizes. */
+  for (int j = BBC_POLY_MAX_AXES - 1; j > s_axis; j--) stride_s *= (size_t)p->deg[j] + 1;
+  for (int j = BBC_POLY_MAX_AXES - 1; j > t_axis; j--) stride_t *= (size_t)p->deg[j] + 1;
+  const size_t at = (x[s_axis] != 0 ? p->deg[s_axis] * stride_s : 0) +
+                    (x[t_axis] != 0 ? p->deg[t_axis] * stride_t : 0);
+  const size_t n = bbc_poly_size(p);
+  int finite = 1;
+  for (size_t i = 0; i < n; i++) finite &= isfinite(p->coef[i]);
+  const double v = p->coef[at];
+  return finite && v != 0 ? v : bbc_poly_eval(p, x);
+}
+
 /* The cuts of a position bound (bbc_piece.cut) across the two sides of the image of the
  * piece, u_k = up / kappa, v_k = vp / kappa over the axes s and t: their directions are
  * taken from the image of the box's corners (plain floating point: they only choose
  * where to cut), their ranges bounded like the octagon's. */
 static bbc_result side_cuts(bbc_arena *arena, const bbc_poly *up, const bbc_poly *vp,
-                            const bbc_poly *kappa, int s_axis, int t_axis, double cut[2][4]) {
+                            const bbc_poly *kappa, const bbc_poly *kappa_up, int s_axis,
+                            int t_axis, double cut[2][4]) {
   memset(cut, 0, 2 * sizeof cut[0]);
   double x[BBC_POLY_MAX_AXES], c[4][2];
   for (int i = 0; i < BBC_POLY_MAX_AXES; i++) x[i] = 0.5;
   for (int k = 0; k < 4; k++) {
     x[s_axis] = k & 1, x[t_axis] = k >> 1;
-    double q = bbc_poly_eval(kappa, x);
-    c[k][0] = bbc_poly_eval(up, x) / q, c[k][1] = bbc_poly_eval(vp, x) / q;
+    double q = corner_value(kappa, s_axis, t_axis, x), pu = corner_value(up, s_axis, t_axis, x),
+           pv = corner_value(vp, s_axis, t_axis, x);
+    c[k][0] = pu / q, c[k][1] = pv / q;
   }
   /* The sides along s and along t, each the mean of its two opposite edges. */
   const double side[2][2] = {{c[1][0] - c[0][0] + c[3][0] - c[2][0], c[1][1] - c[0][1] + c[3][1] - c[2][1]},
@@ -186,7 +241,7 @@ static bbc_result side_cuts(bbc_arena *arena, const bbc_poly *up, const bbc_poly
     bbc_poly w;
     bbc_range rw;
     bbc_result r = bbc_poly_lincomb(arena, &w, 2, alpha, terms);
-    if (r == BBC_OK) r = bbc_rational_bound(arena, &w, kappa, &rw);
+    if (r == BBC_OK) r = bbc_rational_bound(arena, &w, kappa_up, &rw);
     bbc_arena_reset(arena, mark);
     if (r != BBC_OK) return r;
     if (rw.kind != BBC_RANGE_BOUNDED) continue;
@@ -195,15 +250,29 @@ static bbc_result side_cuts(bbc_arena *arena, const bbc_poly *up, const bbc_poly
   return BBC_OK;
 }
 
+/* kappa in the degrees of up and vp where those are the same and at least kappa's
+ * (elevated once for the several rational bounds over it, which would each elevate it
+ * alike: bbc_rational_bound's result is the same), else kappa itself. */
+static bbc_result denominator_for(bbc_arena *arena, const bbc_poly *up, const bbc_poly *vp,
+                                  const bbc_poly *kappa, bbc_poly *out) {
+  *out = *kappa;
+  if (memcmp(up->deg, vp->deg, sizeof up->deg) != 0) return BBC_OK;
+  for (int j = 0; j < BBC_POLY_MAX_AXES; j++)
+    if (up->deg[j] < kappa->deg[j]) return BBC_OK;
+  if (memcmp(up->deg, kappa->deg, sizeof up->deg) == 0) return BBC_OK;
+  return bbc_poly_elevate(arena, out, kappa, up->deg);
+}
+
 /* Where a ray lands on a triangle with u = up / kappa, v = vp / kappa, moving forward
  * where tnum kappa > 0: sets *partial to -1 when no path of the piece can land inside
  * (forward), to 1 when some may move backward; *wide when the bound reaches past the
  * tolerance band.
  * box (may be NULL) receives the (u, v) bound clipped to the triangle's range, and
- * *inside (may be NULL) whether every path provably lands inside. */
+ * *inside (may be NULL) whether every path provably lands inside. kappa_up (may be NULL)
+ * receives kappa as denominator_for gives it. */
 static bbc_result ray_lands(bbc_arena *arena, const bbc_poly *up, const bbc_poly *vp,
                             const bbc_poly *kappa, const bbc_poly *tnum, double box[8],
-                            int *partial, int *wide, int *inside) {
+                            int *partial, int *wide, int *inside, bbc_poly *kappa_up) {
   bbc_poly forward, w;
   bbc_result r = bbc_poly_mul(arena, &forward, tnum, kappa);
   if (r != BBC_OK) return r;
@@ -214,6 +283,10 @@ static bbc_result ray_lands(bbc_arena *arena, const bbc_poly *up, const bbc_poly
   }
   if (fw.lo < 0) *partial = 1;
   bbc_range ru, rv, rw;
+  bbc_poly ku;
+  if ((r = denominator_for(arena, up, vp, kappa, &ku)) != BBC_OK) return r;
+  if (kappa_up) *kappa_up = ku;
+  kappa = &ku;
   if ((r = bbc_poly_add(arena, &w, up, vp)) != BBC_OK) return r;
   if ((r = bbc_rational_bound(arena, up, kappa, &ru)) != BBC_OK) return r;
   if ((r = bbc_rational_bound(arena, vp, kappa, &rv)) != BBC_OK) return r;
@@ -248,13 +321,90 @@ static bbc_result ray_lands(bbc_arena *arena, const bbc_poly *up, const bbc_poly
   return BBC_OK;
 }
 
+/* Whether a tuple's pieces take their forms from their parents' (polys_quadrant): single
+ * reflection from a point, spot or directional light, whose forms are polynomials in
+ * T1's barycentrics (no remainder variables, no light box), so the root's forms hold
+ * those of every piece exactly, but for rounding. (A remainder variable's
+ * linearisation is tighter on a smaller box: refraction computes its forms per piece.) */
+static int carries_forms(const bbc_tuple_geometry *g) {
+  return g->length == 1 && !g->refract && g->light_model.kind != BBC_LIGHT_AREA;
+}
+
+static bbc_poly *form_of(chain_forms *f, int k) {
+  bbc_poly *polys[PIECE_FORMS] = {&f->up, &f->vp, &f->kappa, &f->tnum, &f->facing, &f->dist2};
+  return polys[k];
+}
+
+/* The forms as a queued piece carries them; 0 when they need more than
+ * PIECE_FORM_COEFS coefficients or one depends on an axis other than s and t. */
+static int polys_store(chain_forms *f, int s_axis, int t_axis, piece_polys *out) {
+  size_t at = 0;
+  for (int k = 0; k < PIECE_FORMS; k++) {
+    const bbc_poly *p = form_of(f, k);
+    for (int j = 0; j < BBC_POLY_MAX_AXES; j++)
+      if (p->deg[j] != 0 && j != s_axis && j != t_axis) return 0;
+    const size_t n = bbc_poly_size(p);
+    if (n > PIECE_FORM_COEFS - at) return 0;
+    memcpy(out->deg[k], p->deg, sizeof out->deg[k]);
+    out->err[k] = p->err;
+    memcpy(out->coef + at, p->coef, n * sizeof *p->coef);
+    at += n;
+  }
+  return 1;
+}
+
+/* The carried forms as chain_forms of single reflection (the polynomials borrow polys'
+ * coefficients; the other members are empty, as no bound of reflection uses them). */
+static void polys_view(const piece_polys *polys, chain_forms *f) {
+  memset(f, 0, sizeof *f);
+  f->length = 1;
+  f->slope_enclosed = 1;
+  size_t at = 0;
+  for (int k = 0; k < PIECE_FORMS; k++) {
+    bbc_poly *p = form_of(f, k);
+    memcpy(p->deg, polys->deg[k], sizeof p->deg);
+    p->err = polys->err[k];
+    p->coef = (double *)polys->coef + at;
+    at += bbc_poly_size(p);
+  }
+}
+
+/* The forms of quadrant q of a piece (u half q & 1, v half q >> 1, the order in which
+ * the subdivision queues them) from the piece's: each form halved along s, then along
+ * t, by de Casteljau subdivisions at 1/2, exact re-parameterisations whose rounding
+ * bbc_poly_split adds to the radius. A quadrant's forms thus hold its paths as the
+ * forms computed on its own box would, up to rounding. */
+static bbc_result polys_quadrant(bbc_arena *arena, const piece_polys *parent, int q, int s_axis,
+                                 int t_axis, piece_polys *out) {
+  size_t mark = bbc_arena_mark(arena), at = 0;
+  chain_forms f;
+  polys_view(parent, &f);
+  bbc_result r = BBC_OK;
+  for (int k = 0; k < PIECE_FORMS && r == BBC_OK; k++) {
+    bbc_poly half, quarter;
+    r = bbc_poly_split(arena, form_of(&f, k), s_axis, q & 1 ? NULL : &half, q & 1 ? &half : NULL);
+    if (r == BBC_OK)
+      r = bbc_poly_split(arena, &half, t_axis, q >> 1 ? NULL : &quarter, q >> 1 ? &quarter : NULL);
+    if (r != BBC_OK) break;
+    /* Halving keeps the degrees, so the layout stays the parent's. */
+    const size_t n = bbc_poly_size(&quarter);
+    memcpy(out->deg[k], quarter.deg, sizeof out->deg[k]);
+    out->err[k] = quarter.err;
+    memcpy(out->coef + at, quarter.coef, n * sizeof *quarter.coef);
+    at += n;
+  }
+  bbc_arena_reset(arena, mark);
+  return r;
+}
+
 /* The forms of a piece with its position bound and sign conditions (Supp. Sec. 4.1
  * "positional check"). A condition proved false everywhere discards the piece; one that
  * may fail somewhere makes it partial (subdivided while the level allows). The forms
  * are built in two steps, so that a piece whose light misses T2 costs only the first. */
 static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
                                  const double box[4], int s_axis, int t_axis, chain_sqrt_mode mode,
-                                 chain_forms *f, bbc_piece *piece, verdict *out, int *contained) {
+                                 const piece_polys *polys, chain_forms *f,
+                                 bbc_piece *piece, verdict *out, int *contained) {
   *out = VERDICT_DISCARD;
   if (contained) *contained = 0;
   /* The box must meet T1: u + v <= 1 somewhere. A box straddling T1's hypotenuse is
@@ -264,7 +414,12 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
   if (box[0] + box[2] > 1.0) return BBC_OK;
   /* A spot lights nothing of the piece where its falloff is 0 everywhere. */
   if (bbc__light_falloff_over_box(g->light, &g->light_model, g->p, box).hi <= 0) return BBC_OK;
-  bbc_result r = bbc__chain_forms_prefix(arena, space, g, box, s_axis, t_axis, mode, f);
+  /* Carried forms come whole; computed ones in two steps. */
+  bbc_result r = BBC_OK;
+  if (polys)
+    polys_view(polys, f);
+  else
+    r = bbc__chain_forms_prefix(arena, space, g, box, s_axis, t_axis, mode, f);
   if (r != BBC_OK) return r;
   int partial = 0, wide = 0, inside = 0, inside2 = 1;
 
@@ -286,11 +441,11 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
     /* The second vertex: ahead of x1 and inside T2, then (below) lit from the side its
      * normals face and, for refraction, not totally reflected. */
     if ((r = ray_lands(arena, &f->up2, &f->vp2, &f->kappa2, &f->tnum2, NULL, &partial, &wide,
-                       &inside2)) != BBC_OK)
+                       &inside2, NULL)) != BBC_OK)
       return r;
     if (partial < 0) return BBC_OK;
   }
-  if ((r = bbc__chain_forms_rest(arena, space, g, mode, f)) != BBC_OK) return r;
+  if (!polys && (r = bbc__chain_forms_rest(arena, space, g, mode, f)) != BBC_OK) return r;
   if (f->length == 2) {
     bbc_interval facing2 = bbc_poly_bound(&f->facing2);
     if (facing2.hi < 0) return BBC_OK;
@@ -302,13 +457,15 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
     }
   }
   double box_k[8];
+  bbc_poly kappa_up = f->kappa;
   if ((r = ray_lands(arena, &f->up, &f->vp, &f->kappa, &f->tnum, box_k, &partial, &wide,
-                     &inside)) != BBC_OK)
+                     &inside, &kappa_up)) != BBC_OK)
     return r;
   if (partial < 0) return BBC_OK;
   piece->uk_lo = box_k[0], piece->uk_hi = box_k[1], piece->vk_lo = box_k[2], piece->vk_hi = box_k[3];
   piece->sk_lo = box_k[4], piece->sk_hi = box_k[5], piece->dk_lo = box_k[6], piece->dk_hi = box_k[7];
-  if ((r = side_cuts(arena, &f->up, &f->vp, &f->kappa, s_axis, t_axis, piece->cut)) != BBC_OK)
+  if ((r = side_cuts(arena, &f->up, &f->vp, &f->kappa, &kappa_up, s_axis, t_axis, piece->cut)) !=
+      BBC_OK)
     return r;
   /* Every path of the piece lands inside T2 and the receiver: nothing to trim off. */
   if (contained) *contained = inside && inside2;
@@ -612,16 +769,57 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
 #undef TRY
 }
 
-static bbc_result push(bbc_bounder *b, size_t *count, const bbc_piece *piece) {
+/* Queues a piece with its origin (see bbc_bounder; ignored without split_forms). */
+static bbc_result push(bbc_bounder *b, size_t *count, const bbc_piece *piece, uint64_t origin) {
   if (*count == b->queue_capacity) {
     size_t capacity = b->queue_capacity * 2;
     bbc_piece *queue = realloc(b->queue, capacity * sizeof *queue);
     if (!queue) return BBC_ERR_OUT_OF_MEMORY;
     b->queue = queue;
+    uint64_t *o = realloc(b->origin, capacity * sizeof *o);
+    if (!o) return BBC_ERR_OUT_OF_MEMORY;
+    b->origin = o;
     b->queue_capacity = capacity;
   }
+  b->origin[*count] = origin;
   b->queue[(*count)++] = *piece;
   return BBC_OK;
+}
+
+/* Adds a parent's forms; *origin receives the first of its quadrants' origins. */
+static bbc_result push_parent(bbc_bounder *b, const piece_polys *polys, uint64_t *origin) {
+  if (b->parent_count == b->parent_capacity) {
+    size_t capacity = b->parent_capacity * 2;
+    piece_polys *p = realloc(b->parents, capacity * sizeof *p);
+    if (!p) return BBC_ERR_OUT_OF_MEMORY;
+    b->parents = p;
+    b->parent_capacity = capacity;
+  }
+  *origin = 8 * (b->parent_base + b->parent_count);
+  b->parents[b->parent_count++] = *polys;
+  return BBC_OK;
+}
+
+/* The forms of the piece of this origin. Parents before its own have no more children
+ * waiting (the FIFO order), so they are given back once they are half the array. */
+static bbc_result origin_polys(bbc_bounder *b, uint64_t origin, int s_axis, int t_axis,
+                               piece_polys *out) {
+  const size_t k = (size_t)(origin / 8 - b->parent_base);
+  const int q = (int)(origin % 8);
+  bbc_result r = BBC_OK;
+  if (q == 4)
+    *out = b->parents[k];
+  else
+    r = polys_quadrant(&b->arena, &b->parents[k], q, s_axis, t_axis, out);
+  b->parent_head = k;
+  if (b->parent_head >= 256 && 2 * b->parent_head >= b->parent_count) {
+    memmove(b->parents, b->parents + b->parent_head,
+            (b->parent_count - b->parent_head) * sizeof *b->parents);
+    b->parent_count -= b->parent_head;
+    b->parent_base += b->parent_head;
+    b->parent_head = 0;
+  }
+  return r;
 }
 
 /* The forms of a piece in a fresh arena and variable space, and its position check. */
@@ -633,9 +831,11 @@ typedef struct piece_forms {
   bbc_tuple_geometry g; /* the tuple's, with the piece's light box */
 } piece_forms;
 
+/* polys: the piece's carried forms, or NULL to compute them. */
 static bbc_result examine_position(bbc_bounder *b, const bbc_tuple_geometry *g,
-                                   chain_sqrt_mode mode, bbc_piece *piece, piece_forms *pf,
-                                   verdict *v, int *contained) {
+                                   chain_sqrt_mode mode, bbc_piece *piece,
+                                   const piece_polys *polys, piece_forms *pf, verdict *v,
+                                   int *contained) {
   pf->box[0] = piece->u_lo, pf->box[1] = piece->u_hi;
   pf->box[2] = piece->v_lo, pf->box[3] = piece->v_hi;
   pf->g = *g;
@@ -653,7 +853,7 @@ static bbc_result examine_position(bbc_bounder *b, const bbc_tuple_geometry *g,
     pf->g.light_box[2] = piece->b_lo, pf->g.light_box[3] = piece->b_hi;
   }
   return position_check(&b->arena, &pf->space, &pf->g, pf->box, pf->s_axis, pf->t_axis, mode,
-                        &pf->forms, piece, v, contained);
+                        polys, &pf->forms, piece, v, contained);
 }
 
 /* The whole light box on a fresh piece. */
@@ -719,7 +919,7 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
     piece_forms pf;
     verdict v = VERDICT_PARTIAL;
     int contained = 0;
-    result = examine_position(b, g, mode, &piece, &pf, &v, &contained);
+    result = examine_position(b, g, mode, &piece, NULL, &pf, &v, &contained);
     local->position_pieces++;
     if (result != BBC_OK) break;
     if (v == VERDICT_DISCARD) {
@@ -802,15 +1002,51 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
   const double cpu0 = stats ? cpu_seconds() : 0;
 
   bbc_piece root;
+  b->split_forms = 0;
+  b->parent_head = b->parent_count = 0;
+  b->parent_base = 0;
+  uint64_t root_origin = 0;
   bbc_result result = domain_init(b, g, position_mode, fn, user, &root, &local);
   if (result != BBC_OK || root.status == BBC_PIECE_DISCARDED) goto done;
+  piece_polys root_polys;
+  if (carries_forms(g)) {
+    /* The root's forms; every piece's follow from its parent's (polys_quadrant). */
+    double t0 = clock_seconds();
+    piece_forms pf;
+    bbc_arena_reset(&b->arena, 0);
+    memset(&pf.space, 0, sizeof pf.space);
+    bbc_space_add_axis(&pf.space, BBC_AXIS_GEOMETRIC, &pf.s_axis);
+    bbc_space_add_axis(&pf.space, BBC_AXIS_GEOMETRIC, &pf.t_axis);
+    const double box[4] = {root.u_lo, root.u_hi, root.v_lo, root.v_hi};
+    result = bbc__chain_forms(&b->arena, &pf.space, g, box, pf.s_axis, pf.t_axis, position_mode,
+                              &pf.forms);
+    local.position_seconds += clock_seconds() - t0;
+    if (result != BBC_OK) goto done;
+    b->split_forms = polys_store(&pf.forms, pf.s_axis, pf.t_axis, &root_polys);
+    if (b->split_forms) {
+      if ((result = push_parent(b, &root_polys, &root_origin)) != BBC_OK) goto done;
+      root_origin += 4; /* the root's forms whole */
+    }
+  }
 
-  /* Breadth-first: a FIFO over the queue array, compacted when it drains. */
+  /* Breadth-first: a FIFO over the queue array, compacted when it drains or is half
+   * examined. */
   size_t head = 0, count = 0;
-  result = push(b, &count, &root);
+  result = push(b, &count, &root, root_origin);
   while (result == BBC_OK && head < count) {
+    piece_polys own; /* the piece's forms, with split_forms */
+    const uint64_t origin = b->origin[head];
     bbc_piece piece = b->queue[head++];
-    if (head == count) head = count = 0;
+    if (head == count) {
+      head = count = 0;
+    } else if (head >= 1024 && 2 * head >= count) {
+      /* The examined half of the queue is given back (the order is kept), so the queue
+       * holds what waits, about two levels, not every piece of the tuple. */
+      memmove(b->queue, b->queue + head, (count - head) * sizeof *b->queue);
+      memmove(b->origin, b->origin + head, (count - head) * sizeof *b->origin);
+      count -= head;
+      head = 0;
+    }
     const bbc_piece inherited = piece;
     /* Pieces kept since the parent was judged may already cover every cell of the
      * parent's position bound with at least its E_hi: the piece then changes nothing
@@ -824,7 +1060,14 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     double t0 = clock_seconds();
     piece_forms pf;
     verdict v = VERDICT_PARTIAL;
-    result = examine_position(b, g, position_mode, &piece, &pf, &v, NULL);
+    /* The forms from the parent's (the axes are those examine_position claims). */
+    if (b->split_forms) {
+      bbc_arena_reset(&b->arena, 0);
+      result = origin_polys(b, origin, BBC_POLY_MAX_AXES - 1, BBC_POLY_MAX_AXES - 2, &own);
+    }
+    if (result == BBC_OK)
+      result = examine_position(b, g, position_mode, &piece, b->split_forms ? &own : NULL, &pf,
+                                &v, NULL);
     const double *box = pf.box;
     const bbc_tuple_geometry *gp = &pf.g; /* with the piece's light box */
     const int s_axis = pf.s_axis, t_axis = pf.t_axis;
@@ -926,11 +1169,13 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
         for (int i = 0; i < 2 && result == BBC_OK; i++) {
           child.a_lo = as[i], child.a_hi = as[i + 1];
           child.b_lo = bs[j], child.b_hi = bs[j + 1];
-          result = push(b, &count, &child);
+          result = push(b, &count, &child, 0);
         }
       }
       continue;
     }
+    uint64_t first_child = 0;
+    if (split && b->split_forms && (result = push_parent(b, &own, &first_child)) != BBC_OK) break;
     if (split) {
       double um = 0.5 * (piece.u_lo + piece.u_hi), vm = 0.5 * (piece.v_lo + piece.v_hi);
       bbc_piece child = piece; /* inherits the position and irradiance bounds */
@@ -942,7 +1187,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
           child.u_hi = us[i + 1];
           child.v_lo = vs[j];
           child.v_hi = vs[j + 1];
-          result = push(b, &count, &child);
+          result = push(b, &count, &child, first_child + (uint64_t)(2 * j + i));
         }
       }
       continue;
@@ -952,6 +1197,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     if (fn && fn(user, &piece)) result = BBC_ERR_CANCELLED;
   }
 done:
+  b->split_forms = 0;
   if (stats) {
     /* local's seconds are on the monotonic clock until here. */
     double clocked = local.position_seconds + local.irradiance_seconds;

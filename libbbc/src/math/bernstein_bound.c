@@ -9,6 +9,7 @@
  * endpoints are rounded outward (rounding_internal.h). */
 #include "bbc/bernstein.h"
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
 #ifdef __SSE2__
@@ -80,20 +81,72 @@ int bbc_range_contains(const bbc_range *r, double v) {
   }
 }
 
+/* The two loops below work on four coefficients at a time without branches, the special
+ * cases of outward rounding selected after the arithmetic; they are compiled for AVX2
+ * too and chosen at load time where the processor has it (no fused multiply-add:
+ * -ffp-contract=off). Each coefficient goes through the same operations as in a plain
+ * loop, so the results are the same doubles. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(BBC_NO_CLONES)
+#define BBC__BOUND_KERNEL __attribute__((noinline, target_clones("avx2", "default")))
+#else
+#define BBC__BOUND_KERNEL __attribute__((noinline))
+#endif
+
+/* (The helpers are inlined: the warning about passing AVX vectors between functions
+ * compiled without AVX does not apply; GCC gives it at the end of the file.) */
+#pragma GCC diagnostic ignored "-Wpsabi"
+/* Four lanes of doubles (GCC's vector extension; two SSE2 registers without AVX2) and
+ * their masks. */
+typedef double v4d __attribute__((vector_size(32)));
+typedef long long v4m __attribute__((vector_size(32)));
+
+static inline v4d v4_select(v4m mask, v4d a, v4d b) {
+  return (v4d)(((v4m)a & mask) | ((v4m)b & ~mask));
+}
+static inline v4d v4_splat(double x) {
+  return (v4d){x, x, x, x};
+}
+static inline v4d v4_down(v4d x) {
+  const v4d t = x - ((v4d)((v4m)x & 0x7fffffffffffffffLL) * 0x1p-51 + BBC__ETA);
+  const v4d r = v4_select(x > v4_splat(-INFINITY), t, x);
+  return v4_select(x == v4_splat(INFINITY), v4_splat(DBL_MAX), r);
+}
+static inline v4d v4_up(v4d x) {
+  const v4d t = x + ((v4d)((v4m)x & 0x7fffffffffffffffLL) * 0x1p-51 + BBC__ETA);
+  const v4d r = v4_select(x < v4_splat(INFINITY), t, x);
+  return v4_select(x == v4_splat(-INFINITY), v4_splat(-DBL_MAX), r);
+}
+
 /* 1 when every coefficient interval [c - e, c + e] is strictly positive, -1 when strictly
- * negative, 0 otherwise (or when something is not finite). */
-static int coefficient_sign(const double *c, size_t n, double e) {
+ * negative, 0 otherwise (or when something is not finite). With e = 0 the coefficient is
+ * exact and needs no rounding allowance. Four coefficients at a time (rounded as
+ * bbc__sub_down and bbc__add_up do), in blocks of 64, stopping after a block where both
+ * signs have failed. */
+static BBC__BOUND_KERNEL int coefficient_sign(const double *c, size_t n, double e) {
   if (!(e < INFINITY)) return 0;
-  int pos = 1, neg = 1;
-  for (size_t i = 0; i < n && (pos || neg); i++) {
-    /* With e = 0 the coefficient is exact and needs no rounding allowance. */
+  const v4d ve = v4_splat(e), zero = v4_splat(0.0);
+  const v4m exact = e == 0.0 ? (v4m){-1, -1, -1, -1} : (v4m){0, 0, 0, 0};
+  v4m pos = {-1, -1, -1, -1}, neg = pos;
+  size_t i = 0;
+  while (i + 4 <= n) {
+    const size_t block = n - i < 64 ? n - i : 64;
+    for (size_t k = 0; k + 4 <= block; k += 4, i += 4) {
+      v4d x;
+      memcpy(&x, c + i, sizeof x);
+      pos &= v4_select(exact, x, v4_down(x - ve)) > zero;
+      neg &= v4_select(exact, x, v4_up(x + ve)) < zero;
+    }
+    if (!(pos[0] & pos[1] & pos[2] & pos[3]) && !(neg[0] & neg[1] & neg[2] & neg[3])) return 0;
+  }
+  int p = (pos[0] & pos[1] & pos[2] & pos[3]) != 0, q = (neg[0] & neg[1] & neg[2] & neg[3]) != 0;
+  for (; i < n && (p || q); i++) {
     double lo = e == 0.0 ? c[i] : bbc__sub_down(c[i], e);
     double hi = e == 0.0 ? c[i] : bbc__add_up(c[i], e);
-    if (!(lo > 0.0)) pos = 0;
-    if (!(hi < 0.0)) neg = 0;
+    if (!(lo > 0.0)) p = 0;
+    if (!(hi < 0.0)) q = 0;
   }
-  if (pos) return 1;
-  if (neg) return -1;
+  if (p) return 1;
+  if (q) return -1;
   return 0;
 }
 
@@ -101,17 +154,44 @@ static int coefficient_sign(const double *c, size_t n, double e) {
  * denominator interval has sign `sign` (non-zero) and excludes 0. Flipping both signs for
  * negative denominators leaves the quotient alone, so only positive denominators need the
  * case analysis: for D = [dl, dh] with dl > 0, N / D = [nl / (nl >= 0 ? dh : dl),
- * nh / (nh >= 0 ? dl : dh)]. Returns 0 when a quotient is not finite. */
-static int ratio_hull(const double *num, const double *den, size_t n, double en, double ed,
-                      int sign, double *lo_out, double *hi_out) {
+ * nh / (nh >= 0 ? dl : dh)]. Returns 0 when a quotient is not finite.
+ * Exact operands (radius 0) and exact zero quotients are kept exact, so that a zero
+ * coefficient gives the ratio 0 itself (the half-line cases of the reciprocal). Four
+ * coefficients at a time, each through the operations of the scalar tail; a NaN
+ * quotient is passed over (q < lo fails) in both, and the extremes of the others do not
+ * depend on the order. */
+static BBC__BOUND_KERNEL int ratio_hull(const double *num, const double *den, size_t n,
+                                        double en, double ed, int sign, double *lo_out,
+                                        double *hi_out) {
+  const double s = (double)sign;
+  const int exact_n = en == 0.0, exact_d = ed == 0.0;
+  const v4m all_n = exact_n ? (v4m){-1, -1, -1, -1} : (v4m){0, 0, 0, 0};
+  const v4m all_d = exact_d ? (v4m){-1, -1, -1, -1} : (v4m){0, 0, 0, 0};
+  const v4d vs = v4_splat(s), ven = v4_splat(en), ved = v4_splat(ed), zero = v4_splat(0.0);
+  v4d vlo = v4_splat(INFINITY), vhi = v4_splat(-INFINITY);
+  size_t i = 0;
+  for (; i + 4 <= n; i += 4) {
+    v4d a, b;
+    memcpy(&a, num + i, sizeof a);
+    memcpy(&b, den + i, sizeof b);
+    const v4d nm = vs * a, dm = vs * b; /* exact sign flips */
+    const v4d nl = v4_select(all_n, nm, v4_down(nm - ven)), nh = v4_select(all_n, nm, v4_up(nm + ven));
+    const v4d dl = v4_select(all_d, dm, v4_down(dm - ved)), dh = v4_select(all_d, dm, v4_up(dm + ved));
+    const v4d l = v4_down(nl / v4_select(nl >= zero, dh, dl));
+    const v4d h = v4_up(nh / v4_select(nh >= zero, dl, dh));
+    const v4d ql = v4_select(nl == zero, zero, l), qh = v4_select(nh == zero, zero, h);
+    vlo = v4_select(ql < vlo, ql, vlo);
+    vhi = v4_select(qh > vhi, qh, vhi);
+  }
   double lo = INFINITY, hi = -INFINITY;
-  double s = (double)sign;
-  for (size_t i = 0; i < n; i++) {
-    double nm = s * num[i], dm = s * den[i]; /* exact sign flips */
-    /* Exact operands (radius 0) and exact zero quotients are kept exact, so that a zero
-     * coefficient gives the ratio 0 itself (the half-line cases of the reciprocal). */
-    double nl = en == 0.0 ? nm : bbc__sub_down(nm, en), nh = en == 0.0 ? nm : bbc__add_up(nm, en);
-    double dl = ed == 0.0 ? dm : bbc__sub_down(dm, ed), dh = ed == 0.0 ? dm : bbc__add_up(dm, ed);
+  for (int k = 0; k < 4; k++) {
+    if (vlo[k] < lo) lo = vlo[k];
+    if (vhi[k] > hi) hi = vhi[k];
+  }
+  for (; i < n; i++) {
+    double nm = s * num[i], dm = s * den[i];
+    double nl = exact_n ? nm : bbc__sub_down(nm, en), nh = exact_n ? nm : bbc__add_up(nm, en);
+    double dl = exact_d ? dm : bbc__sub_down(dm, ed), dh = exact_d ? dm : bbc__add_up(dm, ed);
     double ql = nl == 0.0 ? 0.0 : bbc__div_down(nl, nl >= 0.0 ? dh : dl);
     double qh = nh == 0.0 ? 0.0 : bbc__div_up(nh, nh >= 0.0 ? dl : dh);
     if (ql < lo) lo = ql;
