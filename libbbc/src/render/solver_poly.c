@@ -657,6 +657,21 @@ static inline __attribute__((always_inline)) void tp2_muladd(double out[6], cons
 
 /* The affine factors of F at a triangle's three corners: component c at corner k in
  * [c][k]. */
+/* The corner values (component c at corner k in [c][k]) of an affine factor on piece s of
+ * a triangle split into four: corner k of piece s is the midpoint of the parent's corners
+ * PIECE[s][k] (a corner itself when both are equal), the three corner pieces first, then
+ * the middle one. */
+static const int PIECE[4][3][2] = {{{0, 0}, {0, 1}, {0, 2}},
+                                   {{0, 1}, {1, 1}, {1, 2}},
+                                   {{0, 2}, {1, 2}, {2, 2}},
+                                   {{1, 2}, {0, 2}, {0, 1}}};
+static void piece_corners(double out[3][3], const double in[3][3], int s) {
+  for (int k = 0; k < 3; k++) {
+    const int a = PIECE[s][k][0], b = PIECE[s][k][1];
+    for (int c = 0; c < 3; c++) out[c][k] = 0.5 * (in[c][a] + in[c][b]);
+  }
+}
+
 typedef struct reflection_corners {
   double d0[3][3], d1[3][3], n[3][3];
 } reflection_corners;
@@ -695,22 +710,11 @@ static int reflection_ruled_out(const reflection_corners *r, double margin) {
 static int reflection_ruled_out_split(const reflection_corners *r, double margin, int depth) {
   if (reflection_ruled_out(r, margin)) return 1;
   if (depth == 0) return 0;
-  /* Corner k of piece s is the midpoint of the parent's corners piece[s][k] (a corner
-   * itself when both are equal): the three corner pieces, then the middle one. */
-  static const int piece[4][3][2] = {{{0, 0}, {0, 1}, {0, 2}},
-                                     {{0, 1}, {1, 1}, {1, 2}},
-                                     {{0, 2}, {1, 2}, {2, 2}},
-                                     {{1, 2}, {0, 2}, {0, 1}}};
   for (int s = 0; s < 4; s++) {
     reflection_corners q;
-    for (int k = 0; k < 3; k++) {
-      const int a = piece[s][k][0], b = piece[s][k][1];
-      for (int c = 0; c < 3; c++) {
-        q.d0[c][k] = 0.5 * (r->d0[c][a] + r->d0[c][b]);
-        q.d1[c][k] = 0.5 * (r->d1[c][a] + r->d1[c][b]);
-        q.n[c][k] = 0.5 * (r->n[c][a] + r->n[c][b]);
-      }
-    }
+    piece_corners(q.d0, r->d0, s);
+    piece_corners(q.d1, r->d1, s);
+    piece_corners(q.n, r->n, s);
     if (!reflection_ruled_out_split(&q, margin, depth - 1)) return 0;
   }
   return 1;
@@ -905,21 +909,12 @@ static int refraction_ruled_out_split(const refraction_corners *r, const refract
                                       int depth) {
   if (refraction_ruled_out(r, m)) return 1;
   if (depth == 0) return 0;
-  static const int piece[4][3][2] = {{{0, 0}, {0, 1}, {0, 2}},
-                                     {{0, 1}, {1, 1}, {1, 2}},
-                                     {{0, 2}, {1, 2}, {2, 2}},
-                                     {{1, 2}, {0, 2}, {0, 1}}};
   for (int s = 0; s < 4; s++) {
     refraction_corners q;
-    for (int k = 0; k < 3; k++) {
-      const int a = piece[s][k][0], b = piece[s][k][1];
-      for (int c = 0; c < 3; c++) {
-        q.d0[c][k] = 0.5 * (r->d0[c][a] + r->d0[c][b]);
-        q.d1[c][k] = 0.5 * (r->d1[c][a] + r->d1[c][b]);
-        q.n[c][k] = 0.5 * (r->n[c][a] + r->n[c][b]);
-        q.f[c][k] = 0.5 * (r->f[c][a] + r->f[c][b]);
-      }
-    }
+    piece_corners(q.d0, r->d0, s);
+    piece_corners(q.d1, r->d1, s);
+    piece_corners(q.n, r->n, s);
+    piece_corners(q.f, r->f, s);
     if (!refraction_ruled_out_split(&q, m, depth - 1)) return 0;
   }
   return 1;
