@@ -614,19 +614,18 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
  * |du1/duk| = |q|^3 / |D_uv| and D_uv = D_st / (du dv) (DESIGN 3.5). cos(theta0) = h/|d0|
  * is factored out and bounded by intervals (Supp. 2.1); the rest is the rational
  * q^3 / (|d0|^2 D_st) (or q^4 / (|d0|^2 N) in the quotient-rule form). The same holds
- * for two bounces, with q, p, r the receiver forms after T2. *fold is set when the
- * explicit Jacobian's determinant changes sign at sample points of the piece (a fold of
- * the caustic seems to cross it); the implicit form is then not tried, since its
- * denominator F_s G_t - F_t G_s vanishes on the same fold (du1/duk = -(dFG/du1)^-1
+ * for two bounces, with q, p, r the receiver forms after T2. Where the explicit
+ * Jacobian's determinant changes sign at sample points of the piece (a fold of the
+ * caustic seems to cross it; explicit_bound's *fold) the implicit form is not tried,
+ * since its denominator F_s G_t - F_t G_s vanishes on the same fold (du1/duk = -(dFG/du1)^-1
  * dFG/duk): on ball80 at level 4 it bounded 4 of 786 such pieces. */
 static bbc_result irradiance_bound(bbc_arena *arena, const bbc_space *space,
                                    const bbc_tuple_geometry *g, const chain_forms *f,
                                    const double box[4], const double uk_box[4], int s_axis,
                                    int t_axis, bbc_jacobian_form form, double alpha, double *e_lo,
-                                   double *e_hi, int *fold) {
+                                   double *e_hi) {
   *e_lo = 0;
   *e_hi = INFINITY;
-  *fold = 0;
   if (!f->slope_enclosed) return BBC_OK;
   bbc_interval scale = irradiance_scale(g, f, box);
   bbc_result res;
@@ -635,10 +634,11 @@ static bbc_result irradiance_bound(bbc_arena *arena, const bbc_space *space,
      * where beta2 nears 0 and the slope of its sqrt is unbounded) intersected with the
      * implicit bound. */
     if (f->slope_enclosed2) {
-      if ((res = explicit_bound(arena, space, f, s_axis, t_axis, form, scale, e_lo, e_hi, fold)) !=
-          BBC_OK)
+      int fold = 0;
+      if ((res = explicit_bound(arena, space, f, s_axis, t_axis, form, scale, e_lo, e_hi,
+                                &fold)) != BBC_OK)
         return res;
-      if (*e_hi <= alpha * *e_lo || *fold) return BBC_OK;
+      if (*e_hi <= alpha * *e_lo || fold) return BBC_OK;
     }
     double ilo, ihi;
     if ((res = implicit_bound(arena, space, g, f, uk_box, scale, alpha, &ilo, &ihi)) != BBC_OK) return res;
@@ -647,10 +647,11 @@ static bbc_result irradiance_bound(bbc_arena *arena, const bbc_space *space,
     return BBC_OK;
   }
   if (f->length == 2 && !f->slope_enclosed2) return BBC_OK;
-  return explicit_bound(arena, space, f, s_axis, t_axis, form, scale, e_lo, e_hi, fold);
+  return explicit_bound(arena, space, f, s_axis, t_axis, form, scale, e_lo, e_hi, NULL);
 }
 
-/* The explicit bound (Eq. 16): the rational part by Bernstein bounds, times scale. */
+/* The explicit bound (Eq. 16): the rational part by Bernstein bounds, times scale. With
+ * fold non-NULL, also whether the determinant seems to change sign in the piece. */
 static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const chain_forms *f,
                                  int s_axis, int t_axis, bbc_jacobian_form form,
                                  bbc_interval scale, double *e_lo, double *e_hi, int *fold) {
@@ -736,11 +737,12 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
     TRY(bbc_poly_sub(arena, &jac, &x, &y));
     TRY(bbc_poly_mul(arena, &num, &q2, &q2));
   }
-  {
+  if (fold) {
     /* Whether the determinant seems to vanish inside the piece: its signs at a 3 x 3
      * grid of (s, t) (every other axis at its middle), in plain floating point, from the
      * nine factors (of degree 13 at most, where the determinant's is 39). It only guides
-     * the caller; no bound depends on it. */
+     * the caller, which asks only where an implicit bound may follow; no bound depends
+     * on it. */
     double x[BBC_POLY_MAX_AXES];
     for (int j = 0; j < BBC_POLY_MAX_AXES; j++) x[j] = 0.5;
     int pos = 0, neg = 0;
@@ -1121,10 +1123,9 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       }
       const double uk_box[4] = {piece.uk_lo, piece.uk_hi, piece.vk_lo, piece.vk_hi};
       double e_lo = 0, e_hi = INFINITY;
-      int fold = 0;
       if (result == BBC_OK)
         result = irradiance_bound(&b->arena, &space, gp, irr, box, uk_box, s_axis, t_axis,
-                                  prm.jacobian, alpha, &e_lo, &e_hi, &fold);
+                                  prm.jacobian, alpha, &e_lo, &e_hi);
       local.irradiance_pieces++;
       local.irradiance_seconds += clock_seconds() - t1;
       if (result != BBC_OK) break;
