@@ -628,21 +628,58 @@ static void mul_general(bbc_arena *arena, const bbc_poly *a, const bbc_poly *b,
 #define BBC__KERNEL __attribute__((noinline))
 #endif
 
+/* The binomials of a tensor of degrees (n0, n1) on the last two axes, one per
+ * coefficient in its order: f[m] = C(n0, m / (n1 + 1)) and f[size + m] = C(n1, m % (n1 +
+ * 1)). With them the kernel's scalings and divisions are flat loops over the coefficients
+ * (vectorised, where the row-by-row loops ran as scalar divisions), the same operations on
+ * the same doubles. Built once per process and shape, published with a compare-and-swap
+ * like the elevation matrices; built on the caller's stack when memory is short. */
+#define MUL2_MAXO (2 * MUL2_MAXF)
+static _Atomic(double *) mul2_factor_cache[MUL2_MAXO + 1][MUL2_MAXO + 1];
+
+static void mul2_factors_fill(int n0, int n1, double *f) {
+  const int rows = n0 + 1, cols = n1 + 1, size = rows * cols;
+  for (int i = 0; i < rows; i++)
+    for (int j = 0; j < cols; j++) {
+      f[i * cols + j] = binomial_table[n0][i];
+      f[size + i * cols + j] = binomial_table[n1][j];
+    }
+}
+
+static const double *mul2_factors(int n0, int n1, double *fallback) {
+  double *f = atomic_load_explicit(&mul2_factor_cache[n0][n1], memory_order_acquire);
+  if (f) return f;
+  double *fresh = malloc(2 * (size_t)(n0 + 1) * (size_t)(n1 + 1) * sizeof *fresh);
+  if (!fresh) {
+    mul2_factors_fill(n0, n1, fallback);
+    return fallback;
+  }
+  mul2_factors_fill(n0, n1, fresh);
+  double *expected = NULL;
+  if (atomic_compare_exchange_strong_explicit(&mul2_factor_cache[n0][n1], &expected, fresh,
+                                              memory_order_acq_rel, memory_order_acquire))
+    return fresh;
+  free(fresh);
+  return expected;
+}
+
 static inline __attribute__((always_inline)) void mul2_kernel(const double *restrict a,
                                                               const double *restrict b,
                                                               double *restrict dst, int a0,
                                                               int a1, int b0, int b1) {
   const int o0 = a0 + b0, o1 = a1 + b1;
   const int ra = a1 + 1, rb = b1 + 1, ro = o1 + 1;
-  const double *ca0 = binomial_table[a0], *ca1 = binomial_table[a1];
-  const double *cb0 = binomial_table[b0], *cb1 = binomial_table[b1];
-  const double *co0 = binomial_table[o0], *co1 = binomial_table[o1];
+  const int na = (a0 + 1) * ra, nb = (b0 + 1) * rb, no = (o0 + 1) * ro;
+  double fa_local[2 * (MUL2_MAXF + 1) * (MUL2_MAXF + 1)];
+  double fb_local[2 * (MUL2_MAXF + 1) * (MUL2_MAXF + 1)];
+  double fo_local[2 * (MUL2_MAXO + 1) * (MUL2_MAXO + 1)];
+  const double *restrict fa = mul2_factors(a0, a1, fa_local);
+  const double *restrict fb = mul2_factors(b0, b1, fb_local);
+  const double *restrict fo = mul2_factors(o0, o1, fo_local);
   double ta[(MUL2_MAXF + 1) * (MUL2_MAXF + 1)], tb[(MUL2_MAXF + 1) * (MUL2_MAXF + 1)];
-  for (int i = 0; i <= a0; i++)
-    for (int j = 0; j <= a1; j++) ta[i * ra + j] = (a[i * ra + j] * ca0[i]) * ca1[j];
-  for (int i = 0; i <= b0; i++)
-    for (int j = 0; j <= b1; j++) tb[i * rb + j] = (b[i * rb + j] * cb0[i]) * cb1[j];
-  for (int k = 0; k < (o0 + 1) * ro; k++) dst[k] = 0.0;
+  for (int m = 0; m < na; m++) ta[m] = (a[m] * fa[m]) * fa[na + m];
+  for (int m = 0; m < nb; m++) tb[m] = (b[m] * fb[m]) * fb[nb + m];
+  for (int k = 0; k < no; k++) dst[k] = 0.0;
   for (int i = 0; i <= a0; i++) {
     for (int j = 0; j <= a1; j++) {
       const double va = ta[i * ra + j];
@@ -654,8 +691,7 @@ static inline __attribute__((always_inline)) void mul2_kernel(const double *rest
       }
     }
   }
-  for (int k = 0; k <= o0; k++)
-    for (int l = 0; l <= o1; l++) dst[k * ro + l] = (dst[k * ro + l] / co0[k]) / co1[l];
+  for (int m = 0; m < no; m++) dst[m] = (dst[m] / fo[m]) / fo[no + m];
 }
 
 static BBC__KERNEL void mul2_any(const double *a, const double *b, double *dst,
