@@ -136,7 +136,9 @@ typedef struct bbc_bound_stats {
   uint64_t position_pieces;   /* pieces whose position bound was computed */
   uint64_t irradiance_pieces; /* pieces whose irradiance bound was computed */
   uint64_t kept_pieces, discarded_pieces;
-  double position_seconds, irradiance_seconds; /* thread CPU time */
+  /* Time in the position and irradiance bounds on the monotonic clock (the thread's CPU
+   * time while it has a core to itself; read without a system call). */
+  double position_seconds, irradiance_seconds;
 } bbc_bound_stats;
 
 /* Called for every leaf piece, in breadth-first order. A non-zero return stops. */

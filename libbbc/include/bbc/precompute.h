@@ -35,7 +35,8 @@ typedef struct bbc_precompute_options {
 } bbc_precompute_options;
 
 /* The paper's Table 2 precompute columns and more. Times are wall-clock seconds of
- * the phases, the position/irradiance split taken from the threads' CPU time. */
+ * the phases; position_cpu_seconds + irradiance_cpu_seconds is the bounding threads' CPU
+ * time over the bounding phase, split as the bounder's clocked times of the two were. */
 typedef struct bbc_precompute_stats {
   uint64_t candidate_tuples; /* tuples found by the beam bounds */
   uint64_t tuples;           /* tuples with at least one kept piece (stored) */

@@ -143,15 +143,9 @@ bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene
   return BBC_OK;
 }
 
-/* Timing: the thread's CPU time is read once per tuple (a system call), and split
- * between the position and irradiance bounds in proportion to the time each took on the
- * monotonic clock, read per piece (no system call). */
-static double cpu_seconds(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
+/* Timing: the position and irradiance bounds' time on the monotonic clock, read per
+ * piece (no system call, unlike a thread's CPU clock); bbc_precompute turns it into CPU
+ * time per batch of tuples. */
 static double clock_seconds(void) {
   struct timespec ts;
   clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -1001,7 +995,6 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
   bbc_bound_stats local;
   memset(&local, 0, sizeof local);
   local.tuples = 1;
-  const double cpu0 = stats ? cpu_seconds() : 0;
 
   bbc_piece root;
   b->split_forms = 0;
@@ -1200,12 +1193,6 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
 done:
   b->split_forms = 0;
   if (stats) {
-    /* local's seconds are on the monotonic clock until here. */
-    double clocked = local.position_seconds + local.irradiance_seconds;
-    double cpu = cpu_seconds() - cpu0;
-    double share = clocked > 0 ? local.position_seconds / clocked : 1.0;
-    local.position_seconds = cpu * share;
-    local.irradiance_seconds = cpu - local.position_seconds;
     stats->tuples += local.tuples;
     stats->position_pieces += local.position_pieces;
     stats->irradiance_pieces += local.irradiance_pieces;

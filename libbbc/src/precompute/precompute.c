@@ -4,11 +4,13 @@
  * stored. Memory stays bounded by one batch of pieces and the builder's entry budget:
  * between batches, the builder spills its cell lists to a temporary file when they
  * exceed it. */
+#define _POSIX_C_SOURCE 200809L
 #include "bbc/precompute.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include <omp.h>
 
@@ -17,6 +19,12 @@
 #include "report_internal.h"
 
 #define BATCH_TUPLES 256
+
+static double thread_cpu_seconds(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 typedef struct piece_list {
   bbc_piece *items;
@@ -362,7 +370,9 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   coverage *covers = calloc((size_t)threads, sizeof *covers);
   const bbc_grid *grid = bbc_cache_builder_grid(builder);
   bbc_bound_stats *thread_stats = calloc((size_t)threads, sizeof *thread_stats);
-  if (result == BBC_OK && (!bounders || !pieces || !ids || !rasters || !covers || !thread_stats))
+  bbc_bound_stats *cpu_split = calloc((size_t)threads, sizeof *cpu_split);
+  if (result == BBC_OK &&
+      (!bounders || !pieces || !ids || !rasters || !covers || !thread_stats || !cpu_split))
     result = BBC_ERR_OUT_OF_MEMORY;
   for (int i = 0; i < threads && result == BBC_OK; i++) result = bbc_bounder_create(&bounders[i]);
 
@@ -370,29 +380,44 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     size_t n = tuple_count - first < BATCH_TUPLES ? tuple_count - first : BATCH_TUPLES;
     double b0 = omp_get_wtime();
     int failed = 0;
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(| : failed)
-    for (size_t i = 0; i < n; i++) {
-      int id = omp_get_thread_num();
-      bbc_tuple_geometry g;
-      pieces[i].count = 0;
-      tuple_sink sink;
-      memset(&sink, 0, sizeof sink);
-      sink.pieces = &pieces[i], sink.cover = &covers[id], sink.grid = grid;
-      sink.receiver = tuples[first + i].receiver;
-      int ok = bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) == BBC_OK &&
-               coverage_begin(&covers[id], grid, sink.receiver) == BBC_OK;
-      if (ok) {
-        /* Area lights stop at the two-bounce ratio too (docs/lights.md). */
-        bbc_bound_params prm =
-            g.length == 2 || g.light_model.kind == BBC_LIGHT_AREA ? bound2 : bound;
-        prm.need = piece_need;
-        prm.need_user = &sink;
-        ok = bbc_bound_tuple(bounders[id], &g, &prm, keep_piece, &sink, &thread_stats[id]) ==
-                 BBC_OK &&
-             !pieces[i].failed;
+#pragma omp parallel num_threads(threads) reduction(| : failed)
+    {
+      /* The thread's CPU time over the batch (one system call at each end, not per tuple),
+       * split between position and irradiance bounds as their clocked times were. */
+      const int self = omp_get_thread_num();
+      const double cpu0 = thread_cpu_seconds();
+      const double pos0 = thread_stats[self].position_seconds;
+      const double irr0 = thread_stats[self].irradiance_seconds;
+#pragma omp for schedule(dynamic, 1) nowait
+      for (size_t i = 0; i < n; i++) {
+        int id = omp_get_thread_num();
+        bbc_tuple_geometry g;
+        pieces[i].count = 0;
+        tuple_sink sink;
+        memset(&sink, 0, sizeof sink);
+        sink.pieces = &pieces[i], sink.cover = &covers[id], sink.grid = grid;
+        sink.receiver = tuples[first + i].receiver;
+        int ok = bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) == BBC_OK &&
+                 coverage_begin(&covers[id], grid, sink.receiver) == BBC_OK;
+        if (ok) {
+          /* Area lights stop at the two-bounce ratio too (docs/lights.md). */
+          bbc_bound_params prm =
+              g.length == 2 || g.light_model.kind == BBC_LIGHT_AREA ? bound2 : bound;
+          prm.need = piece_need;
+          prm.need_user = &sink;
+          ok = bbc_bound_tuple(bounders[id], &g, &prm, keep_piece, &sink, &thread_stats[id]) ==
+                   BBC_OK &&
+               !pieces[i].failed;
+        }
+        coverage_end(&covers[id]);
+        if (!ok) failed = 1;
       }
-      coverage_end(&covers[id]);
-      if (!ok) failed = 1;
+      const double cpu = thread_cpu_seconds() - cpu0;
+      const double pos = thread_stats[self].position_seconds - pos0;
+      const double clocked = pos + (thread_stats[self].irradiance_seconds - irr0);
+      const double share = clocked > 0 ? pos / clocked : 1.0;
+      cpu_split[self].position_seconds += cpu * share;
+      cpu_split[self].irradiance_seconds += cpu - cpu * share;
     }
     double b1 = omp_get_wtime();
     st.bounding_seconds += b1 - b0;
@@ -444,12 +469,12 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
 
   for (int i = 0; i < threads; i++) {
     if (bounders) bbc_bounder_free(bounders[i]);
-    if (thread_stats) {
+    if (thread_stats && cpu_split) {
       st.position_pieces += thread_stats[i].position_pieces;
       st.irradiance_pieces += thread_stats[i].irradiance_pieces;
       st.kept_pieces += thread_stats[i].kept_pieces;
-      st.position_cpu_seconds += thread_stats[i].position_seconds;
-      st.irradiance_cpu_seconds += thread_stats[i].irradiance_seconds;
+      st.position_cpu_seconds += cpu_split[i].position_seconds;
+      st.irradiance_cpu_seconds += cpu_split[i].irradiance_seconds;
     }
   }
   for (size_t i = 0; pieces && i < BATCH_TUPLES; i++) free(pieces[i].items);
@@ -471,6 +496,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   }
   free(covers);
   free(thread_stats);
+  free(cpu_split);
   free(tuples);
   free(candidate);
   if (result != BBC_OK) {
