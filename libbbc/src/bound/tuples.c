@@ -13,6 +13,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <omp.h>
+
 #include "bbc/interval.h"
 #include "bbc/bounds.h"
 #include "chain_internal.h"
@@ -467,6 +469,179 @@ bbc_result bbc_tuples_find_area(const bbc_scene *scene, uint32_t chains, bbc_tup
   return bbc__tuples_find(scene, chains, 1, out, count);
 }
 
+/* Per-thread working memory of the tuple search: the arena of the beams, the BVH walk's
+ * stack and results, and for second bounces the marks of the T2 found per prefix. */
+typedef struct search_scratch {
+  void *arena_memory;
+  bbc_arena arena;
+  uint32_t *found, *found2, *seen, *stack;
+  bbc_ivec3 *reach;
+  uint16_t *boxes;
+  uint32_t stamp; /* one per (light, T1) prefix, for `seen` */
+} search_scratch;
+
+#define SEARCH_ARENA_BYTES ((size_t)4 << 20)
+#define SEARCH_CHUNK 256
+
+static bbc_result scratch_init(search_scratch *s, const bbc_scene *scene, int doubles) {
+  memset(s, 0, sizeof *s);
+  const size_t n = (size_t)scene->triangle_count + 1;
+  s->arena_memory = malloc(SEARCH_ARENA_BYTES);
+  s->found = malloc(n * sizeof *s->found);
+  s->stack = malloc(2 * n * sizeof *s->stack);
+  if (doubles) {
+    s->found2 = malloc(n * sizeof *s->found2);
+    s->seen = calloc(n, sizeof *s->seen);
+    s->reach = malloc(n * sizeof *s->reach);
+    s->boxes = malloc(n * sizeof *s->boxes);
+  }
+  if (!s->arena_memory || !s->found || !s->stack ||
+      (doubles && (!s->found2 || !s->seen || !s->reach || !s->boxes)))
+    return BBC_ERR_OUT_OF_MEMORY;
+  bbc_arena_init(&s->arena, s->arena_memory, SEARCH_ARENA_BYTES);
+  return BBC_OK;
+}
+
+static void scratch_free(search_scratch *s) {
+  free(s->arena_memory);
+  free(s->found);
+  free(s->found2);
+  free(s->seen);
+  free(s->reach);
+  free(s->boxes);
+  free(s->stack);
+}
+
+/* The candidate tuples of the prefix (light l, T1 = t), appended to list in the order
+ * (T2, receiver), single scattering first. */
+static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const bvh *receivers,
+                                const bvh *casters, const bbc_point_light *light, uint32_t l,
+                                uint32_t t, search_scratch *s, tuple_list *list) {
+  bbc_result result = BBC_OK;
+  int first = scattering_of(scene, t);
+  if (first < 0) return BBC_OK;
+  if (l >= scene->point_light_count &&
+      !area_may_light(scene, &light->model, l - scene->point_light_count, t))
+    return BBC_OK;
+  /* The medium beyond T1 (media_internal.h). */
+  uint32_t medium = light->medium;
+  const bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t]);
+  const bbc_vec3 source = bbc__light_source(light->position, &light->model, p0);
+  if (first == 1 &&
+      !bbc__media_refract(scene, light->medium, t, bbc__media_side(scene, t, source), &medium))
+    return BBC_OK;
+  /* A spot whose cone misses T1's bounding sphere lights none of it. */
+  if (!spot_may_light(light, scene, t)) return BBC_OK;
+  const bbc_chain single = first ? BBC_CHAIN_T : BBC_CHAIN_R;
+  const uint32_t after[2] = {1u << (first ? BBC_CHAIN_TR : BBC_CHAIN_RR),
+                             1u << (first ? BBC_CHAIN_TT : BBC_CHAIN_RT)};
+  if (!(chains & ((1u << single) | after[0] | after[1]))) return BBC_OK;
+  /* The beam does not depend on the receiver: use any as a stand-in. */
+  bbc_tuple tuple = {l, (uint32_t)single, {t, BBC_NO_TRIANGLE}, receivers->order[0]};
+  bbc_tuple_geometry g;
+  if ((result = bbc_tuple_geometry_init(&g, scene, &tuple)) != BBC_OK) return result;
+  /* A light in T1's plane sees it edge-on: no light passes through. */
+  bbc_vec3 ng = v3_cross(v3_sub(g.p[1], g.p[0]), v3_sub(g.p[2], g.p[0]));
+  if (g.light_model.kind != BBC_LIGHT_AREA &&
+      v3_dot(ng, bbc__light_d0(g.light, &g.light_model, g.p[0])) == 0)
+    return BBC_OK;
+  beam whole_beam;
+  static const double whole[4] = {0, 1, 0, 1};
+  bbc_arena_reset(&s->arena, 0);
+  if ((result = beam_of(&s->arena, &g, whole, &whole_beam)) != BBC_OK) return result;
+  /* Tuples in the order (T2, receiver) with single scattering first (T2 = none). */
+  if (chains & (1u << single)) {
+    uint32_t n = bvh_beam(receivers, scene, &whole_beam.x, &whole_beam.d, s->stack, s->found);
+    for (uint32_t i = 0; i < n && result == BBC_OK; i++) {
+      tuple.receiver = s->found[i];
+      if (!tuple_push(list, &tuple)) result = BBC_ERR_OUT_OF_MEMORY;
+    }
+  }
+  if (!(chains & (after[0] | after[1])) || casters->node_count == 0) return BBC_OK;
+  /* T2 from the beams of the BEAM_SPLIT x BEAM_SPLIT s->boxes of T1's unit box that
+   * meet the triangle (far tighter than T1's whole beam, whose box of u1 is twice
+   * the triangle): the BVH walk with each box's interval beam finds candidates
+   * (s->boxes[T2] marks the s->boxes whose walk s->found T2; `seen` the T2 s->found for this
+   * prefix), then each box's rays are tested exactly against each of its candidates
+   * (beam_hits). A T2 is kept when some box reaches it, and s->reach[T2] gathers the
+   * d1 s->boxes of those that do: the only directions in which light from T1 arrives
+   * at T2. */
+  uint32_t n2 = 0;
+  if (++s->stamp == 0) { /* wrapped: start the marks afresh */
+    memset(s->seen, 0, ((size_t)scene->triangle_count + 1) * sizeof *s->seen);
+    s->stamp = 1;
+  }
+  beam beams[BEAM_BOXES];
+  int nb = 0;
+  bbc_arena_reset(&s->arena, 0);
+  for (int i = 0; i < BEAM_SPLIT && result == BBC_OK; i++) {
+    for (int j = 0; i + j < BEAM_SPLIT && result == BBC_OK; j++, nb++) {
+      const double box[4] = {(double)i / BEAM_SPLIT, (double)(i + 1) / BEAM_SPLIT,
+                             (double)j / BEAM_SPLIT, (double)(j + 1) / BEAM_SPLIT};
+      if ((result = beam_of(&s->arena, &g, box, &beams[nb])) != BBC_OK) break;
+      uint32_t n = bvh_beam(casters, scene, &beams[nb].x, &beams[nb].d, s->stack, s->found);
+      for (uint32_t k = 0; k < n; k++) {
+        const uint32_t t2 = s->found[k];
+        if (t2 == t) continue;
+        if (s->seen[t2] != s->stamp) {
+          s->seen[t2] = s->stamp;
+          s->boxes[t2] = 0;
+          s->found2[n2++] = t2;
+        }
+        s->boxes[t2] |= 1u << nb;
+      }
+    }
+  }
+  if (result != BBC_OK) return result;
+  uint32_t kept = 0;
+  for (uint32_t k = 0; k < n2 && result == BBC_OK; k++) {
+    const uint32_t t2 = s->found2[k];
+    const int sides = plane_sides(scene, t, t2);
+    if (!sides) continue;
+    triangle_planes planes;
+    triangle_planes_of(scene, t2, &planes);
+    int reached = 0;
+    for (int bi = 0; bi < nb && result == BBC_OK; bi++) {
+      if (!(s->boxes[t2] & (1u << bi))) continue;
+      int hit = 0;
+      if ((result = beam_hits(&s->arena, &beams[bi], &planes, sides, &hit)) != BBC_OK || !hit)
+        continue;
+      if (!reached) {
+        s->reach[t2] = beams[bi].d;
+      } else {
+        s->reach[t2].x = bbc_interval_hull(s->reach[t2].x, beams[bi].d.x);
+        s->reach[t2].y = bbc_interval_hull(s->reach[t2].y, beams[bi].d.y);
+        s->reach[t2].z = bbc_interval_hull(s->reach[t2].z, beams[bi].d.z);
+      }
+      reached = 1;
+    }
+    if (reached) s->found2[kept++] = t2;
+  }
+  if (result != BBC_OK) return result;
+  n2 = kept;
+  qsort(s->found2, n2, sizeof *s->found2, compare_u32);
+  for (uint32_t j = 0; j < n2 && result == BBC_OK; j++) {
+    const uint32_t t2 = s->found2[j];
+    int second = scattering_of(scene, t2);
+    if (second < 0 || !(chains & after[second])) continue;
+    if (second == 1 && !second_refraction_possible(scene, medium, t, t2)) continue;
+    bbc_tuple pair = tuple;
+    pair.chain = (uint32_t)(first ? (second ? BBC_CHAIN_TT : BBC_CHAIN_TR)
+                                  : (second ? BBC_CHAIN_RT : BBC_CHAIN_RR));
+    pair.specular[1] = t2;
+    bbc_tuple_geometry g2;
+    if ((result = bbc_tuple_geometry_init(&g2, scene, &pair)) != BBC_OK) break;
+    bbc_ivec3 x2, d2;
+    if (!second_beam(&g2, &s->reach[t2], &x2, &d2)) continue;
+    uint32_t n = bvh_beam(receivers, scene, &x2, &d2, s->stack, s->found);
+    for (uint32_t i = 0; i < n && result == BBC_OK; i++) {
+      pair.receiver = s->found[i];
+      if (!tuple_push(list, &pair)) result = BBC_ERR_OUT_OF_MEMORY;
+    }
+  }
+  return result;
+}
+
 static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int area,
                                    bbc_tuple **out, size_t *count) {
   *out = NULL;
@@ -474,24 +649,22 @@ static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int 
   const uint32_t doubles = (1u << BBC_CHAIN_RR) | (1u << BBC_CHAIN_RT) | (1u << BBC_CHAIN_TR) |
                            (1u << BBC_CHAIN_TT);
   bvh receivers, casters;
+  memset(&receivers, 0, sizeof receivers);
   memset(&casters, 0, sizeof casters);
-  const size_t arena_bytes = (size_t)4 << 20;
-  void *arena_memory = malloc(arena_bytes);
-  uint32_t *found = malloc((scene->triangle_count + 1) * sizeof *found);
-  uint32_t *found2 = malloc(((size_t)scene->triangle_count + 1) * sizeof *found2);
-  uint32_t *seen = calloc((size_t)scene->triangle_count + 1, sizeof *seen);
-  bbc_ivec3 *reach = malloc(((size_t)scene->triangle_count + 1) * sizeof *reach);
-  uint16_t *boxes = malloc(((size_t)scene->triangle_count + 1) * sizeof *boxes);
-  uint32_t *stack = malloc(2 * ((size_t)scene->triangle_count + 1) * sizeof *stack);
+  const int threads = omp_get_max_threads();
+  search_scratch *scratch = calloc((size_t)threads, sizeof *scratch);
+  /* The prefixes are searched in parallel in chunks of T1; each chunk's tuples go to a
+   * list of its own, joined in chunk order, so the order does not depend on the threads. */
+  const size_t chunks = ((size_t)scene->triangle_count + SEARCH_CHUNK - 1) / SEARCH_CHUNK;
+  tuple_list *parts = calloc(chunks ? chunks : 1, sizeof *parts);
+  bbc_result *why = calloc(chunks ? chunks : 1, sizeof *why); /* each chunk's result */
   tuple_list list = {NULL, 0, 0};
-  uint32_t stamp = 0; /* one per (light, T1) prefix, for `seen` */
-  bbc_result result = bvh_init(&receivers, scene, BBC_ROLE_RECEIVER);
+  bbc_result result = scratch && parts && why ? BBC_OK : BBC_ERR_OUT_OF_MEMORY;
+  if (result == BBC_OK) result = bvh_init(&receivers, scene, BBC_ROLE_RECEIVER);
   if (result == BBC_OK && (chains & doubles)) result = bvh_init(&casters, scene, BBC_ROLE_CASTER);
-  if (result == BBC_OK && (!arena_memory || !found || !found2 || !seen || !reach || !boxes || !stack))
-    result = BBC_ERR_OUT_OF_MEMORY;
+  for (int i = 0; i < threads && result == BBC_OK; i++)
+    result = scratch_init(&scratch[i], scene, (chains & doubles) != 0);
   if (result != BBC_OK || receivers.node_count == 0) goto done;
-  bbc_arena arena;
-  bbc_arena_init(&arena, arena_memory, arena_bytes);
 
   /* Area lights: single scattering only (docs/lights.md). */
   if (area) chains &= BBC_CHAIN_BIT(BBC_CHAIN_R) | BBC_CHAIN_BIT(BBC_CHAIN_T);
@@ -501,142 +674,35 @@ static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int 
   for (uint32_t l = light_first; l < light_end && chains && result == BBC_OK; l++) {
     /* An emitter stands as a light in air at its centroid for the medium rule (the
      * bounds orient T1 by it; bounds.h). */
-    const bbc_point_light area_light = bbc__cache_light_point(scene, l);
-    const bbc_point_light *light = &area_light;
-    for (uint32_t t = 0; t < scene->triangle_count && result == BBC_OK; t++) {
-      int first = scattering_of(scene, t);
-      if (first < 0) continue;
-      if (l >= scene->point_light_count &&
-          !area_may_light(scene, &light->model, l - scene->point_light_count, t))
-        continue;
-      /* The medium beyond T1 (media_internal.h). */
-      uint32_t medium = light->medium;
-      const bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t]);
-      const bbc_vec3 source = bbc__light_source(light->position, &light->model, p0);
-      if (first == 1 &&
-          !bbc__media_refract(scene, light->medium, t, bbc__media_side(scene, t, source), &medium))
-        continue;
-      /* A spot whose cone misses T1's bounding sphere lights none of it. */
-      if (!spot_may_light(light, scene, t)) continue;
-      const bbc_chain single = first ? BBC_CHAIN_T : BBC_CHAIN_R;
-      const uint32_t after[2] = {1u << (first ? BBC_CHAIN_TR : BBC_CHAIN_RR),
-                                 1u << (first ? BBC_CHAIN_TT : BBC_CHAIN_RT)};
-      if (!(chains & ((1u << single) | after[0] | after[1]))) continue;
-      /* The beam does not depend on the receiver: use any as a stand-in. */
-      bbc_tuple tuple = {l, (uint32_t)single, {t, BBC_NO_TRIANGLE}, receivers.order[0]};
-      bbc_tuple_geometry g;
-      if ((result = bbc_tuple_geometry_init(&g, scene, &tuple)) != BBC_OK) break;
-      /* A light in T1's plane sees it edge-on: no light passes through. */
-      bbc_vec3 ng = v3_cross(v3_sub(g.p[1], g.p[0]), v3_sub(g.p[2], g.p[0]));
-      if (g.light_model.kind != BBC_LIGHT_AREA &&
-          v3_dot(ng, bbc__light_d0(g.light, &g.light_model, g.p[0])) == 0)
-        continue;
-      beam whole_beam;
-      static const double whole[4] = {0, 1, 0, 1};
-      bbc_arena_reset(&arena, 0);
-      if ((result = beam_of(&arena, &g, whole, &whole_beam)) != BBC_OK) break;
-      /* Tuples in the order (T2, receiver) with single scattering first (T2 = none). */
-      if (chains & (1u << single)) {
-        uint32_t n = bvh_beam(&receivers, scene, &whole_beam.x, &whole_beam.d, stack, found);
-        for (uint32_t i = 0; i < n && result == BBC_OK; i++) {
-          tuple.receiver = found[i];
-          if (!tuple_push(&list, &tuple)) result = BBC_ERR_OUT_OF_MEMORY;
-        }
-      }
-      if (!(chains & (after[0] | after[1])) || casters.node_count == 0) continue;
-      /* T2 from the beams of the BEAM_SPLIT x BEAM_SPLIT boxes of T1's unit box that
-       * meet the triangle (far tighter than T1's whole beam, whose box of u1 is twice
-       * the triangle): the BVH walk with each box's interval beam finds candidates
-       * (boxes[T2] marks the boxes whose walk found T2; `seen` the T2 found for this
-       * prefix), then each box's rays are tested exactly against each of its candidates
-       * (beam_hits). A T2 is kept when some box reaches it, and reach[T2] gathers the
-       * d1 boxes of those that do: the only directions in which light from T1 arrives
-       * at T2. */
-      uint32_t n2 = 0;
-      if (++stamp == 0) { /* wrapped: start the marks afresh */
-        memset(seen, 0, ((size_t)scene->triangle_count + 1) * sizeof *seen);
-        stamp = 1;
-      }
-      beam beams[BEAM_BOXES];
-      int nb = 0;
-      bbc_arena_reset(&arena, 0);
-      for (int i = 0; i < BEAM_SPLIT && result == BBC_OK; i++) {
-        for (int j = 0; i + j < BEAM_SPLIT && result == BBC_OK; j++, nb++) {
-          const double box[4] = {(double)i / BEAM_SPLIT, (double)(i + 1) / BEAM_SPLIT,
-                                 (double)j / BEAM_SPLIT, (double)(j + 1) / BEAM_SPLIT};
-          if ((result = beam_of(&arena, &g, box, &beams[nb])) != BBC_OK) break;
-          uint32_t n = bvh_beam(&casters, scene, &beams[nb].x, &beams[nb].d, stack, found);
-          for (uint32_t k = 0; k < n; k++) {
-            const uint32_t t2 = found[k];
-            if (t2 == t) continue;
-            if (seen[t2] != stamp) {
-              seen[t2] = stamp;
-              boxes[t2] = 0;
-              found2[n2++] = t2;
-            }
-            boxes[t2] |= 1u << nb;
-          }
-        }
-      }
-      if (result != BBC_OK) break;
-      uint32_t kept = 0;
-      for (uint32_t k = 0; k < n2 && result == BBC_OK; k++) {
-        const uint32_t t2 = found2[k];
-        const int sides = plane_sides(scene, t, t2);
-        if (!sides) continue;
-        triangle_planes planes;
-        triangle_planes_of(scene, t2, &planes);
-        int reached = 0;
-        for (int bi = 0; bi < nb && result == BBC_OK; bi++) {
-          if (!(boxes[t2] & (1u << bi))) continue;
-          int hit = 0;
-          if ((result = beam_hits(&arena, &beams[bi], &planes, sides, &hit)) != BBC_OK || !hit)
-            continue;
-          if (!reached) {
-            reach[t2] = beams[bi].d;
-          } else {
-            reach[t2].x = bbc_interval_hull(reach[t2].x, beams[bi].d.x);
-            reach[t2].y = bbc_interval_hull(reach[t2].y, beams[bi].d.y);
-            reach[t2].z = bbc_interval_hull(reach[t2].z, beams[bi].d.z);
-          }
-          reached = 1;
-        }
-        if (reached) found2[kept++] = t2;
-      }
-      if (result != BBC_OK) break;
-      n2 = kept;
-      qsort(found2, n2, sizeof *found2, compare_u32);
-      for (uint32_t j = 0; j < n2 && result == BBC_OK; j++) {
-        const uint32_t t2 = found2[j];
-        int second = scattering_of(scene, t2);
-        if (second < 0 || !(chains & after[second])) continue;
-        if (second == 1 && !second_refraction_possible(scene, medium, t, t2)) continue;
-        bbc_tuple pair = tuple;
-        pair.chain = (uint32_t)(first ? (second ? BBC_CHAIN_TT : BBC_CHAIN_TR)
-                                      : (second ? BBC_CHAIN_RT : BBC_CHAIN_RR));
-        pair.specular[1] = t2;
-        bbc_tuple_geometry g2;
-        if ((result = bbc_tuple_geometry_init(&g2, scene, &pair)) != BBC_OK) break;
-        bbc_ivec3 x2, d2;
-        if (!second_beam(&g2, &reach[t2], &x2, &d2)) continue;
-        uint32_t n = bvh_beam(&receivers, scene, &x2, &d2, stack, found);
-        for (uint32_t i = 0; i < n && result == BBC_OK; i++) {
-          pair.receiver = found[i];
-          if (!tuple_push(&list, &pair)) result = BBC_ERR_OUT_OF_MEMORY;
-        }
-      }
+    const bbc_point_light light = bbc__cache_light_point(scene, l);
+    int failed = 0;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(| : failed)
+    for (size_t c = 0; c < chunks; c++) {
+      search_scratch *s = &scratch[omp_get_thread_num()];
+      parts[c].count = 0;
+      why[c] = BBC_OK;
+      const uint32_t end = (c + 1) * SEARCH_CHUNK < scene->triangle_count
+                               ? (uint32_t)((c + 1) * SEARCH_CHUNK)
+                               : scene->triangle_count;
+      for (uint32_t t = (uint32_t)(c * SEARCH_CHUNK); t < end && why[c] == BBC_OK; t++)
+        why[c] = prefix_tuples(scene, chains, &receivers, &casters, &light, l, t, s, &parts[c]);
+      if (why[c] != BBC_OK) failed = 1;
     }
+    /* The first failure in prefix order, as a serial search would meet it. */
+    for (size_t c = 0; failed && c < chunks && result == BBC_OK; c++) result = why[c];
+    if (result != BBC_OK) break;
+    for (size_t c = 0; c < chunks && result == BBC_OK; c++)
+      for (size_t i = 0; i < parts[c].count && result == BBC_OK; i++)
+        if (!tuple_push(&list, &parts[c].items[i])) result = BBC_ERR_OUT_OF_MEMORY;
   }
 done:
   bvh_free(&receivers);
   bvh_free(&casters);
-  free(arena_memory);
-  free(found);
-  free(found2);
-  free(seen);
-  free(reach);
-  free(boxes);
-  free(stack);
+  for (int i = 0; scratch && i < threads; i++) scratch_free(&scratch[i]);
+  free(scratch);
+  for (size_t c = 0; parts && c < chunks; c++) free(parts[c].items);
+  free(parts);
+  free(why);
   if (result != BBC_OK) {
     free(list.items);
     return result;
