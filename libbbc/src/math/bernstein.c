@@ -646,9 +646,8 @@ static void mul2_factors_fill(int n0, int n1, double *f) {
     }
 }
 
-static const double *mul2_factors(int n0, int n1, double *fallback) {
-  double *f = atomic_load_explicit(&mul2_factor_cache[n0][n1], memory_order_acquire);
-  if (f) return f;
+static __attribute__((noinline)) const double *mul2_factors_build(int n0, int n1,
+                                                                   double *fallback) {
   double *fresh = malloc(2 * (size_t)(n0 + 1) * (size_t)(n1 + 1) * sizeof *fresh);
   if (!fresh) {
     mul2_factors_fill(n0, n1, fallback);
@@ -661,6 +660,11 @@ static const double *mul2_factors(int n0, int n1, double *fallback) {
     return fresh;
   free(fresh);
   return expected;
+}
+
+static inline const double *mul2_factors(int n0, int n1, double *fallback) {
+  double *f = atomic_load_explicit(&mul2_factor_cache[n0][n1], memory_order_acquire);
+  return f ? f : mul2_factors_build(n0, n1, fallback);
 }
 
 static inline __attribute__((always_inline)) void mul2_kernel(const double *restrict a,
