@@ -38,9 +38,9 @@ bbc_scene *inspect_load_scene(const char *path, bbc_light_units light_units) {
 }
 
 /* Opens the cache and refuses one of another scene (one line from the callback). */
-bbc_cache *inspect_open_cache_for(const char *path, const bbc_scene *scene) {
+bbc_cache *inspect_open_cache_for(const char *path, bbc_scene *scene) {
   bbc_cache *c = inspect_open_cache(path);
-  if (bbc_cache_check_scene(c, scene) != BBC_OK) exit(1);
+  if (cli_match_scene(c, path, scene) != 0) exit(1);
   return c;
 }
 

@@ -15,7 +15,7 @@
 /* Opens the cache; exits 1 (the library printed the line) when it cannot be read. */
 bbc_cache *inspect_open_cache(const char *path);
 /* The same, and refuses a cache of another scene. */
-bbc_cache *inspect_open_cache_for(const char *path, const bbc_scene *scene);
+bbc_cache *inspect_open_cache_for(const char *path, bbc_scene *scene);
 /* Loads the scene; exits 1 when it cannot be read. */
 bbc_scene *inspect_load_scene(const char *path, bbc_light_units light_units);
 /* A chain-type mask as "R,T". */

@@ -30,6 +30,10 @@ static const char help[] =
     "  --stats               print the precompute statistics (the paper's Table 2\n"
     "                        columns) to stderr\n"
     "  --json FILE           write the statistics as JSON to FILE\n"
+    "  --no-geometry         do not store the scene's geometry in the cache (smaller\n"
+    "                        file; a re-export whose floats moved in their last bits,\n"
+    "                        as Blender's do, is then refused as another scene instead\n"
+    "                        of matched within the quanta, format-spec Sec. 8.1)\n"
     "  --allow-empty         write the cache even when it holds no tuple although the\n"
     "                        scene has casters (otherwise that is an error, exit 1, with\n"
     "                        the reason: no point light, --chains, no reach, culled)\n"
@@ -187,7 +191,7 @@ int main(int argc, char **argv) {
   bbc_precompute_options options;
   memset(&options, 0, sizeof options);
   bbc_precompute_params_default(&options.params);
-  int progress = -1, stats = 0, allow_empty = 0;
+  int progress = -1, stats = 0, allow_empty = 0, no_geometry = 0;
   bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
 
   while (a.i < argc) {
@@ -196,15 +200,19 @@ int main(int argc, char **argv) {
       fputs(help, stdout);
       return 0;
     } else if (cli_flag(&a, "--version")) {
-      /* A shard cache has the SHRD section of minor version 1 (format-spec Sec. 5.10). */
-      printf("bbc-precompute %s (libbbc %s, writes .bbc format %d.%d, %d.1 with --shard)\n",
+      /* Without GEOM the minor version is the smallest the file needs (R-HDR-3). */
+      printf("bbc-precompute %s (libbbc %s, writes .bbc format %d.%d; with --no-geometry "
+             "%d.0, %d.1 with --shard, %d.2 with --area-lights)\n",
              bbc_version_string(), bbc_version_string(), BBC_FORMAT_VERSION_MAJOR,
-             BBC_FORMAT_VERSION_MINOR, BBC_FORMAT_VERSION_MAJOR);
+             BBC_FORMAT_VERSION_MINOR, BBC_FORMAT_VERSION_MAJOR, BBC_FORMAT_VERSION_MAJOR,
+             BBC_FORMAT_VERSION_MAJOR);
       return 0;
     } else if (cli_option(&a, "-o", &value) || cli_option(&a, "--output", &value)) {
       output = value;
     } else if (cli_option(&a, "--json", &value)) {
       json = value;
+    } else if (cli_flag(&a, "--no-geometry")) {
+      no_geometry = 1;
     } else if (cli_flag(&a, "--stats")) {
       stats = 1;
     } else if (cli_option(&a, "--chains", &value)) {
@@ -312,6 +320,7 @@ int main(int argc, char **argv) {
   memset(&write_options, 0, sizeof write_options);
   write_options.error_fn = cli_print_message;
   write_options.progress_fn = cli_poll_interrupt;
+  write_options.omit_geometry = no_geometry;
   r = bbc_cache_builder_write(builder, output, &write_options);
   double write_seconds = cli_now() - w0;
   bbc_cache_builder_free(builder);

@@ -1,6 +1,8 @@
 #define _POSIX_C_SOURCE 200809L
 #include "cli.h"
 
+#include "bbc/cache.h"
+
 #include "bbc/scene.h"
 #include "bbc/tuple.h"
 
@@ -51,6 +53,19 @@ void cli_print_warning(void *user, bbc_result code, const char *message) {
   (void)user;
   (void)code;
   fprintf(stderr, "%s: warning: %s\n", cli_tool, message);
+}
+
+int cli_match_scene(const bbc_cache *cache, const char *cache_path, bbc_scene *scene) {
+  bbc_scene_match m;
+  if (bbc_cache_match_scene(cache, scene, &m) != BBC_OK) return -1;
+  if (m.adopted)
+    fprintf(stderr,
+            "%s: note: %s differs from the scene of %s by float noise only (%u triangles "
+            "reordered; coordinates off by up to %.3g, normals %.3g, uvs %.3g): using the "
+            "cache's geometry\n",
+            cli_tool, scene->path, cache_path, m.triangles_moved, m.position_error,
+            m.normal_error, m.uv_error);
+  return 0;
 }
 
 int cli_flag(cli_args *a, const char *name) {

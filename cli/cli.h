@@ -27,6 +27,12 @@ void cli_print_first_message(void *user, bbc_result code, const char *message);
 /* The same for warnings: "tool: warning: <message>". */
 void cli_print_warning(void *user, bbc_result code, const char *message);
 
+struct bbc_cache;
+/* bbc_cache_match_scene: 0 when the cache was computed for the scene, after a note on
+ * stderr when the scene differed by float noise and now holds the cache's geometry;
+ * -1 after the cache's one-line error otherwise. */
+int cli_match_scene(const struct bbc_cache *cache, const char *cache_path, bbc_scene *scene);
+
 /* Argument cursor: matches "--name value" and "--name=value". */
 typedef struct cli_args {
   int argc;

@@ -41,7 +41,7 @@ test_area_lights_through_the_cache() {
   expect_status 0 "$PRECOMPUTE" "$BBC_TEST_SCENES/flat-mirror-area.gltf" -o "$TMP/area.bbc" \
     --max-level 5 --resolution 64 --no-progress --chains R --area-lights
   expect_status 0 "$INSPECT" info "$TMP/area.bbc"
-  grep -q "^format *1.2 " "$TMP/out" || fail "info: not format 1.2: $(cat "$TMP/out")"
+  grep -q "^format *1.3 " "$TMP/out" || fail "info: not format 1.3: $(cat "$TMP/out")"
   grep -q "^  light 1: [1-9][0-9]* tuples (R [1-9]" "$TMP/out" || fail "info: $(cat "$TMP/out")"
   expect_status 0 "$INSPECT" validate "$TMP/area.bbc"
   expect_status 0 "$INSPECT" check-bounds "$BBC_TEST_SCENES/flat-mirror-area.gltf" "$TMP/area.bbc" \

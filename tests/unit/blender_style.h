@@ -39,6 +39,11 @@ typedef struct blender_style {
   unsigned shuffle;
   /* > 0: moves vertex 2 (the top) up by this much, a real change. */
   float moved;
+  /* > 0: adds float noise of up to this much to every caster coordinate and normal
+   * component, different for each value of shuffle, as a re-export that recomputes
+   * them does (Blender's normals moved by up to 1.8e-7). The x coordinates of four
+   * vertices are 0 exactly, so noise reorders them in the loader's canonical order. */
+  float noise;
   /* Further top-level members, e.g. "images":[...],"textures":[...]; NULL for none. */
   const char *more_json;
 } blender_style;
@@ -109,8 +114,13 @@ static char *blender_style_write(const blender_style *b) {
   for (int v = 0; v < 6; v++)
     for (int c = 0; c < 3; c++) {
       int o = perm[v];
-      cp[v][c] = 0.5f * oct[o][c] + (c == 1 ? 1.0f : 0.0f) + (o == 2 && c == 1 ? b->moved : 0.0f);
-      cn[v][c] = oct[o][c];
+      uint32_t h = (uint32_t)(o * 3 + c + 1) * 2654435761u ^ (b->shuffle + 1) * 40503u;
+      h ^= h >> 15;
+      h *= 2246822519u;
+      h ^= h >> 13;
+      float e = b->noise * ((float)(h % 2001u) / 1000.0f - 1.0f);
+      cp[v][c] = 0.5f * oct[o][c] + (c == 1 ? 1.0f : 0.0f) + (o == 2 && c == 1 ? b->moved : 0.0f) + e;
+      cn[v][c] = oct[o][c] + e;
     }
   for (int t = 0; t < ntri; t++) {
     int src = b->shuffle ? (int)((t * 3 + b->shuffle) % (unsigned)ntri) : t;

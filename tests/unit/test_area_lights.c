@@ -160,7 +160,7 @@ TEST(area_flat_mirror_caustic_is_the_mirrored_emitter) {
   REQUIRE(measure(f.scene, &l));
   bbc_cache_info info;
   bbc_cache_get_info(f.cache, &info);
-  CHECK(info.version_minor == 2 && info.params.area_lights == 1);
+  CHECK(info.version_minor == 3 && info.params.area_lights == 1);
   CHECK(info.scene_emitter_count == f.scene->emitter_count);
   CHECK(info.tuple_count > 0);
   bbc_image *image = render(&f, BBC_METHOD_BBC, BBC_COMPONENT_CAUSTICS,

@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <zlib.h>
 
 #include "bbc/cache.h"
 #include "bbc/precompute.h"
@@ -1110,6 +1111,139 @@ TEST(blender_glass_cache_survives_a_reexport) {
   free(bytes);
   bbc_scene_free(moved);
   bbc_scene_free(again);
+  bbc_scene_free(first);
+}
+
+/* A cache of the Blender-style glass scene (TT, small), in memory. */
+static void *blender_cache(const bbc_scene *scene, int omit_geometry, size_t *size) {
+  bbc_precompute_options options;
+  memset(&options, 0, sizeof options);
+  bbc_precompute_params_default(&options.params);
+  options.params.max_level = 2;
+  options.params.grid_resolution = 16;
+  options.params.chains = BBC_CHAIN_BIT(BBC_CHAIN_TT);
+  options.threads = 1;
+  bbc_cache_builder *builder = NULL;
+  bbc_precompute_stats stats;
+  if (bbc_precompute(&builder, scene, &options, &stats) != BBC_OK) return NULL;
+  void *bytes = NULL;
+  bbc_cache_write_options wo;
+  memset(&wo, 0, sizeof wo);
+  wo.omit_geometry = omit_geometry;
+  if (bbc_cache_builder_write_memory(builder, &bytes, size, &wo) != BBC_OK) bytes = NULL;
+  bbc_cache_builder_free(builder);
+  return bytes;
+}
+
+/* Flips byte `at` of section GEOM (at < 0: from its end) and reseals the file's
+ * checksums (section, directory, header), so that only GEOM's own rules can tell. */
+static void damage_geometry(uint8_t *file, long at) {
+  uint32_t n;
+  memcpy(&n, file + 12, 4);
+  for (uint32_t i = 0; i < n; i++) {
+    uint8_t *e = file + 64 + 32 * i;
+    if (memcmp(e, "GEOM", 4) != 0) continue;
+    uint64_t off, size;
+    memcpy(&off, e + 8, 8);
+    memcpy(&size, e + 16, 8);
+    file[off + (at < 0 ? (long)size + at : at)] ^= 0x01;
+    uint32_t crc = (uint32_t)crc32(0, file + off, (uInt)size);
+    memcpy(e + 24, &crc, 4);
+  }
+  uint32_t crc = (uint32_t)crc32(0, file + 64, 32 * n);
+  memcpy(file + 28, &crc, 4);
+  crc = (uint32_t)crc32(0, file, 60);
+  memcpy(file + 60, &crc, 4);
+}
+
+/* Sec. 8.1: a re-export whose floats moved in their last bits (and whose canonical order
+ * changed with them) is matched within the quanta and given the cache's geometry
+ * exactly; a moved vertex, noise above the quanta, a cache without GEOM and a damaged
+ * GEOM are refused. */
+TEST(float_noise_reexport_is_matched_within_the_quanta) {
+  blender_style b = {0};
+  b.lights = "[{\"type\":\"point\",\"intensity\":5435}]";
+  b.cameras = BLENDER_CAMERA;
+  b.materials = BLENDER_GLASS;
+  b.caster = 1;
+  messages m;
+  bbc_result r;
+  bbc_scene *first = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(first != NULL);
+  size_t size = 0, bare_size = 0;
+  uint8_t *bytes = blender_cache(first, 0, &size);
+  uint8_t *bare = blender_cache(first, 1, &bare_size);
+  REQUIRE(bytes != NULL && bare != NULL);
+  CHECK(size > bare_size);
+  bbc_cache *cache = NULL, *no_geom = NULL;
+  REQUIRE(bbc_cache_open_memory(&cache, bytes, size, NULL) == BBC_OK);
+  REQUIRE(bbc_cache_open_memory(&no_geom, bare, bare_size, NULL) == BBC_OK);
+  CHECK_INT(bbc_cache_validate(cache, NULL, NULL), BBC_OK);
+  bbc_scene_match match;
+  CHECK_INT(bbc_cache_match_scene(cache, first, &match), BBC_OK);
+  CHECK_INT(match.adopted, 0);
+
+  b.shuffle = 3;
+  b.noise = 2e-7f;
+  bbc_scene *noisy = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(noisy != NULL);
+  CHECK_INT(bbc_cache_check_scene(cache, noisy), BBC_ERR_SCENE_MISMATCH); /* exact */
+  CHECK_INT(bbc_cache_match_scene(no_geom, noisy, &match), BBC_ERR_SCENE_MISMATCH);
+  CHECK_INT(bbc_cache_match_scene(cache, noisy, &match), BBC_OK);
+  CHECK_INT(match.adopted, 1);
+  CHECK(match.triangles_moved > 0);
+  CHECK(match.position_error > 0.0 && match.position_error <= 4e-7);
+  CHECK(match.normal_error > 0.0 && match.normal_error <= 1e-6);
+  /* Now exactly the scene of the cache. */
+  CHECK_INT(bbc_cache_check_scene(cache, noisy), BBC_OK);
+  CHECK(memcmp(noisy->positions, first->positions, 12 * (size_t)first->vertex_count) == 0);
+  CHECK(memcmp(noisy->normals, first->normals, 12 * (size_t)first->vertex_count) == 0);
+  CHECK(memcmp(noisy->indices, first->indices, 12 * (size_t)first->triangle_count) == 0);
+  for (uint32_t i = 0; i < first->mesh_count; i++) {
+    CHECK_INT(noisy->meshes[i].closed, first->meshes[i].closed);
+    CHECK_INT(noisy->meshes[i].outward, first->meshes[i].outward);
+  }
+  /* The same noise plus a real change of 1e-4, then noise above the quanta. */
+  b.moved = 1e-4f;
+  bbc_scene *moved = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(moved != NULL);
+  CHECK_INT(bbc_cache_match_scene(cache, moved, &match), BBC_ERR_SCENE_MISMATCH);
+  CHECK_INT(match.adopted, 0);
+  b.moved = 0.0f;
+  b.noise = 1e-4f;
+  bbc_scene *loud = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(loud != NULL);
+  CHECK_INT(bbc_cache_match_scene(cache, loud, &match), BBC_ERR_SCENE_MISMATCH);
+
+  /* A damaged frame behind valid checksums: open passes (R-GEO-1 holds), full
+   * validation and the match refuse it. A damaged head is refused at open. */
+  b.noise = 2e-7f;
+  bbc_scene *again = load_blender(&b, BBC_LIGHT_UNITS_FILE, &m, &r);
+  REQUIRE(again != NULL);
+  uint8_t *bad = malloc(size);
+  memcpy(bad, bytes, size);
+  damage_geometry(bad, -40);
+  bbc_cache *damaged = NULL;
+  REQUIRE(bbc_cache_open_memory(&damaged, bad, size, NULL) == BBC_OK);
+  CHECK_INT(bbc_cache_validate(damaged, NULL, NULL), BBC_ERR_CORRUPT);
+  CHECK_INT(bbc_cache_match_scene(damaged, again, &match), BBC_ERR_CORRUPT);
+  CHECK_INT(match.adopted, 0);
+  bbc_cache_close(damaged);
+  memcpy(bad, bytes, size);
+  damage_geometry(bad, 0); /* the vertex count */
+  damaged = NULL;
+  CHECK_INT(bbc_cache_open_memory(&damaged, bad, size, NULL), BBC_ERR_CORRUPT);
+  bbc_cache_close(damaged);
+  free(bad);
+
+  bbc_cache_close(cache);
+  bbc_cache_close(no_geom);
+  free(bytes);
+  free(bare);
+  bbc_scene_free(again);
+  bbc_scene_free(loud);
+  bbc_scene_free(moved);
+  bbc_scene_free(noisy);
   bbc_scene_free(first);
 }
 

@@ -135,6 +135,7 @@ typedef struct bbc_cache_write_options {
   int omit_info;               /* non-zero: no INFO section (writer name) */
   bbc_progress_fn progress_fn; /* optional; counts cells */
   void *progress_user;
+  int omit_geometry; /* non-zero: no GEOM section (so no bbc_cache_match_scene) */
 } bbc_cache_write_options;
 
 /* Writes the cache to path through a temporary file in the same folder, checks that
@@ -142,8 +143,9 @@ typedef struct bbc_cache_write_options {
  * success; a file that fails its own validation is never left behind. The bytes depend only on the scene, the parameters, the tuples in id order,
  * the set of splats (not their order or threads) and the options (spec Sec. 7.3).
  * The builder of a sharded precompute (bbc_precompute_options.shard_count) writes a
- * shard cache: the SHRD section and format version 1.1 (spec Sec. 5.10); every other
- * builder a 1.0 file without it.
+ * shard cache with the SHRD section (spec Sec. 5.10). Unless omit_geometry is set, the
+ * file holds the scene's geometry (GEOM, Sec. 5.11) and is format version 1.3; the
+ * version is otherwise the smallest whose features the file uses (R-HDR-3).
  * May be called more than once; the builder stays usable. options may be NULL. */
 BBC_API bbc_result bbc_cache_builder_write(bbc_cache_builder *b, const char *path,
                                            const bbc_cache_write_options *options);
@@ -237,6 +239,31 @@ BBC_API const bbc_grid *bbc_cache_grid(const bbc_cache *cache);
  * lights hash as stored), else BBC_ERR_SCENE_MISMATCH with a line to the error callback
  * saying which part differs. The camera is not compared. */
 BBC_API bbc_result bbc_cache_check_scene(const bbc_cache *cache, const bbc_scene *scene);
+
+/* What bbc_cache_match_scene found. */
+typedef struct bbc_scene_match {
+  int adopted;              /* 1: the geometry differed within the quanta and the scene now
+                               holds the cache's; 0: it was the cache's already */
+  uint32_t triangles_moved; /* triangles found at another index or corner order */
+  double position_error;    /* largest difference of a coordinate (scene units) */
+  double normal_error;      /* of a normal component */
+  double uv_error;          /* of a texture coordinate */
+} bbc_scene_match;
+
+/* bbc_cache_check_scene, tolerant of float noise (format-spec Sec. 8.1): a scene whose
+ * geometry hash differs from the cache's, but whose meshes, materials and lights do not,
+ * is compared triangle by triangle, in any order, with the geometry the cache stores
+ * (its GEOM section; caches written with omit_geometry have none). When every triangle
+ * lies within the quanta of a distinct cached one (positions to 2^-17 of their mesh's
+ * largest coordinate, normals and uvs to 2^-17), the scene's vertices and triangles are
+ * replaced by the cache's, so that what is rendered is exactly what the cache bounds,
+ * and BBC_OK is returned with match->adopted = 1. Otherwise as bbc_cache_check_scene:
+ * BBC_ERR_SCENE_MISMATCH with one line through the error callback naming the first
+ * triangle without a counterpart; BBC_ERR_CORRUPT for a damaged GEOM section. Call it
+ * before anything is built from the scene (the ray-tracing structure). match may be
+ * NULL. */
+BBC_API bbc_result bbc_cache_match_scene(const bbc_cache *cache, bbc_scene *scene,
+                                         bbc_scene_match *match);
 
 /* BBC_OK if the cache was computed with these parameters, else BBC_ERR_SCENE_MISMATCH
  * with a line naming the first parameter that differs. */

@@ -245,6 +245,15 @@ bbc_result bbc_cache_merge(bbc_cache_builder **out, const bbc_cache *const *shar
     const uint8_t *info = bbc__cache_info_bytes(refs[0].cache, &info_size);
     if (bbc__cache_builder_set_info(b, info, (size_t)info_size) != BBC_OK) r = out_of_memory(o);
   }
+  /* And the geometry of the first shard that holds it: the shards' fingerprints are
+   * equal, so every GEOM present is the same stream (R-GEO-3). */
+  for (size_t s = 0; s < shard_count && r == BBC_OK; s++) {
+    uint64_t size;
+    const uint8_t *geom = bbc__cache_geometry_bytes(sorted[s]->cache, &size);
+    if (!geom) continue;
+    if (bbc__cache_builder_set_geometry(b, geom, (size_t)size) != BBC_OK) r = out_of_memory(o);
+    break;
+  }
 
   /* The cell lists, in batches of cells between progress reports. */
   uint64_t cells = r == BBC_OK ? bbc_cache_builder_grid(b)->cell_count : 0;

@@ -22,16 +22,31 @@
 #include "bbc/cache.h"
 #include "cache_format_internal.h"
 #include "cache_shard_internal.h"
+#include "geometry_internal.h"
 #include "report_internal.h"
+#include "scene_internal.h"
 
-/* Known sections, in the order writers use; INFO and SHRD are optional. */
-enum { K_INFO, K_PARM, K_FPRT, K_RCVR, K_TRUV, K_TUPL, K_CIDX, K_CDAT, K_CHNK, K_SHRD, K_COUNT };
+/* Known sections, in the order writers use; INFO, GEOM and SHRD are optional. */
+enum {
+  K_INFO,
+  K_PARM,
+  K_FPRT,
+  K_RCVR,
+  K_TRUV,
+  K_TUPL,
+  K_CIDX,
+  K_CDAT,
+  K_CHNK,
+  K_GEOM,
+  K_SHRD,
+  K_COUNT
+};
 static const uint32_t known_types[K_COUNT] = {
-    BBC__SEC_INFO, BBC__SEC_PARM, BBC__SEC_FPRT, BBC__SEC_RCVR, BBC__SEC_TRUV,
-    BBC__SEC_TUPL, BBC__SEC_CIDX, BBC__SEC_CDAT, BBC__SEC_CHNK, BBC__SEC_SHRD};
+    BBC__SEC_INFO, BBC__SEC_PARM, BBC__SEC_FPRT, BBC__SEC_RCVR, BBC__SEC_TRUV, BBC__SEC_TUPL,
+    BBC__SEC_CIDX, BBC__SEC_CDAT, BBC__SEC_CHNK, BBC__SEC_GEOM, BBC__SEC_SHRD};
 
 static int optional_section(int k) {
-  return k == K_INFO || k == K_SHRD;
+  return k == K_INFO || k == K_GEOM || k == K_SHRD;
 }
 
 struct bbc_cache {
@@ -247,6 +262,7 @@ static bbc_result check_header_and_directory(bbc_cache *c) {
                                            BBC__CIDX_SIZE,
                                            1,
                                            BBC__CHNK_SIZE,
+                                           1,
                                            BBC__SHRD_ENTRY_SIZE};
   for (int k = 0; k < K_COUNT; k++) {
     if (!c->sec[k]) continue;
@@ -256,6 +272,7 @@ static bbc_result check_header_and_directory(bbc_cache *c) {
     int bad = k == K_PARM   ? sz != BBC__PARM_SIZE
               : k == K_FPRT ? sz != BBC__FPRT_SIZE
               : k == K_INFO ? sz > BBC__MAX_INFO
+              : k == K_GEOM ? sz <= BBC__GEOM_HEAD_SIZE
               : k == K_SHRD
                   ? sz < BBC__SHRD_HEAD_SIZE || (sz - BBC__SHRD_HEAD_SIZE) % record[k] != 0
                   : sz % record[k] != 0;
@@ -581,6 +598,11 @@ static bbc_result open_bytes(bbc_cache *c) {
   if (r == BBC_OK) r = check_receivers(c);
   if (r == BBC_OK) r = check_tuples(c);
   if (r == BBC_OK && c->sec[K_SHRD]) r = check_shard(c);
+  if (r == BBC_OK && c->sec[K_GEOM]) {
+    const char *why = bbc__geometry_check_head(c->sec[K_GEOM], c->sec_size[K_GEOM],
+                                               c->scene_counts[0], c->scene_counts[1]);
+    if (why) r = fail(c, BBC_ERR_CORRUPT, "GEOM", c->sec_offset[K_GEOM], "%s", why);
+  }
   if (r == BBC_OK) r = check_chunks_and_cells(c);
   if (r != BBC_OK) return r;
   c->chunk_verified = calloc(c->chunk_count ? c->chunk_count : 1, sizeof *c->chunk_verified);
@@ -754,6 +776,11 @@ const uint8_t *bbc__cache_info_bytes(const bbc_cache *c, uint64_t *size) {
   return c->sec[K_INFO];
 }
 
+const uint8_t *bbc__cache_geometry_bytes(const bbc_cache *c, uint64_t *size) {
+  *size = c->sec[K_GEOM] ? c->sec_size[K_GEOM] : 0;
+  return c->sec[K_GEOM];
+}
+
 /* ------------------------------------------------------------------ scene checks */
 
 bbc_result bbc_cache_check_scene(const bbc_cache *c, const bbc_scene *scene) {
@@ -778,6 +805,44 @@ bbc_result bbc_cache_check_scene(const bbc_cache *c, const bbc_scene *scene) {
                      "triangles, %u lights; scene: %u triangles, %u lights)",
                      c->path, scene->path, what, c->scene_counts[1], c->scene_counts[4],
                      scene->triangle_count, scene->point_light_count);
+}
+
+bbc_result bbc_cache_match_scene(const bbc_cache *c, bbc_scene *scene, bbc_scene_match *match) {
+  bbc_scene_match none;
+  if (!match) match = &none;
+  memset(match, 0, sizeof *match);
+  if (!c || !scene) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_fingerprint f;
+  bbc_fingerprint_compute(scene, &c->params, &f);
+  /* Only the geometry may differ, and only when the cache holds its own. */
+  if (f.geometry == c->fingerprint.geometry || !c->sec[K_GEOM] ||
+      f.meshes != c->fingerprint.meshes || f.materials != c->fingerprint.materials ||
+      f.lights != c->fingerprint.lights)
+    return bbc_cache_check_scene(c, scene);
+  bbc__geometry g;
+  const char *why = NULL;
+  bbc_result r = bbc__geometry_decode(c->sec[K_GEOM], c->sec_size[K_GEOM], c->fingerprint.geometry,
+                                      &g, &why);
+  if (r != BBC_OK)
+    return fail(c, r, "GEOM", c->sec_offset[K_GEOM], "%s", why ? why : "out of memory");
+  char what[256] = "out of memory";
+  r = bbc__geometry_match(&g, scene, match, what, sizeof what);
+  if (r == BBC_OK) {
+    /* The scene takes the cache's arrays; triangle_mesh is the same (checked). */
+    r = bbc__scene_adopt_geometry(scene, g.positions, g.normals, g.uvs, g.indices);
+    free(g.triangle_mesh);
+    memset(&g, 0, sizeof g);
+    if (r != BBC_OK) return fail(c, r, "GEOM", c->sec_offset[K_GEOM], "out of memory");
+    match->adopted = 1;
+    return bbc_cache_check_scene(c, scene);
+  }
+  bbc__geometry_free(&g);
+  if (r == BBC_ERR_SCENE_MISMATCH)
+    return bbc__report(c->options.error_fn, c->options.user, r,
+                       "%s: computed for another scene than %s: its geometry differs beyond "
+                       "float noise: %s",
+                       c->path, scene->path, what);
+  return fail(c, r, "GEOM", c->sec_offset[K_GEOM], "%s", what);
 }
 
 bbc_result bbc_cache_check_params(const bbc_cache *c, const bbc_precompute_params *p) {
@@ -1084,6 +1149,17 @@ bbc_result bbc_cache_validate(const bbc_cache *c, bbc_message_fn report, void *u
         CHECKSUM_DIFFERS(crc_of(c->sec[K_CDAT], c->sec_size[K_CDAT]), c->sections[i].checksum))
       NOTE(rfail(&rp, BBC_ERR_CHECKSUM, "CDAT", c->sec_offset[K_CDAT],
                  "section CDAT checksum mismatch (R-DIR-6)"));
+
+  /* R-GEO-2, R-GEO-3: the stored geometry decodes and is the fingerprinted one. */
+  if (c->sec[K_GEOM]) {
+    bbc__geometry g;
+    const char *why = NULL;
+    bbc_result r = bbc__geometry_decode(c->sec[K_GEOM], c->sec_size[K_GEOM],
+                                        c->fingerprint.geometry, &g, &why);
+    if (r == BBC_OK) bbc__geometry_free(&g);
+    NOTE(r == BBC_OK ? r
+                     : rfail(&rp, r, "GEOM", c->sec_offset[K_GEOM], "%s", why ? why : "out of memory"));
+  }
 
   uint32_t max_entries = 0;
   for (uint32_t k = 0; k < c->chunk_count; k++) {

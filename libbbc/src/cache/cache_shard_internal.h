@@ -21,7 +21,8 @@
  * existed), 1 with it. */
 #define BBC__MINOR_COMPLETE 0u
 #define BBC__MINOR_SHARD 1u
-#define BBC__MINOR_AREA 2u /* area lights (PARM flags bit 1) */ 
+#define BBC__MINOR_AREA 2u /* area lights (PARM flags bit 1) */
+#define BBC__MINOR_GEOMETRY 3u /* the GEOM section */
 
 /* XXH64 of a candidate list as TUPL records (the candidates_hash of SHRD). */
 uint64_t bbc__candidates_hash(const bbc_tuple *tuples, size_t count);
@@ -47,6 +48,10 @@ bbc_result bbc__cache_builder_from_parts(bbc_cache_builder **out, const bbc_cach
 
 /* The INFO text the builder writes instead of "bbc <version>": `size` bytes of `text`
  * (at most 4096), or no INFO section when text is NULL. */
+/* The GEOM section the builder writes (Sec. 5.11): `size` bytes of `section`, or none
+ * when section is NULL (a builder made from parts has none until given one). */
+bbc_result bbc__cache_builder_set_geometry(bbc_cache_builder *b, const void *section, size_t size);
+
 /* Bytes the builder keeps per cell before any entry (for bbc_cache_check_resources). */
 size_t bbc__cache_builder_cell_bytes(void);
 bbc_result bbc__cache_builder_set_info(bbc_cache_builder *b, const void *text, size_t size);
@@ -76,6 +81,8 @@ const char *bbc__cache_path(const bbc_cache *c);
 
 /* The INFO section's bytes and size, or NULL when the file has none. Borrowed. */
 const uint8_t *bbc__cache_info_bytes(const bbc_cache *c, uint64_t *size);
+/* The GEOM section of an open cache (size 0 and NULL when it has none). */
+const uint8_t *bbc__cache_geometry_bytes(const bbc_cache *c, uint64_t *size);
 
 /* Writes the cache to file_path (created or truncated), naming `path` in messages. */
 bbc_result bbc__cache_builder_write_file(bbc_cache_builder *b, const char *file_path,

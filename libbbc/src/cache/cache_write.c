@@ -17,6 +17,7 @@
 #include "cache_format_internal.h"
 #include "cache_shard_internal.h"
 #include "report_internal.h"
+#include "geometry_internal.h"
 #include "spill_internal.h"
 
 _Static_assert(sizeof(bbc_tuple) == BBC__TUPL_SIZE, "bbc_tuple is the TUPL record");
@@ -69,6 +70,9 @@ struct bbc_cache_builder {
   int info_set;
   char *info_text;
   size_t info_size;
+  /* GEOM (Sec. 5.11): the scene's geometry as the section's bytes, or NULL. */
+  uint8_t *geometry;
+  size_t geometry_size;
 };
 
 /* The cells and locks of a builder whose grid is set; frees the grid on failure. */
@@ -111,7 +115,13 @@ bbc_result bbc_cache_builder_create(bbc_cache_builder **out, const bbc_scene *sc
   b->scene_counts[4] = scene->point_light_count;
   b->params.area_lights = params->area_lights ? 1 : 0;
   b->scene_counts[5] = b->params.area_lights ? scene->emitter_count : 0;
+  if (bbc__geometry_encode(scene, &b->geometry, &b->geometry_size) != BBC_OK) {
+    bbc_grid_free(b->grid);
+    free(b);
+    return BBC_ERR_OUT_OF_MEMORY;
+  }
   if (builder_finish(b) != BBC_OK) {
+    free(b->geometry);
     free(b);
     return BBC_ERR_OUT_OF_MEMORY;
   }
@@ -167,6 +177,7 @@ void bbc_cache_builder_free(bbc_cache_builder *b) {
   free(b->tuples);
   free(b->candidate);
   free(b->info_text);
+  free(b->geometry);
   free(b);
 }
 
@@ -262,6 +273,20 @@ bbc_result bbc__cache_builder_set_info(bbc_cache_builder *b, const void *text, s
   b->info_set = 1;
   b->info_text = copy;
   b->info_size = text ? size : 0;
+  return BBC_OK;
+}
+
+bbc_result bbc__cache_builder_set_geometry(bbc_cache_builder *b, const void *section, size_t size) {
+  if (!b) return BBC_ERR_INVALID_ARGUMENT;
+  uint8_t *copy = NULL;
+  if (section) {
+    copy = malloc(size ? size : 1);
+    if (!copy) return BBC_ERR_OUT_OF_MEMORY;
+    memcpy(copy, section, size);
+  }
+  free(b->geometry);
+  b->geometry = copy;
+  b->geometry_size = section ? size : 0;
   return BBC_OK;
 }
 
@@ -591,6 +616,7 @@ enum {
   SEC_CIDX,
   SEC_CDAT,
   SEC_CHNK,
+  SEC_GEOM, /* unless omitted */
   SEC_SHRD, /* only in shard caches, last */
   SEC_COUNT
 };
@@ -790,15 +816,19 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   section sec[SEC_COUNT];
   static const uint32_t types[SEC_COUNT] = {
       BBC__SEC_INFO, BBC__SEC_PARM, BBC__SEC_FPRT, BBC__SEC_RCVR, BBC__SEC_TRUV,
-      BBC__SEC_TUPL, BBC__SEC_CIDX, BBC__SEC_CDAT, BBC__SEC_CHNK, BBC__SEC_SHRD};
-  /* The sections written are [first, last]: INFO is optional at the start, SHRD at the
-   * end; a complete cache is laid out exactly as by a 1.0 writer. */
+      BBC__SEC_TUPL, BBC__SEC_CIDX, BBC__SEC_CDAT, BBC__SEC_CHNK, BBC__SEC_GEOM,
+      BBC__SEC_SHRD};
+  /* The sections written are INFO (optional), PARM ... CHNK, GEOM (optional) and SHRD
+   * (shards only), in this order; without INFO, GEOM and SHRD a cache is laid out exactly
+   * as by a 1.0 writer. */
   uint32_t first = o->omit_info || !info_text ? 1 : 0;
-  uint32_t last = b->shard_count ? SEC_SHRD : SEC_CHNK, nsec = last + 1 - first;
+  int geom = !o->omit_geometry && b->geometry;
+  uint32_t last = b->shard_count ? SEC_SHRD : geom ? SEC_GEOM : SEC_CHNK;
+  uint32_t nsec = last + 1 - first - (uint32_t)(last == SEC_SHRD && !geom);
   memset(sec, 0, sizeof sec);
   for (int i = 0; i < SEC_COUNT; i++) {
     sec[i].type = types[i];
-    sec[i].flags = i == SEC_INFO || i == SEC_SHRD ? 0 : BBC__SECTION_REQUIRED;
+    sec[i].flags = i == SEC_INFO || i == SEC_GEOM || i == SEC_SHRD ? 0 : BBC__SECTION_REQUIRED;
   }
   sec[SEC_INFO].size = info_size;
   sec[SEC_PARM].size = BBC__PARM_SIZE;
@@ -900,11 +930,18 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   }
   if (r == BBC_ERR_IO && bbc__cache_builder_error(b))
     return bbc__report(o->error_fn, o->user, r, "%s: %s", s->path, bbc__cache_builder_error(b));
+  uint32_t prev = SEC_CHNK; /* the last section written so far */
+  if (r == BBC_OK && geom) {
+    sec[SEC_GEOM].size = b->geometry_size;
+    sec[SEC_GEOM].offset =
+        bbc__align64(sec[SEC_CHNK].offset + sec[SEC_CHNK].size + BBC__MIN_PADDING);
+    r = write_section(s, &sec[SEC_GEOM], b->geometry);
+    prev = SEC_GEOM;
+  }
   if (r == BBC_OK && last == SEC_SHRD) {
     /* SHRD (Sec. 5.10): which shard, the candidate list, each tuple's candidate. */
     sec[SEC_SHRD].size = BBC__SHRD_HEAD_SIZE + (uint64_t)BBC__SHRD_ENTRY_SIZE * b->tuple_count;
-    sec[SEC_SHRD].offset =
-        bbc__align64(sec[SEC_CHNK].offset + sec[SEC_CHNK].size + BBC__MIN_PADDING);
+    sec[SEC_SHRD].offset = bbc__align64(sec[prev].offset + sec[prev].size + BBC__MIN_PADDING);
     uint8_t *shrd = calloc(1, (size_t)sec[SEC_SHRD].size);
     if (!shrd)
       return bbc__report(o->error_fn, o->user, BBC_ERR_OUT_OF_MEMORY, "%s: out of memory", s->path);
@@ -924,6 +961,7 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   uint64_t file_size = bbc__align64(sec[last].offset + sec[last].size + BBC__MIN_PADDING);
   uint64_t prev_end = BBC__HEADER_SIZE + (uint64_t)BBC__DIR_ENTRY_SIZE * nsec;
   for (uint32_t i = first; i <= last && r == BBC_OK; i++) {
+    if (i == SEC_GEOM && !geom) continue;
     r = write_zeros(s, prev_end, sec[i].offset);
     prev_end = sec[i].offset + sec[i].size;
   }
@@ -931,8 +969,9 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
 
   uint8_t dir[BBC__DIR_ENTRY_SIZE * SEC_COUNT];
   memset(dir, 0, sizeof dir);
-  for (uint32_t i = first; i <= last; i++) {
-    uint8_t *e = dir + BBC__DIR_ENTRY_SIZE * (i - first);
+  for (uint32_t i = first, j = 0; i <= last; i++) {
+    if (i == SEC_GEOM && !geom) continue;
+    uint8_t *e = dir + BBC__DIR_ENTRY_SIZE * j++;
     bbc__st32(e, sec[i].type);
     bbc__st32(e + 4, sec[i].flags);
     bbc__st64(e + 8, sec[i].offset);
@@ -944,7 +983,8 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   memcpy(header, BBC__MAGIC, 8);
   bbc__st16(header + 8, BBC_FORMAT_VERSION_MAJOR);
   /* The smallest minor version whose features the file uses (R-HDR-3). */
-  bbc__st16(header + 10, b->params.area_lights ? BBC__MINOR_AREA
+  bbc__st16(header + 10, geom                    ? BBC__MINOR_GEOMETRY
+                         : b->params.area_lights ? BBC__MINOR_AREA
                          : b->shard_count   ? BBC__MINOR_SHARD
                                             : BBC__MINOR_COMPLETE);
   bbc__st32(header + 12, nsec);

@@ -18,6 +18,7 @@
 #include "camera_internal.h"
 #include "gltf_shim_internal.h"
 #include "media_internal.h"
+#include "scene_internal.h"
 
 #define PI 3.14159265358979323846
 
@@ -679,6 +680,51 @@ static bbc_result light_model(const loader *ld, const bbc__gltf_light *l, bbc_li
   return BBC_OK;
 }
 
+/* Area lights: every emissive triangle, sampled in proportion to its power
+ * (scene->emitters, emitter_cdf, emitter_power, replacing earlier ones). */
+static bbc_result find_emitters(bbc_scene *s) {
+  free(s->emitters);
+  free(s->emitter_cdf);
+  s->emitters = NULL;
+  s->emitter_cdf = NULL;
+  s->emitter_count = 0;
+  s->emitter_power = 0.0;
+  uint32_t emissive = 0;
+  for (uint32_t t = 0; t < s->triangle_count; t++) {
+    const float *e = bbc_scene_triangle_material(s, t)->emission;
+    emissive += (e[0] > 0.0f || e[1] > 0.0f || e[2] > 0.0f);
+  }
+  s->emitters = alloc(emissive, sizeof *s->emitters);
+  s->emitter_cdf = alloc(emissive, sizeof *s->emitter_cdf);
+  if (!s->emitters || !s->emitter_cdf) return BBC_ERR_OUT_OF_MEMORY;
+  double total = 0.0;
+  for (uint32_t t = 0; t < s->triangle_count && emissive > 0; t++) {
+    const float *e = bbc_scene_triangle_material(s, t)->emission;
+    double mean = ((double)e[0] + e[1] + e[2]) / 3.0;
+    if (!(mean > 0.0)) continue;
+    double p[3][3], e1[3], e2[3], n[3];
+    for (int k = 0; k < 3; k++)
+      for (int c = 0; c < 3; c++)
+        p[k][c] = s->positions[3 * (size_t)s->indices[3 * (size_t)t + k] + c];
+    for (int c = 0; c < 3; c++) {
+      e1[c] = p[1][c] - p[0][c];
+      e2[c] = p[2][c] - p[0][c];
+    }
+    cross3(e1, e2, n);
+    double weight = 0.5 * sqrt(dot3(n, n)) * mean;
+    /* A degenerate emitter emits nothing and must never be sampled. */
+    if (!(weight > 0.0)) continue;
+    total += weight;
+    s->emitters[s->emitter_count] = t;
+    s->emitter_cdf[s->emitter_count] = total;
+    s->emitter_count++;
+  }
+  for (uint32_t i = 0; i < s->emitter_count; i++) s->emitter_cdf[i] /= total;
+  if (s->emitter_count > 0) s->emitter_cdf[s->emitter_count - 1] = 1.0;
+  s->emitter_power = total * PI;
+  return BBC_OK;
+}
+
 static bbc_result load_lights(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
   bbc_result r = light_units(ld, g, s);
   if (r != BBC_OK) return r;
@@ -710,40 +756,7 @@ static bbc_result load_lights(const loader *ld, const bbc__gltf_data *g, bbc_sce
     if ((r = light_model(ld, l, &out->model)) != BBC_OK) return r;
   }
 
-  /* Area lights: every emissive triangle, sampled in proportion to its power. */
-  uint32_t emissive = 0;
-  for (uint32_t t = 0; t < s->triangle_count; t++) {
-    const float *e = bbc_scene_triangle_material(s, t)->emission;
-    emissive += (e[0] > 0.0f || e[1] > 0.0f || e[2] > 0.0f);
-  }
-  s->emitters = alloc(emissive, sizeof *s->emitters);
-  s->emitter_cdf = alloc(emissive, sizeof *s->emitter_cdf);
-  if (!s->emitters || !s->emitter_cdf) return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
-  double total = 0.0;
-  for (uint32_t t = 0; t < s->triangle_count && emissive > 0; t++) {
-    const float *e = bbc_scene_triangle_material(s, t)->emission;
-    double mean = ((double)e[0] + e[1] + e[2]) / 3.0;
-    if (!(mean > 0.0)) continue;
-    double p[3][3], e1[3], e2[3], n[3];
-    for (int k = 0; k < 3; k++)
-      for (int c = 0; c < 3; c++)
-        p[k][c] = s->positions[3 * (size_t)s->indices[3 * (size_t)t + k] + c];
-    for (int c = 0; c < 3; c++) {
-      e1[c] = p[1][c] - p[0][c];
-      e2[c] = p[2][c] - p[0][c];
-    }
-    cross3(e1, e2, n);
-    double weight = 0.5 * sqrt(dot3(n, n)) * mean;
-    /* A degenerate emitter emits nothing and must never be sampled. */
-    if (!(weight > 0.0)) continue;
-    total += weight;
-    s->emitters[s->emitter_count] = t;
-    s->emitter_cdf[s->emitter_count] = total;
-    s->emitter_count++;
-  }
-  for (uint32_t i = 0; i < s->emitter_count; i++) s->emitter_cdf[i] /= total;
-  if (s->emitter_count > 0) s->emitter_cdf[s->emitter_count - 1] = 1.0;
-  s->emitter_power = total * PI;
+  if (find_emitters(s) != BBC_OK) return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
 
   if (s->point_light_count == 0 && s->emitter_count == 0)
     return fail(ld, BBC_ERR_SCENE,
@@ -967,6 +980,20 @@ bbc_result bbc__scene_load_memory(bbc_scene **out, const void *bytes, size_t siz
   if (r == BBC_OK) r = build(out, &ld, g);
   bbc__gltf_free(g);
   return r;
+}
+
+bbc_result bbc__scene_adopt_geometry(bbc_scene *s, float *positions, float *normals, float *uvs,
+                                     uint32_t *indices) {
+  free(s->positions);
+  free(s->normals);
+  free(s->uvs);
+  free(s->indices);
+  s->positions = positions;
+  s->normals = normals;
+  s->uvs = uvs;
+  s->indices = indices;
+  bbc_result r = find_emitters(s);
+  return r == BBC_OK ? bbc__scene_media(s) : r;
 }
 
 void bbc_scene_free(bbc_scene *scene) {
