@@ -124,6 +124,9 @@ typedef struct bbc_piece {
    * its subdivision level (the u1 box's is `level`); [0, 1]^2 and 0 for other lights. */
   double a_lo, a_hi, b_lo, b_hi;
   int light_level;
+  /* Area lights: the subdivision's bookkeeping (which box the last split halved, and
+   * which splits were found not to pay, docs/lights.md "Subdivision"); 0 otherwise. */
+  int split_state;
 } bbc_piece;
 
 /* Whether the receiver barycentrics (u, v) lie in the piece's position bound (its box,

@@ -871,6 +871,20 @@ static int light_max_level(int max_level) {
   return max_level < LIGHT_MAX_LEVEL ? max_level : LIGHT_MAX_LEVEL;
 }
 
+/* Area lights: a split pays when it shrinks the piece's footprint or its bound; one that
+ * did neither (the piece's position bound keeps more than SPENT_AREA of its parent's
+ * area and its irradiance bound more than SPENT_BOUND of the parent's upper end) marks
+ * its box spent until a split pays again, and a piece both of whose boxes are spent (or
+ * cannot split) is kept as it is (docs/lights.md, "Subdivision"). */
+#define SPENT_AREA 0.5
+#define SPENT_BOUND 0.5
+enum {
+  SPLIT_LAST_U1 = 1,      /* the piece is a quarter of its parent's u1 box */
+  SPLIT_LAST_LIGHT = 2,   /* ... of its parent's light box */
+  SPLIT_U1_SPENT = 4,     /* a u1 split did not pay */
+  SPLIT_LIGHT_SPENT = 8   /* a light split did not pay */
+};
+
 /* Area lights: whether a piece to be split splits its light box rather than its u1 box:
  * the one whose world-space extent is larger (the u1 box's sides times T1's edges, the
  * light box's times the emitter's), while its level allows. */
@@ -1153,11 +1167,34 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       }
     }
 
-    if (split && split_light(g, &piece, max_level)) {
+    int light_split = split && split_light(g, &piece, max_level);
+    if (split && g->light_model.kind == BBC_LIGHT_AREA) {
+      /* Whether the split that made the piece paid (the parent's bounds are inherited). */
+      const int last = piece.split_state & (SPLIT_LAST_U1 | SPLIT_LAST_LIGHT);
+      double parent_area = (inherited.uk_hi - inherited.uk_lo) * (inherited.vk_hi - inherited.vk_lo);
+      if (last) {
+        const int spent = area > SPENT_AREA * parent_area && !(piece.e_hi < SPENT_BOUND * inherited.e_hi);
+        if (!spent)
+          piece.split_state &= ~(SPLIT_U1_SPENT | SPLIT_LIGHT_SPENT);
+        else
+          piece.split_state |= last == SPLIT_LAST_U1 ? SPLIT_U1_SPENT : SPLIT_LIGHT_SPENT;
+      }
+      const int u1_ok = piece.level < max_level && !(piece.split_state & SPLIT_U1_SPENT);
+      const int light_ok = piece.light_level < light_max_level(max_level) &&
+                           !(piece.split_state & SPLIT_LIGHT_SPENT);
+      if (light_split ? light_ok : u1_ok) {
+      } else if (light_split ? u1_ok : light_ok) {
+        light_split = !light_split;
+      } else {
+        split = 0;
+      }
+    }
+    if (split && light_split) {
       /* An area light's box is split instead (the u1 box stays). */
       double am = 0.5 * (piece.a_lo + piece.a_hi), bm = 0.5 * (piece.b_lo + piece.b_hi);
       bbc_piece child = piece;
       child.light_level = piece.light_level + 1;
+      child.split_state = (piece.split_state & ~SPLIT_LAST_U1) | SPLIT_LAST_LIGHT;
       const double as[3] = {piece.a_lo, am, piece.a_hi}, bs[3] = {piece.b_lo, bm, piece.b_hi};
       for (int j = 0; j < 2 && result == BBC_OK; j++) {
         for (int i = 0; i < 2 && result == BBC_OK; i++) {
@@ -1174,6 +1211,8 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       double um = 0.5 * (piece.u_lo + piece.u_hi), vm = 0.5 * (piece.v_lo + piece.v_hi);
       bbc_piece child = piece; /* inherits the position and irradiance bounds */
       child.level = piece.level + 1;
+      if (g->light_model.kind == BBC_LIGHT_AREA)
+        child.split_state = (piece.split_state & ~SPLIT_LAST_LIGHT) | SPLIT_LAST_U1;
       const double us[3] = {piece.u_lo, um, piece.u_hi}, vs[3] = {piece.v_lo, vm, piece.v_hi};
       for (int j = 0; j < 2 && result == BBC_OK; j++) {
         for (int i = 0; i < 2 && result == BBC_OK; i++) {
