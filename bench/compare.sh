@@ -17,11 +17,13 @@
 # 2. the shared scenes plane1k, plane7k, pool4k (one bounce) and ball320 (two, at
 #    --max-level 3, --max-depth 4), W pixels wide (80 by default): bbc at 1-32 spp, uniform
 #    and enumerate from 1 spp doubling until their mean CPU-seconds reach bbc's largest
-#    (so that equal CPU is interpolated, not extrapolated), against a reference, 3/4 a
-#    long bbc render and 1/4 a long
-#    enumeration; a second one from other seeds must agree with it ten times better
-#    than the smallest relMSE reported (cached in bench/work/refs; they take most of the
-#    time of a first run, about 10 CPU-minutes).
+#    (so that equal CPU is interpolated, not extrapolated), against a reference made by
+#    light tracing (bench/light_trace: it shares nothing with bbc's cache and solvers, and
+#    its pixels have a finite variance even at a caustic's focus); a second one from
+#    another seed must agree with it ten times better than the smallest relMSE reported.
+#    A long bbc render and a long enumeration are compared with it too: both must converge
+#    to it. The light tracer is itself checked on the flat mirror against the exact image
+#    (part 1). References are cached in bench/work/refs.
 # Every run is timed in CPU-seconds (user + sys of the process, /usr/bin/time), not wall
 # time: the machine may be shared. --scale K multiplies every budget (spp, photons,
 # reference spp). Writes bench/results/compare.md, flat-mirror.png, scenes.png and the
@@ -195,6 +197,23 @@ flat() {
     exit 1
   fi
 
+  # The light tracer of part 2's references, against the exact caustic as a camera sees
+  # it directly: its lit mean must be right to 0.5 %, its error fall as 1/photons.
+  "$bin/bench/flat_mirror_exact" "$scene" --width $w --height $h --caustic --seen-directly \
+    -o "$d/exact-seen.exr" 2> /dev/null
+  : > "$d/light_trace.dat"
+  for count in 10000000 40000000; do
+    count=$(n $count)
+    c=$(cpu "$d/lt-$count.log" "$bin/bench/light_trace" "$scene" --chains R --width $w --photons "$count" \
+      --seed 1 --threads 2 -o "$d/lt-$count.exr")
+    set -- $(err "$d/lt-$count.exr" "$d/exact-seen.exr")
+    echo "$count $c $2 $4" >> "$d/light_trace.dat"
+  done
+  if ! awk '{ q = $4 - 1; if (q < 0) q = -q } END { exit !(q < 0.005) }' "$d/light_trace.dat"; then
+    echo "compare.sh: light_trace is off on the flat mirror: lit-mean ratio $(tail -1 "$d/light_trace.dat" | cut -d' ' -f4)" >&2
+    exit 1
+  fi
+
   # POV-Ray photon mapping: photon counts x fixed gather radii, 3x3 antialiasing.
   : > "$d/povray.dat"
   for count in 300000 1000000 3000000 10000000 30000000; do
@@ -264,6 +283,15 @@ EOF
     echo "pixel centre, POV-Ray's EXR output): relMSE **$calibration** against the exact direct image"
     echo "(must be < 1e-6), lit-mean ratio $calibration_ratio."
     echo
+    echo "The light tracer that makes the references of the shared scenes (bench/light_trace,"
+    echo "below) against the exact caustic where the camera sees the floor directly (the floor in"
+    echo "the mirror left out, bench/flat_mirror_exact --seen-directly); its lit-mean ratio must be"
+    echo "within 0.5 % of 1:"
+    echo
+    echo "| photons | CPU-s | relMSE | lit-mean ratio |"
+    echo "|---|---|---|---|"
+    awk '{ printf "| %s | %s | %.3g | %.5f |\n", $1, $2, $3, $4 }' "$d/light_trace.dat"
+    echo
     echo "POV-Ray: \`povray +FE +W$w +H$h +WT2 +A0.0 +AM1 +R3\` (3x3 supersampling of every pixel),"
     echo "photons shot at the mirror, gathered within a fixed radius (\`gather 0, 1000000\`,"
     echo "\`expand_thresholds 0, 0\`), no direct light on the floor (a light group without lights)."
@@ -302,17 +330,19 @@ scenes_part() {
   d=$work/scenes
   w=$scene_width
   : > "$d/summary.dat"
-  # scene:chain:level:reference spp (bbc):check spp (enumerate)
-  for spec in plane1k:R::2048:128 plane7k:R::2048:128 pool4k:T::2048:512 ball320:TT:3:2048:2048; do
+  # scene:chain:level:photons of a reference (light tracing):spp of the long bbc render
+  # and of the long enumeration
+  for spec in plane1k:R::20000000:2048:128 plane7k:R::20000000:2048:128 pool4k:T::100000000:2048:512 \
+    ball320:TT:3:100000000:2048:2048; do
     s=${spec%%:*}
     case " ${BBC_BENCH_SCENES:-$s} " in *" $s "*) ;; *) continue ;; esac
-    rest=${spec#*:}
-    chain=${rest%%:*}
-    rest=${rest#*:}
-    level=${rest%%:*}
-    rest=${rest#*:}
-    refspp=$(n "${rest%%:*}")
-    chkspp=$(n "${rest#*:}")
+    set -- $(echo "$spec" | awk -F: '{ for (i = 1; i <= NF; i++) printf "%s ", ($i == "" ? "-" : $i) }')
+    chain=$2
+    level=$3
+    [ "$level" = - ] && level=
+    photons=$(n "$4")
+    refspp=$(n "$5")
+    chkspp=$(n "$6")
     gltf=$scenes/$s.gltf
     [ -f "$gltf" ] || { echo "compare.sh: $gltf is missing, skipped" >&2; continue; }
     # The precompute, reused while the cache is newer than bbc-precompute and the scene.
@@ -326,41 +356,43 @@ scenes_part() {
     # The camera path, the diffuse vertex and the chain's segments: 2 + its length.
     depth=$((2 + ${#chain}))
     common="$gltf --cache $d/$s.bbc --only caustics --max-depth $depth --width $w --threads 2 --no-progress"
-    # The references: long renders by bbc and by the enumeration, two seeds each, cached
-    # by scene content and options in bench/work/refs (delete them when the renderer's
-    # expected image changes). Reference 1 is 3/4 the seed-1001 bbc render and 1/4 the
-    # seed-1001 enumeration, reference 2 the same of the seed-1002 pair: independent. (The
-    # enumeration is several times noisier for its CPU time, so an equal mean was floored
-    # by it.)
+    # The references: light tracing, seeds 1001 and 1002, and the long bbc and enumerate
+    # renders (seed 1001), cached in bench/work/refs by the scene's content, the options
+    # and the source of the light tracer (delete the renders' when the renderer's expected
+    # image changes).
     sum=$(cat "$gltf" "${gltf%.gltf}.bin" 2> /dev/null | md5sum | cut -c1-8)
-    for job in bbc:$refspp:1001 bbc:$refspp:1002 enumerate:$chkspp:1001 enumerate:$chkspp:1002; do
-      m=${job%%:*}
-      rest=${job#*:}
-      ref=$work/refs/$s-$sum-w$w-d$depth-$m-${rest%%:*}-${rest#*:}.exr
+    ltsum=$(md5sum < "$root/bench/light_trace.c" | cut -c1-8)
+    r=$work/refs/$s-$sum-w$w-d$depth
+    for k in 1001 1002; do
+      ref=$r-lt$ltsum-$chain-$photons-$k.exr
       if [ ! -f "$ref" ]; then
-        c=$(cpu "$d/$s-ref.log" "$ren" $common --method $m --spp "${rest%%:*}" --seed "${rest#*:}" -o "$ref.tmp.exr")
+        c=$(cpu "$d/$s-ref.log" "$bin/bench/light_trace" "$gltf" --chains "$chain" --width $w \
+          --photons "$photons" --seed $k --threads 2 -o "$ref.tmp.exr")
         mv "$ref.tmp.exr" "$ref"
         echo "$c" > "$ref.cpu"
       fi
     done
-    r=$work/refs/$s-$sum-w$w-d$depth
-    for k in 1 2; do
-      "$bin/bench/image_mean" "$r-bbc-$refspp-100$k.exr" "$r-enumerate-$chkspp-100$k.exr" -o "$d/$s-half$k.exr"
-      "$bin/bench/image_mean" "$r-bbc-$refspp-100$k.exr" "$d/$s-half$k.exr" -o "$d/$s-ref$k.exr"
+    for job in bbc:$refspp enumerate:$chkspp; do
+      ref=$r-${job%%:*}-${job#*:}-1001.exr
+      if [ ! -f "$ref" ]; then
+        c=$(cpu "$d/$s-ref.log" "$ren" $common --method ${job%%:*} --spp "${job#*:}" --seed 1001 -o "$ref.tmp.exr")
+        mv "$ref.tmp.exr" "$ref"
+        echo "$c" > "$ref.cpu"
+      fi
     done
-    refa=$d/$s-ref1.exr
-    set -- $(err "$refa" "$d/$s-ref2.exr")
+    refa=$r-lt$ltsum-$chain-$photons-1001.exr
+    set -- $(err "$refa" "$r-lt$ltsum-$chain-$photons-1002.exr")
     agree=$2
-    # bbc against the enumeration: a bbc reference against the other seed's enumeration,
-    # beside the two enumerations against each other (their noise).
-    set -- $(err "$r-bbc-$refspp-1001.exr" "$r-enumerate-$chkspp-1002.exr")
+    agree_lit=$4
+    # The long renders against the light tracing: both converge to it.
+    set -- $(err "$r-bbc-$refspp-1001.exr" "$refa")
     check_err=$2
     check_lit=$4
-    set -- $(err "$r-enumerate-$chkspp-1001.exr" "$r-enumerate-$chkspp-1002.exr")
+    set -- $(err "$r-enumerate-$chkspp-1001.exr" "$refa")
     enum_err=$2
     enum_lit=$4
-    refcpu=$(cat "$r-bbc-$refspp-1001.exr.cpu" "$r-bbc-$refspp-1002.exr.cpu" | awk '{ s += $1 } END { printf "%.0f", s }')
-    chkcpu=$(cat "$r-enumerate-$chkspp-1001.exr.cpu" "$r-enumerate-$chkspp-1002.exr.cpu" | awk '{ s += $1 } END { printf "%.0f", s }')
+    refcpu=$(cat "$r-lt$ltsum-$chain-$photons-1001.exr.cpu" "$r-lt$ltsum-$chain-$photons-1002.exr.cpu" | awk '{ s += $1 } END { printf "%.0f", s }')
+    chkcpu=$(cat "$r-bbc-$refspp-1001.exr.cpu" "$r-enumerate-$chkspp-1001.exr.cpu" | awk '{ s += $1 } END { printf "%.0f", s }')
     : > "$d/$s.dat"
     # bbc at 1-32 spp; the others from 1 spp, doubling until their mean CPU reaches bbc's
     # largest (at most 256 spp), so that equal CPU lies within every curve.
@@ -389,9 +421,9 @@ scenes_part() {
     smallest=$(awk '{ print $4 }' "$d/$s.dat" | sort -g | head -1)
     lit=$(awk '$1 == "bbc" { q = $5 } END { print q }' "$d/$s.dat")
     spp_slope() { awk -v m="$1" '$1 == m { print $2, $4 }' "$d/$s.dat" > "$d/slope.xy"; slope "$d/slope.xy"; }
-    echo "$s $chain ${level:--} $pc $refspp $refcpu $agree $smallest $bc $be $ue $ee $lit" \
+    echo "$s $chain ${level:--} $pc $photons $refcpu $agree $smallest $bc $be $ue $ee $lit" \
       "$(spp_slope bbc) $(spp_slope uniform) $(spp_slope enumerate)" \
-      "$chkspp $chkcpu $check_err $enum_err $check_lit $enum_lit" >> "$d/summary.dat"
+      "$refspp,$chkspp $chkcpu $check_err $enum_err $check_lit $enum_lit $agree_lit" >> "$d/summary.dat"
   done
 
   gnuplot <<EOF
@@ -421,20 +453,18 @@ EOF
     echo "--method M --spp N --seed K\` (D = 2 + the chain's length: the caustic path's segments), for"
     echo "each seed K of $seeds (every method the same seeds); CPU-s, relMSE and lit-mean"
     echo "ratio below are means over the seeds. bbc runs at 1-32 spp, uniform and enumerate from 1"
-    echo "spp doubling until their mean CPU-s reach bbc's at 32 spp. References: long renders by \`--method bbc\` and"
-    echo "\`--method enumerate\`, seeds 1001 and 1002 each (cached in bench/work/refs); reference 1"
-    echo "is 3/4 the seed-1001 bbc image and 1/4 the seed-1001 enumeration, reference 2 the same of"
-    echo "the seed-1002 ones (the enumeration is the noisier for its CPU time). Errors"
-    echo "are against reference 1; the two agree to the \"refs agree\" relMSE, which must be ten"
-    echo "times below the smallest relMSE reported. bbc against the enumeration: the bbc image of"
-    echo "seed 1001 against the enumeration of seed 1002, beside the two enumerations against each"
-    echo "other (their own noise): if bbc converges to the enumeration the two figures match and"
-    echo "the lit-mean ratios are 1 within that noise."
+    echo "spp doubling until their mean CPU-s reach bbc's at 32 spp. References: light tracing"
+    echo "(\`bench/light_trace SCENE --chains CHAIN --width $w --photons P --seed K\`, checked on the"
+    echo "flat mirror above), seeds 1001 and 1002 (cached in bench/work/refs). Errors are against"
+    echo "reference 1; the two agree to the \"refs agree\" relMSE, which must be ten times below the"
+    echo "smallest relMSE reported. Convergence: a long bbc render and a long enumeration (seed 1001)"
+    echo "against reference 1, beside the two references against each other: if both converge to"
+    echo "the light tracing, their lit-mean ratios are 1 within the noise of the three."
     echo
-    echo "| scene | chain | level | precompute CPU-s | ref spp bbc, enumerate | ref CPU-s bbc, enumerate | refs agree | smallest reported | ok | bbc vs enumeration: relMSE, lit-mean | enumeration vs enumeration: relMSE, lit-mean |"
-    echo "|---|---|---|---|---|---|---|---|---|---|---|"
+    echo "| scene | chain | level | precompute CPU-s | reference photons | reference CPU-s (both) | refs agree: relMSE, lit-mean | smallest reported | ok | long spp bbc, enumerate (CPU-s) | long bbc vs reference: relMSE, lit-mean | long enumerate vs reference: relMSE, lit-mean |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
     awk '{ ok = ($7 * 10 <= $8) ? "yes" : "**no**"
-           printf "| %s | %s | %s | %s | %s, %s | %s, %s | %.2g | %.2g | %s | %.2g, %.4f | %.2g, %.4f |\n", $1, $2, $3, $4, $5, $17, $6, $18, $7, $8, ok, $19, $21, $20, $22 }' \
+           printf "| %s | %s | %s | %s | %s | %s | %.2g, %.4f | %.2g | %s | %s (%s) | %.2g, %.4f | %.2g, %.4f |\n", $1, $2, $3, $4, $5, $6, $7, $23, $8, ok, $17, $18, $19, $21, $20, $22 }' \
       "$d/summary.dat"
     echo
     echo "At equal render CPU (uniform and enumerate interpolated log-log at bbc's largest budget,"
@@ -462,7 +492,7 @@ EOF
     echo
     echo "Curves: bench/results/scenes.png."
   } > "$scenes_md"
-  awk '{ printf "| %s (vs enumeration) | at %s render CPU-s (mean of '"$nseeds"' seeds): uniform %.3g, enumerate %.3g | bbc %.3g (%.2fx below uniform, %.2fx below enumerate) |\n",
+  awk '{ printf "| %s (vs light tracing) | at %s render CPU-s (mean of '"$nseeds"' seeds): uniform %.3g, enumerate %.3g | bbc %.3g (%.2fx below uniform, %.2fx below enumerate) |\n",
          $1, $9, $11, $12, $10, $11 / $10, $12 / $10 }' "$d/summary.dat" > "$work/scenes/readme-rows.md"
 }
 

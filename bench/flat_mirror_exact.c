@@ -7,6 +7,9 @@
  *       image of the light, albedo/pi R I cos(theta)/r^2, seen directly and in the
  *       mirror, box-filtered over each pixel (bbc's camera jitters each sample uniformly
  *       over its pixel);
+ *   flat_mirror_exact SCENE.gltf --width W --height H --caustic --seen-directly -o OUT.exr
+ *       the same without the floor seen in the mirror: what bbc-render --only caustics
+ *       --max-depth 3 shows, and bench/light_trace's calibration target;
  *   flat_mirror_exact SCENE.gltf --width W --height H --direct -o OUT.exr
  *       the floor lit by the light alone (no mirror), albedo/pi I cos(theta)/r^2, at the
  *       pixel centres: the calibration target of a renderer's translation of the scene.
@@ -60,6 +63,7 @@ typedef struct geometry {
   double z0, z1;
   double mirror_x_min;    /* the image x below which a ray passes over the mirror's top */
   int caustic;            /* 1: the mirrored light, seen directly and in the mirror */
+  int seen_directly;      /* caustic only: not in the mirror */
 } geometry;
 
 /* The value, per unit of scale, at the point where a camera ray meets the floor plane at
@@ -68,7 +72,7 @@ static double value(const geometry *g, double x, double z) {
   if (z < g->z0 || z > g->z1 || x > g->floor_x1) return 0;
   double lx = g->light[0], ly = g->light[1], lz = g->light[2];
   if (g->caustic) {
-    if (x < g->mirror_x_min) return 0;
+    if (x < g->mirror_x_min || (g->seen_directly && x < 0)) return 0;
     x = fabs(x); /* in the mirror: the reflected floor point (-x, z) */
     lx = -lx;    /* the mirror image of the light */
   } else if (x < 0) {
@@ -119,21 +123,22 @@ static void floor_point(const bbc_camera *c, uint32_t w, uint32_t h, double px, 
 int main(int argc, char **argv) {
   const char *scene_path = NULL, *out = NULL;
   long width = 0, height = 0;
-  int caustic = -1;
+  int caustic = -1, seen_directly = 0;
   for (int i = 1; i < argc; i++) {
     if (!strcmp(argv[i], "--width") && i + 1 < argc) width = atol(argv[++i]);
     else if (!strcmp(argv[i], "--height") && i + 1 < argc) height = atol(argv[++i]);
     else if (!strcmp(argv[i], "-o") && i + 1 < argc) out = argv[++i];
     else if (!strcmp(argv[i], "--caustic")) caustic = 1;
     else if (!strcmp(argv[i], "--direct")) caustic = 0;
+    else if (!strcmp(argv[i], "--seen-directly")) seen_directly = 1;
     else if (argv[i][0] != '-' && !scene_path) scene_path = argv[i];
     else return fail("usage: flat_mirror_exact SCENE.gltf --width W --height H "
-                     "--caustic|--direct -o OUT.exr");
+                     "--caustic [--seen-directly]|--direct -o OUT.exr");
   }
   if (!scene_path || !out || width <= 0 || height <= 0 || caustic < 0 || width > 100000 ||
       height > 100000)
     return fail("usage: flat_mirror_exact SCENE.gltf --width W --height H "
-                "--caustic|--direct -o OUT.exr");
+                "--caustic [--seen-directly]|--direct -o OUT.exr");
   bbc_scene *scene = NULL;
   if (bbc_scene_load(&scene, scene_path, NULL) != BBC_OK) return fail("cannot load the scene");
 
@@ -142,6 +147,7 @@ int main(int argc, char **argv) {
   geometry g;
   memset(&g, 0, sizeof g);
   g.caustic = caustic;
+  g.seen_directly = caustic && seen_directly;
   if (scene->point_light_count != 1 || scene->emitter_count != 0)
     return fail("the scene must have exactly one point light");
   const bbc_point_light *light = &scene->point_lights[0];

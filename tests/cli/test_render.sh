@@ -12,7 +12,7 @@ test_help_documents_every_flag() {
   expect_status 0 "$RENDER" --help
   for flag in --output --png --exposure --width --height --method --max-depth --no-fresnel \
               --spp --time --threads --seed --progress --no-progress --stats --version --help \
-              --no-verify; do
+              --no-verify --region; do
     grep -q -- "$flag" "$TMP/out" || fail "--help does not mention $flag"
   done
   [ -s "$TMP/err" ] && fail "--help wrote to stderr"
@@ -37,6 +37,10 @@ test_bad_numbers_exit_2() {
   expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --threads=-1
   expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --spp
   expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --method magic
+  expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --region 1,2,3
+  expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --region 5,0,5,4
+  expect_status 2 "$RENDER" "$SCENE" -o "$TMP/x.exr" --width 8 --region 0,0,9,2
+  grep -q "does not lie within the 8x" "$TMP/err" || fail "message: $(cat "$TMP/err")"
   expect_status 2 "$RENDER" "$SCENE"
   expect_status 2 "$RENDER" -o "$TMP/x.exr"
   [ -e "$TMP/x.exr" ] && fail "an output was written"
@@ -80,6 +84,18 @@ test_equals_form_and_thread_independence() {
   expect_status 0 "$RENDER" "$SCENE" --output="$TMP/a.exr" --spp=3 --width=24 --threads=1
   expect_status 0 "$RENDER" "$SCENE" -o "$TMP/b.exr" --spp 3 --width 24 --threads 2
   cmp -s "$TMP/a.exr" "$TMP/b.exr" || fail "images differ between 1 and 2 threads"
+}
+
+# --region renders part of the image: its pixels are those of the whole image (relMSE 0
+# over the region, from another thread count), the rest differs (black).
+test_region() {
+  expect_status 0 "$RENDER" "$SCENE" -o "$TMP/a.exr" --spp 3 --width 24 --threads 2
+  expect_status 0 "$RENDER" "$SCENE" -o "$TMP/b.exr" --spp 3 --width 24 --threads 1 \
+    --region 4,3,20,15 --reference "$TMP/a.exr"
+  grep -qx "relMSE 0" "$TMP/out" || fail "the region differs: $(cat "$TMP/out")"
+  expect_status 0 "$RENDER" "$SCENE" -o "$TMP/c.exr" --spp 3 --width 24 --reference "$TMP/b.exr"
+  grep -qx "relMSE 0" "$TMP/out" && fail "pixels outside the region were rendered"
+  return 0
 }
 
 # --light-units reaches the scene: the generated scenes are radiometric, so reading them

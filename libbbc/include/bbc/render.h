@@ -100,6 +100,12 @@ typedef struct bbc_render_options {
                                  BBC_NEWTON_MAX_TRIALS_DEFAULT */
   const bbc_camera *camera;   /* the camera to render; NULL = the scene's first */
   bbc_sampler sampler;        /* default BBC_SAMPLER_SOBOL */
+  /* The pixels rendered: x0 <= x < x1 and y0 <= y < y1 of region {x0, y0, x1, y1}; the
+   * others are left black. Each rendered pixel is bit-identical to the same pixel of a
+   * whole-image render (its samples depend on the seed, the pixel and the sample index
+   * only). All zero = the whole image; otherwise 0 <= x0 < x1 <= width and
+   * 0 <= y0 < y1 <= height (BBC_ERR_INVALID_ARGUMENT otherwise). */
+  uint32_t region[4];
   bbc_progress_fn progress;   /* optional; called between passes on the calling thread
                                  with samples per pixel done / planned (planned is 0
                                  under a pure time limit) */
@@ -109,7 +115,7 @@ typedef struct bbc_render_options {
 typedef struct bbc_render_stats {
   double seconds;   /* wall time of rendering */
   uint32_t spp;     /* samples per pixel completed */
-  uint64_t samples; /* camera samples traced */
+  uint64_t samples; /* camera samples traced (spp times the region's pixels) */
   uint64_t rays;    /* closest-hit plus occlusion rays */
   int threads;      /* threads used */
   /* The caustic estimator (the paper's Table 2 render columns). */

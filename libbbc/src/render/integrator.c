@@ -419,6 +419,15 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
   int threads = opts.threads > 0 ? opts.threads : omp_get_max_threads();
   const uint32_t width = image->width, height = image->height;
   const size_t pixels = (size_t)width * height;
+  uint32_t x0 = 0, y0 = 0, x1 = width, y1 = height;
+  if (opts.region[0] | opts.region[1] | opts.region[2] | opts.region[3]) {
+    x0 = opts.region[0];
+    y0 = opts.region[1];
+    x1 = opts.region[2];
+    y1 = opts.region[3];
+    if (!(x0 < x1 && x1 <= width && y0 < y1 && y1 <= height)) return BBC_ERR_INVALID_ARGUMENT;
+  }
+  const size_t region_pixels = (size_t)(x1 - x0) * (y1 - y0);
 
   /* The caustic estimator and its per-thread state. */
   bbc__caustics caustics;
@@ -496,13 +505,13 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     double pass_start = omp_get_wtime();
     uint64_t pass_rays = 0;
 #pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(+ : pass_rays)
-    for (uint32_t y = 0; y < height; y++) {
+    for (uint32_t y = y0; y < y1; y++) {
       bbc__caustics_thread *ct = &thread_state[omp_get_thread_num()];
       int stop;
 #pragma omp atomic read
       stop = damaged;
       if (stop) continue;
-      for (uint32_t x = 0; x < width; x++) {
+      for (uint32_t x = x0; x < x1; x++) {
         size_t pixel = (size_t)y * width + x;
         double *acc = sum + 3 * pixel;
         for (uint32_t k = first; k < last; k++) {
@@ -582,7 +591,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     stats->thread_seconds = busy;
     stats->seconds = omp_get_wtime() - start;
     stats->spp = done;
-    stats->samples = (uint64_t)done * pixels;
+    stats->samples = (uint64_t)done * region_pixels;
     stats->rays = rays;
     stats->threads = threads;
   }

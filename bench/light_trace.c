@@ -1,0 +1,341 @@
+/* A reference image of the caustic alone by light tracing, for the comparison benchmark
+ * (bench/compare.sh): an estimator that shares nothing with bbc's cache, bounds or
+ * solvers.
+ *
+ *   light_trace SCENE.gltf --chains LIST --width W --photons N [--seed K] [--threads T]
+ *               [--no-fresnel] -o OUT.exr
+ *
+ * Photons leave each point or spot light uniformly over the cone of directions that holds
+ * the bounding sphere of the scene's casters (the mirrors and glass that bbc-precompute
+ * bounds), N per light, each with flux I * falloff * Omega / N. They follow exactly the
+ * chain types of LIST (R reflects on a mirror, weighted by its base colour; T refracts
+ * through a dielectric, weighted by 1 - Fresnel unless --no-fresnel), then land on a
+ * Lambertian receiver. A landing point x that the camera sees directly adds
+ * flux * albedo / pi * |d(pixel) / dA(x)| to its pixel: that is the pixel's mean radiance
+ * (a box filter) of the caustic, the quantity `bbc-render --only caustics --max-depth
+ * 2 + chain length` estimates. The same admissibility rules as bbc's caustic estimator
+ * apply: a refraction's shading normal must agree with its geometric side, a reflection's
+ * light must arrive on its shading normal's side, and the light must reach the receiver on
+ * the side the camera sees. The variance of a pixel is finite even at a caustic's focus,
+ * where the irradiance (and so every estimator that samples points of the pixel) has an
+ * integrable singularity.
+ *
+ * Deterministic: photons are split into batches with their own random streams, summed
+ * into 64 lanes in a fixed order, whatever the thread count. Untextured Lambertian
+ * receivers, point and spot lights only (anything else is refused). */
+#define _POSIX_C_SOURCE 200809L /* strtok_r */
+#include <math.h>
+#include <omp.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bbc/bbc.h"
+
+#define PI 3.14159265358979323846
+#define LANES 64
+#define BATCH 65536
+
+static bbc_vec3 add(bbc_vec3 a, bbc_vec3 b) { return (bbc_vec3){a.x + b.x, a.y + b.y, a.z + b.z}; }
+static bbc_vec3 sub(bbc_vec3 a, bbc_vec3 b) { return (bbc_vec3){a.x - b.x, a.y - b.y, a.z - b.z}; }
+static bbc_vec3 scale(bbc_vec3 a, double s) { return (bbc_vec3){a.x * s, a.y * s, a.z * s}; }
+static double dot(bbc_vec3 a, bbc_vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static bbc_vec3 cross(bbc_vec3 a, bbc_vec3 b) {
+  return (bbc_vec3){a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+static bbc_vec3 unit(bbc_vec3 a) { return scale(a, 1.0 / sqrt(dot(a, a))); }
+static bbc_vec3 load(const float *p) { return (bbc_vec3){p[0], p[1], p[2]}; }
+
+/* SplitMix64: a stream per (seed, light, batch). */
+static uint64_t mix(uint64_t *state) {
+  uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+static double uniform(uint64_t *state) { return (mix(state) >> 11) * 0x1.0p-53; }
+
+/* Fresnel reflectance of a smooth dielectric for unpolarised light (as bbc's caustic
+ * estimator has it). */
+static double fresnel(double cos_i, double eta) {
+  double sin2_t = eta * eta * (1 - cos_i * cos_i);
+  if (sin2_t >= 1) return 1;
+  double cos_t = sqrt(1 - sin2_t);
+  double rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+  double rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+  return 0.5 * (rs * rs + rp * rp);
+}
+
+typedef struct tracer {
+  const bbc_scene *scene;
+  const bbc_accel *accel;
+  const bbc_camera *camera;
+  uint32_t width, height;
+  double tan_half, aspect;
+  uint32_t chains; /* BBC_CHAIN_BIT mask */
+  int no_fresnel;
+} tracer;
+
+/* Triangle t's unit geometric normal turned to the side its vertex normals point to,
+ * and its unit shading normal at barycentrics (u, v). */
+static void normals(const bbc_scene *s, uint32_t t, double u, double v, bbc_vec3 *ng,
+                    bbc_vec3 *ns) {
+  const uint32_t *idx = s->indices + 3 * (size_t)t;
+  bbc_vec3 p0 = load(s->positions + 3 * (size_t)idx[0]);
+  bbc_vec3 p1 = load(s->positions + 3 * (size_t)idx[1]);
+  bbc_vec3 p2 = load(s->positions + 3 * (size_t)idx[2]);
+  bbc_vec3 n0 = load(s->normals + 3 * (size_t)idx[0]);
+  bbc_vec3 n1 = load(s->normals + 3 * (size_t)idx[1]);
+  bbc_vec3 n2 = load(s->normals + 3 * (size_t)idx[2]);
+  bbc_vec3 g = unit(cross(sub(p1, p0), sub(p2, p0)));
+  if (dot(g, add(n0, add(n1, n2))) < 0) g = scale(g, -1);
+  *ng = g;
+  *ns = unit(add(scale(n0, 1 - u - v), add(scale(n1, u), scale(n2, v))));
+}
+
+/* The photon lands on receiver triangle t at x, coming along d from the last specular
+ * vertex, with flux[3]: adds its pixel's share to lane. */
+static void land(const tracer *tr, uint32_t t, bbc_vec3 x, bbc_vec3 d, const double flux[3],
+                 double *lane) {
+  const bbc_scene *s = tr->scene;
+  const bbc_material *m = bbc_scene_triangle_material(s, t);
+  bbc_vec3 ng, ns;
+  normals(s, t, 0, 0, &ng, &ns);
+  const bbc_camera *c = tr->camera;
+  bbc_vec3 to_x = sub(x, c->position);
+  /* The light must arrive on the side the camera sees. */
+  if ((dot(d, ng) < 0) != (dot(to_x, ng) < 0)) return;
+  double z = -dot(to_x, c->w);
+  if (!(z > 0)) return;
+  double sx = dot(to_x, c->u) / z, sy = dot(to_x, c->v) / z;
+  double px = (sx / (tr->tan_half * tr->aspect) + 1) * 0.5 * tr->width;
+  double py = (1 - sy / tr->tan_half) * 0.5 * tr->height;
+  if (!(px >= 0 && px < tr->width && py >= 0 && py < tr->height)) return;
+  /* Seen directly: the camera's ray toward x first hits t, at x. */
+  bbc_hit hit;
+  if (!bbc_accel_intersect(tr->accel, c->position, to_x, 0, 1 + 1e-6, &hit) || hit.triangle != t)
+    return;
+  /* |d(px, py) / dA(x)|: the film at distance 1 has d(film)/dA = cos_x / (r^2 cos_c^3),
+   * and a film unit is width / (2 tan_half aspect) = height / (2 tan_half) pixels. */
+  double r2 = dot(to_x, to_x), r = sqrt(r2);
+  double cos_x = fabs(dot(to_x, ng)) / r, cos_c = z / r;
+  double pixels_per_film = tr->height / (2 * tr->tan_half);
+  double jacobian = cos_x / (r2 * cos_c * cos_c * cos_c) * pixels_per_film * pixels_per_film;
+  size_t pixel = (size_t)(uint32_t)py * tr->width + (uint32_t)px;
+  for (int k = 0; k < 3; k++)
+    lane[3 * pixel + k] += flux[k] * m->base_color[k] / PI * jacobian;
+}
+
+/* Chain types R, T, RR, RT, TR, TT are the values 0..5 (bbc/tuple.h); letter i of
+ * chain c is 0 for a reflection, 1 for a refraction. */
+static int chain_length(int c) { return c < 2 ? 1 : 2; }
+static int letter_at(int c, int i) { return c < 2 ? c : i == 0 ? (c - 2) >> 1 : (c - 2) & 1; }
+
+/* Follows a photon from origin along d (unit) that has made `made` specular vertices of
+ * the chain letters[0..made) (0 R, 1 T). */
+static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d, double flux[3],
+                   int made, int letters, double *lane) {
+  const bbc_scene *s = tr->scene;
+  bbc_hit hit;
+  /* A ray that leaves a triangle cannot meet its plane again: a hit on `from` is the
+   * rounding of the start point (Embree's are in single precision), so look past it. */
+  double tmin = 0;
+  for (int tries = 0;; tries++) {
+    if (!bbc_accel_intersect(tr->accel, origin, d, tmin, INFINITY, &hit)) return;
+    if (hit.triangle != from) break;
+    if (tries == 3) return;
+    tmin = hit.t * (1 + 1e-6) + 1e-9;
+  }
+  uint32_t t = hit.triangle;
+  const bbc_mesh *mesh = &s->meshes[s->triangle_mesh[t]];
+  const bbc_material *m = &s->materials[mesh->material];
+  bbc_vec3 x = add(origin, scale(d, hit.t));
+  if (mesh->role == BBC_ROLE_RECEIVER && m->type == BBC_MATERIAL_DIFFUSE) {
+    if (made == 0) return;
+    int chain = made == 1 ? letters : 2 + letters;
+    if (tr->chains & (1u << chain)) land(tr, t, x, d, flux, lane);
+    return;
+  }
+  if (made == 2 || mesh->role != BBC_ROLE_CASTER ||
+      (m->type != BBC_MATERIAL_MIRROR && m->type != BBC_MATERIAL_DIELECTRIC))
+    return;
+  bbc_vec3 ng, ns;
+  normals(s, t, hit.u, hit.v, &ng, &ns);
+  int letter = m->type == BBC_MATERIAL_DIELECTRIC;
+  int goes_on = 0; /* some wanted chain has this letter here after the letters made */
+  for (int c = 0; c < 6; c++)
+    if ((tr->chains & (1u << c)) && chain_length(c) > made &&
+        (made == 0 || letter_at(c, 0) == letters) && letter_at(c, made) == letter)
+      goes_on = 1;
+  if (!goes_on) return;
+  double weight[3];
+  bbc_vec3 next;
+  double dn = dot(d, ns);
+  if (letter) {
+    /* Refraction: the shading normal's side must be the geometric one. */
+    if ((dn < 0) != (dot(d, ng) < 0)) return;
+    double eta = dn < 0 ? 1.0 / m->ior : m->ior;
+    double cos_i = fabs(dn);
+    double sin2_t = eta * eta * (1 - cos_i * cos_i);
+    if (sin2_t >= 1) return; /* total internal reflection */
+    double cos_t = sqrt(1 - sin2_t);
+    bbc_vec3 n = dn < 0 ? ns : scale(ns, -1); /* against d */
+    next = unit(add(scale(d, eta), scale(n, eta * cos_i - cos_t)));
+    double f = tr->no_fresnel ? 0 : fresnel(cos_i, eta);
+    for (int k = 0; k < 3; k++) weight[k] = 1 - f;
+  } else {
+    /* Reflection on a two-sided mirror: its normals turned to the light's side, which the
+     * shading normal must then face. */
+    if (dot(d, ng) > 0) {
+      ng = scale(ng, -1);
+      ns = scale(ns, -1);
+      dn = -dn;
+    }
+    if (!(dn < 0)) return;
+    next = sub(d, scale(ns, 2 * dn));
+    for (int k = 0; k < 3; k++) weight[k] = m->base_color[k];
+  }
+  double f2[3] = {flux[0] * weight[0], flux[1] * weight[1], flux[2] * weight[2]};
+  /* Off the surface to the side the photon leaves to, beyond the rounding of x (a float
+   * hit distance times the ray's length). */
+  double off = 1e-6 * (1 + fmax(fabs(x.x), fmax(fabs(x.y), fabs(x.z))));
+  x = add(x, scale(ng, dot(next, ng) > 0 ? off : -off));
+  follow(tr, x, t, next, f2, made + 1, made == 0 ? letter : (letters << 1) | letter, lane);
+}
+
+int main(int argc, char **argv) {
+  const char *scene_path = NULL, *out = NULL, *chain_list = NULL;
+  long width = 0, threads = 0;
+  double photons = 0;
+  uint64_t seed = 0;
+  int no_fresnel = 0;
+  for (int i = 1; i < argc; i++) {
+    const char *a = argv[i];
+    if (!strcmp(a, "--chains") && i + 1 < argc) chain_list = argv[++i];
+    else if (!strcmp(a, "--width") && i + 1 < argc) width = atol(argv[++i]);
+    else if (!strcmp(a, "--photons") && i + 1 < argc) photons = atof(argv[++i]);
+    else if (!strcmp(a, "--seed") && i + 1 < argc) seed = strtoull(argv[++i], NULL, 10);
+    else if (!strcmp(a, "--threads") && i + 1 < argc) threads = atol(argv[++i]);
+    else if (!strcmp(a, "--no-fresnel")) no_fresnel = 1;
+    else if (!strcmp(a, "-o") && i + 1 < argc) out = argv[++i];
+    else if (a[0] != '-' && !scene_path) scene_path = a;
+    else scene_path = NULL, i = argc;
+  }
+  if (!scene_path || !out || !chain_list || width < 1 || width > 16384 || !(photons >= 1) ||
+      threads < 0) {
+    fprintf(stderr, "usage: light_trace SCENE.gltf --chains LIST --width W --photons N "
+                    "[--seed K] [--threads T] [--no-fresnel] -o OUT.exr\n");
+    return 1;
+  }
+  uint32_t chains = 0;
+  {
+    static const char *names[] = {"R", "T", "RR", "RT", "TR", "TT"};
+    char buffer[128];
+    snprintf(buffer, sizeof buffer, "%s", chain_list);
+    for (char *save = NULL, *c = strtok_r(buffer, ",", &save); c; c = strtok_r(NULL, ",", &save)) {
+      int found = -1;
+      for (int k = 0; k < 6; k++)
+        if (!strcmp(c, names[k])) found = k;
+      if (found < 0) {
+        fprintf(stderr, "light_trace: unknown chain type '%s'\n", c);
+        return 1;
+      }
+      chains |= 1u << found;
+    }
+  }
+  bbc_scene_options options;
+  memset(&options, 0, sizeof options);
+  bbc_scene *scene = NULL;
+  bbc_accel *accel = NULL;
+  if (bbc_scene_load(&scene, scene_path, &options) != BBC_OK ||
+      bbc_accel_create(&accel, scene, NULL, NULL) != BBC_OK) {
+    fprintf(stderr, "light_trace: cannot load %s\n", scene_path);
+    return 1;
+  }
+  /* The casters' bounding sphere; the receivers must be untextured Lambertian. */
+  bbc_vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY};
+  for (uint32_t mi = 0; mi < scene->mesh_count; mi++) {
+    const bbc_mesh *mesh = &scene->meshes[mi];
+    const bbc_material *m = &scene->materials[mesh->material];
+    if (mesh->role == BBC_ROLE_RECEIVER && (m->glossy || m->base_color_texture)) {
+      fprintf(stderr, "light_trace: receiver %s is glossy or textured: not supported\n", mesh->name);
+      return 1;
+    }
+    if (mesh->role != BBC_ROLE_CASTER) continue;
+    for (uint32_t v = mesh->first_vertex; v < mesh->first_vertex + mesh->vertex_count; v++) {
+      bbc_vec3 p = load(scene->positions + 3 * (size_t)v);
+      lo = (bbc_vec3){fmin(lo.x, p.x), fmin(lo.y, p.y), fmin(lo.z, p.z)};
+      hi = (bbc_vec3){fmax(hi.x, p.x), fmax(hi.y, p.y), fmax(hi.z, p.z)};
+    }
+  }
+  if (!(lo.x <= hi.x)) {
+    fprintf(stderr, "light_trace: %s has no casters\n", scene_path);
+    return 1;
+  }
+  bbc_vec3 centre = scale(add(lo, hi), 0.5);
+  double radius = 0.5 * sqrt(dot(sub(hi, lo), sub(hi, lo))) * (1 + 1e-6);
+
+  const bbc_camera *camera = &scene->camera;
+  uint32_t height = (uint32_t)(width / camera->aspect + 0.5);
+  if (height < 1) height = 1;
+  tracer tr = {scene,  accel,      camera, (uint32_t)width, height, tan(0.5 * camera->yfov),
+               (double)width / height, chains, no_fresnel};
+  const size_t pixels = (size_t)width * height;
+  double *lanes = calloc(LANES * pixels * 3, sizeof *lanes);
+  if (!lanes) return 1;
+  const uint64_t per_light = (uint64_t)photons;
+  const uint64_t batches = (per_light + BATCH - 1) / BATCH;
+  if (threads > 0) omp_set_num_threads((int)threads);
+  for (uint32_t l = 0; l < scene->point_light_count; l++) {
+    const bbc_point_light *light = &scene->point_lights[l];
+    if (light->model.kind != BBC_LIGHT_POINT && light->model.kind != BBC_LIGHT_SPOT) {
+      fprintf(stderr, "light_trace: light %u is not a point or spot light\n", l);
+      return 1;
+    }
+    /* The cone toward the casters' sphere (every direction from inside it). */
+    bbc_vec3 axis = sub(centre, light->position);
+    double dist = sqrt(dot(axis, axis));
+    double cos_max = dist > radius ? sqrt(1 - (radius / dist) * (radius / dist)) : -1;
+    axis = dist > 0 ? scale(axis, 1 / dist) : (bbc_vec3){0, 0, 1};
+    bbc_vec3 b1 = unit(cross(fabs(axis.x) > 0.5 ? (bbc_vec3){0, 1, 0} : (bbc_vec3){1, 0, 0}, axis));
+    bbc_vec3 b2 = cross(axis, b1);
+    const double omega = 2 * PI * (1 - cos_max);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int lane = 0; lane < LANES; lane++) {
+      double *image = lanes + (size_t)lane * pixels * 3;
+      for (uint64_t b = (uint64_t)lane; b < batches; b += LANES) {
+        uint64_t state = seed * 0x100000001B3ull ^ ((uint64_t)l << 40) ^ b;
+        mix(&state);
+        uint64_t count = b + 1 < batches ? BATCH : per_light - b * BATCH;
+        for (uint64_t i = 0; i < count; i++) {
+          double cz = 1 - uniform(&state) * (1 - cos_max), phi = 2 * PI * uniform(&state);
+          double sz = sqrt(fmax(0, 1 - cz * cz));
+          bbc_vec3 d = add(scale(axis, cz), add(scale(b1, sz * cos(phi)), scale(b2, sz * sin(phi))));
+          double falloff = bbc_light_falloff(&light->model, d);
+          if (!(falloff > 0)) continue;
+          double flux[3];
+          for (int k = 0; k < 3; k++)
+            flux[k] = light->intensity[k] * falloff * omega / (double)per_light;
+          follow(&tr, light->position, UINT32_MAX, d, flux, 0, 0, image);
+        }
+      }
+    }
+  }
+  bbc_image *image = NULL;
+  if (bbc_image_create(&image, (uint32_t)width, height) != BBC_OK) return 1;
+  for (size_t i = 0; i < pixels * 3; i++) {
+    double sum = 0;
+    for (int lane = 0; lane < LANES; lane++) sum += lanes[(size_t)lane * pixels * 3 + i];
+    image->rgb[i] = (float)sum;
+  }
+  if (bbc_image_write_exr(image, out, NULL, NULL) != BBC_OK) {
+    fprintf(stderr, "light_trace: cannot write %s\n", out);
+    return 1;
+  }
+  bbc_image_free(image);
+  free(lanes);
+  bbc_accel_free(accel);
+  bbc_scene_free(scene);
+  return 0;
+}
