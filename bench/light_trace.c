@@ -22,7 +22,7 @@
  *
  * Deterministic: photons are split into batches with their own random streams, summed
  * into 64 lanes in a fixed order, whatever the thread count. Untextured Lambertian
- * receivers, point and spot lights only (anything else is refused). */
+ * receivers, point and spot lights in air only (anything else is refused). */
 #define _POSIX_C_SOURCE 200809L /* strtok_r */
 #include <math.h>
 #include <omp.h>
@@ -289,8 +289,9 @@ int main(int argc, char **argv) {
   if (threads > 0) omp_set_num_threads((int)threads);
   for (uint32_t l = 0; l < scene->point_light_count; l++) {
     const bbc_point_light *light = &scene->point_lights[l];
-    if (light->model.kind != BBC_LIGHT_POINT && light->model.kind != BBC_LIGHT_SPOT) {
-      fprintf(stderr, "light_trace: light %u is not a point or spot light\n", l);
+    if ((light->model.kind != BBC_LIGHT_POINT && light->model.kind != BBC_LIGHT_SPOT) ||
+        light->medium != 0) {
+      fprintf(stderr, "light_trace: light %u is not a point or spot light in air\n", l);
       return 1;
     }
     /* The cone toward the casters' sphere (every direction from inside it). */
