@@ -222,3 +222,26 @@ test_full_disk_during_write_leaves_no_file() {
 }
 
 "test_$1"
+
+# A scene re-exported with float noise and another triangle order still renders from
+# its cache, with a note, and exactly as the original scene does (the cache's geometry is
+# adopted); a vertex moved by 1e-3 is refused in one line, with no image.
+test_noisy_reexport_renders_from_the_cache() {
+  scene="$BBC_TEST_SCENES/wavy-mirror.gltf"
+  python3 "$BBC_SOURCE_DIR/tests/cli/reexport.py" "$scene" "$TMP/noisy.gltf" ||
+    fail "cannot write the re-export"
+  python3 "$BBC_SOURCE_DIR/tests/cli/reexport.py" "$scene" "$TMP/moved.gltf" 1e-3 ||
+    fail "cannot write the changed scene"
+  expect_status 0 "$PRECOMPUTE" "$scene" -o "$TMP/c.bbc" --chains R --max-level 3 \
+    --resolution 32 --no-progress
+  expect_status 0 "$RENDER" "$scene" -o "$TMP/a.exr" --cache "$TMP/c.bbc" --spp 2 --width 32
+  expect_status 0 "$RENDER" "$TMP/noisy.gltf" -o "$TMP/b.exr" --cache "$TMP/c.bbc" --spp 2 \
+    --width 32
+  grep -q "geometry" "$TMP/err" || fail "no note about the adopted geometry: $(cat "$TMP/err")"
+  cmp -s "$TMP/a.exr" "$TMP/b.exr" || fail "the re-export renders differently"
+  expect_status 1 "$RENDER" "$TMP/moved.gltf" -o "$TMP/m.exr" --cache "$TMP/c.bbc" --spp 2 \
+    --width 32
+  [ "$(wc -l < "$TMP/err")" -eq 1 ] || fail "more than one line: $(cat "$TMP/err")"
+  [ -e "$TMP/m.exr" ] && fail "an image was written for a changed scene"
+  return 0
+}
