@@ -214,13 +214,27 @@ static const wave POOL_WAVES[] = {
     {0.045, 1.1, 4.1, 2.7},
 };
 
+/* glass-pool's water: the pool's waves at 0.7 of their wavelengths. Their crests curve
+ * twice as much (a crest of amplitude A and wavenumber k focuses light from above at
+ * depth n / ((n - 1) A k^2)): 1.3-1.6 below the surface instead of 2.7-3.3, so the pool
+ * floor, 1.5 deep, shows the sharp network of bright lines that sunlit pools have rather
+ * than soft bands. */
+static const wave GLASS_POOL_WAVES[] = {
+    {0.08, 1.12, 0.35, 0.0},
+    {0.06, 0.91, 2.2, 1.3},
+    {0.045, 0.77, 4.1, 2.7},
+};
+
+/* The water over [-2, 2]^2: POOL_WAVES, or GLASS_POOL_WAVES when params is non-NULL. */
 static void pool_surface(const void *params, uint32_t i, uint32_t ni, uint32_t j, uint32_t nj,
                          vec3 *p, vec3 *n) {
-  (void)params;
+  const wave *waves = params ? GLASS_POOL_WAVES : POOL_WAVES;
+  size_t count = params ? sizeof GLASS_POOL_WAVES / sizeof GLASS_POOL_WAVES[0]
+                        : sizeof POOL_WAVES / sizeof POOL_WAVES[0];
   double x = -2.0 + 4.0 * i / ni, z = -2.0 + 4.0 * j / nj;
   double y = 0, dy_dx = 0, dy_dz = 0;
-  for (size_t w = 0; w < sizeof POOL_WAVES / sizeof POOL_WAVES[0]; w++) {
-    const wave *q = &POOL_WAVES[w];
+  for (size_t w = 0; w < count; w++) {
+    const wave *q = &waves[w];
     double k = 2 * PI / q->wavelength;
     double dx = cos(q->direction), dz = sin(q->direction);
     double arg = k * (x * dx + z * dz) + q->phase;
@@ -566,13 +580,13 @@ static void gen_corner(scene *s, unsigned long size) {
 static void gen_glass_pool(scene *s, unsigned long size) {
   /* The demo: the pool's wavy water over its floor (y = -1.5; tiled with --checker),
    * a deck around it at y = 0.05 and a glass ball of radius 0.6 resting
-   * on the deck. A warm light from the far side and above: as a point light (the
+   * on the deck. A warm light from the left and above: as a point light (the
    * default) or, with --sun, a sun from that direction; the water's caustic falls on
-   * the pool floor, the ball's (double refraction) on the deck behind it. --size
-   * counts the water's triangles; the ball has 320. */
+   * the pool floor and a wall, the ball's (double refraction) on the deck beside the
+   * ball. --size counts the water's triangles; the ball has 320. */
   mesh *water = scene_add_mesh(s, "water", MAT_WATER, ROLE_CASTER);
   uint32_t n = square_grid_side(size);
-  mesh_add_grid(water, n, n, pool_surface, NULL);
+  mesh_add_grid(water, n, n, pool_surface, GLASS_POOL_WAVES);
   mesh *ball = scene_add_mesh(s, "glass_ball", MAT_GLASS, ROLE_CASTER);
   add_sphere(ball, sphere_frequency(320), v3(3.1, 0.65, 0.3), 0.6);
   mesh *floor = scene_add_mesh(s, "pool_floor", MAT_DIFFUSE, ROLE_RECEIVER);
@@ -590,7 +604,14 @@ static void gen_glass_pool(scene *s, unsigned long size) {
                                {v3(-2, -1.5, -2), v3(4, 0, 0), v3(0, 1.55, 0), v3(0, 0, 1), 0},
                                {v3(-2, -1.5, 2), v3(4, 0, 0), v3(0, 1.55, 0), v3(0, 0, -1), 0}};
   for (int k = 0; k < 4; k++) mesh_add_grid(walls, 1, 1, rect_surface, &wall[k]);
-  s->light = v3(-2.5, 5.5, -3.0), s->intensity = 60;
+  /* The light, on the camera's left and high, lights the far right wall through the
+   * water (the far left wall faces away from it) and throws the ball's caustic to the
+   * right of the ball, onto open deck. It is 11.4 from the ball and 44 degrees above
+   * the deck there: a ball lens of index 1.5 and radius r images the light 1.63 r
+   * beyond its centre (paraxially; its marginal rays focus nearer), and the deck is
+   * r / sin(44 deg) = 1.44 r away along the axis, about where the rays crowd most, so
+   * the caustic is a small bright spot. */
+  s->light = v3(-4.5, 8.6, 3.5), s->intensity = 80;
   s->color[0] = 1.0, s->color[1] = 0.78, s->color[2] = 0.52;
   s->eye = v3(5.6, 4.6, 4.8), s->target = v3(1.3, -0.7, 0.0);
 }
@@ -626,7 +647,7 @@ const kind_info KINDS[KIND_COUNT] = {
      gen_glass_slab},
     {"wavy-plane", 7000, "a wavy mirror plane in the set-up of the shared planes (paper's Plane)",
      gen_wavy_plane},
-    {"glass-pool", 2000, "the pool's water beside a deck with a glass ball, under a warm sun",
+    {"glass-pool", 2000, "the pool's water beside a deck with a glass ball, under a warm light",
      gen_glass_pool},
 };
 
