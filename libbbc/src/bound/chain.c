@@ -34,7 +34,8 @@ static bbc_result rounded_constant(bbc_arena *arena, bbc_poly3 *out, bbc_vec3 v)
  * conditions; *slope_enclosed is cleared when a derivative-aware sqrt lost its slope. */
 static bbc_result scatter(bbc_arena *arena, bbc_space *space, const bbc_poly3 *d, const bbc_poly3 *n,
                           const bbc_poly *d_dot_n, int refract, double eta, chain_sqrt_mode mode,
-                          bbc_poly3 *out, bbc_poly *beta, int *slope_enclosed) {
+                          bbc_poly3 *out, bbc_poly *beta, int *slope_enclosed,
+                          double *value_radius) {
   bbc_poly nn, dn = *d_dot_n;
   TRY(bbc_poly3_dot(arena, &nn, n, n));
   /* (n.n) d - k (d.n) n: the tangential part shared by both cases of Eq. 10. */
@@ -66,8 +67,12 @@ static bbc_result scatter(bbc_arena *arena, bbc_space *space, const bbc_poly3 *d
   if (mode == CHAIN_SQRT_PRIMAL) {
     TRY(bbc_poly_sqrt_primal(arena, space, &root, beta, NULL, NULL, NULL));
   } else if (mode == CHAIN_SQRT_DERIVATIVE_AWARE) {
+    /* The value remainder (zeta of Supp. Eq. 16) stays out of the forms: on an axis of its
+     * own it made the Jacobian's determinant cubic in one more variable, four times the
+     * coefficients; beside them it is one constant for the whole piece. */
     bbc_sqrt_derivative_aware fit;
-    TRY(bbc_poly_sqrt_derivative_aware(arena, space, &root, NULL, beta, NULL, 0.0, &fit, NULL));
+    TRY(bbc_poly_sqrt_derivative_centred(arena, space, &root, NULL, value_radius, beta, NULL, 0.0,
+                                         &fit, NULL));
     if (!fit.slope_enclosed) *slope_enclosed = 0;
   } else {
     bbc_sqrt_primal fit;
@@ -137,7 +142,15 @@ bbc_result bbc__chain_forms_rest(bbc_arena *arena, bbc_space *space, const bbc_t
                                  chain_sqrt_mode mode, chain_forms *out) {
   if (out->length == 2)
     return bbc__chain_double_rest(arena, space, g, mode == CHAIN_SQRT_DERIVATIVE_AWARE, out);
-  return hit(arena, &out->x1, &out->d1, g->r, &out->up, &out->vp, &out->kappa, &out->tnum);
+  TRY(hit(arena, &out->x1, &out->d1, g->r, &out->up, &out->vp, &out->kappa, &out->tnum));
+  if (mode == CHAIN_SQRT_DERIVATIVE_AWARE && out->has_beta && out->value_radius > 0) {
+    /* Eq. 9 is linear in the direction: the forms of d1 - delta n1 are those of d1 minus
+     * delta times those of n1 (tnum does not depend on the direction). */
+    bbc_poly tnum_n;
+    TRY(hit(arena, &out->x1, &out->n1, g->r, &out->up_n, &out->vp_n, &out->kappa_n, &tnum_n));
+    out->has_value_fold = 1;
+  }
+  return BBC_OK;
 }
 
 bbc_result bbc__chain_forms(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
@@ -236,6 +249,7 @@ bbc_result bbc__chain_forms_prefix(bbc_arena *arena, bbc_space *space,
   TRY(bbc_poly3_dot(arena, &dn, &d0, &n1));
   TRY(bbc_poly_scale(arena, &out->facing, &dn, -1.0));
   TRY(scatter(arena, space, &d0, &n1, &dn, g->refract, g->eta, mode, d1, &out->beta,
-              &out->slope_enclosed));
+              &out->slope_enclosed, &out->value_radius));
+  out->n1 = n1;
   return BBC_OK;
 }

@@ -11,8 +11,10 @@
 typedef enum chain_sqrt_mode {
   CHAIN_SQRT_PRIMAL,           /* linearisation + one remainder variable (Supp. Eq. 6-12):
                                   encloses values, for position bounds */
-  CHAIN_SQRT_DERIVATIVE_AWARE, /* two remainder variables (Supp. Eq. 15-25): encloses
-                                  values and first derivatives, for irradiance */
+  CHAIN_SQRT_DERIVATIVE_AWARE, /* the slope remainder of Supp. Eq. 15-25 as a variable and
+                                  the value remainder as a constant beside the forms
+                                  (chain_forms.value_radius; two bounces: chain_double.c):
+                                  encloses values and first derivatives, for irradiance */
   CHAIN_SQRT_NO_REMAINDER      /* the bare linearisation: not conservative (Fig. 18) */
 } chain_sqrt_mode;
 
@@ -36,6 +38,16 @@ typedef struct chain_forms {
   int has_beta;
   int slope_enclosed; /* derivative-aware mode: 0 when a beta came too close to 0 for the
                          slope of sqrt to be enclosed (irradiance is then unbounded) */
+  /* One bounce, derivative-aware mode: sqrt(beta)'s value remainder is not an axis of the
+   * forms but a constant delta, |delta| <= value_radius (bbc_poly_sqrt_derivative_centred):
+   * the exact up, vp and kappa are up - delta up_n, vp - delta vp_n and kappa - delta kappa_n,
+   * the forms of Eq. 9 with d1 replaced by n1 (Eq. 10: d1 = ... - sqrt(beta) n1), for the
+   * same delta in all three and their derivatives. has_value_fold says that up_n, vp_n and
+   * kappa_n are set (only when value_radius > 0). */
+  double value_radius;
+  int has_value_fold;
+  bbc_poly3 n1;
+  bbc_poly up_n, vp_n, kappa_n;
   bbc_poly up2, vp2, kappa2, tnum2, facing2, beta2;
   int has_beta2;
   int slope_enclosed2; /* derivative mode: 0 when beta2 came too close to 0 for the slope
