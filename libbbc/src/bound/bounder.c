@@ -1170,8 +1170,13 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       const chain_forms *irr = &forms;
       chain_forms irr_forms;
       if ((g->refract || (g->length == 2 && g->refract2)) && irradiance_mode != position_mode) {
-        result = bbc__chain_forms(&b->arena, &space, gp, box, s_axis, t_axis, irradiance_mode,
-                                  &irr_forms);
+        /* One bounce: only sqrt(beta) and what follows differ from the position forms. */
+        if (g->length == 1)
+          result = bbc__chain_forms_rescatter(&b->arena, &space, gp, &forms, irradiance_mode,
+                                              &irr_forms);
+        else
+          result = bbc__chain_forms(&b->arena, &space, gp, box, s_axis, t_axis, irradiance_mode,
+                                    &irr_forms);
         irr = &irr_forms;
       }
       const double uk_box[4] = {piece.uk_lo, piece.uk_hi, piece.vk_lo, piece.vk_hi};

@@ -48,6 +48,8 @@ typedef struct chain_forms {
   int has_value_fold;
   bbc_poly3 n1;
   bbc_poly up_n, vp_n, kappa_n;
+  /* One bounce, refraction: eta ((n1.n1) d0 - (d0.n1) n1), d1 but for its sqrt term. */
+  bbc_poly3 tangent;
   bbc_poly up2, vp2, kappa2, tnum2, facing2, beta2;
   int has_beta2;
   int slope_enclosed2; /* derivative mode: 0 when beta2 came too close to 0 for the slope
@@ -67,6 +69,15 @@ typedef struct chain_forms {
 bbc_result bbc__chain_forms(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
                             const double box[4], int s_axis, int t_axis, chain_sqrt_mode mode,
                             chain_forms *out);
+
+/* The forms of one refraction in `mode` from those `from` of another mode on the same piece
+ * and light box (computed in this arena, which must still hold them; space has their
+ * remainder axes claimed): sqrt(beta) and what follows it (d1, up, vp, kappa, tnum) are
+ * computed, the rest is shared. The same polynomials as bbc__chain_forms in `mode` with
+ * the same space gives. */
+bbc_result bbc__chain_forms_rescatter(bbc_arena *arena, bbc_space *space,
+                                      const bbc_tuple_geometry *g, const chain_forms *from,
+                                      chain_sqrt_mode mode, chain_forms *out);
 
 /* bbc__chain_forms in two steps, so that a piece whose light provably misses T2 is
  * discarded before the costly rest is built: the prefix computes x1, d1, facing, beta,
