@@ -711,13 +711,29 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
       for (int j = 0; j < BBC_POLY_MAX_AXES; j++) centre[j] = 0.5;
       const double qc = bbc_poly_eval(q, centre);
       const double shift[2] = {bbc_poly_eval(p, centre) / qc, bbc_poly_eval(r, centre) / qc};
+      /* The q-column at the degrees of the p- and r-columns (the same, as up and vp have
+       * the same degrees), elevated once for both: bbc_poly_lincomb would elevate it
+       * alike (the same coefficients and radius). */
+      bbc_poly base[4] = {qq, qs, qt, terms[0]};
+      {
+        bbc_poly *cp[4] = {&pp, &ps, &pt, &terms[1]}, *cr[4] = {&rr, &rs, &rt, &terms[2]};
+        for (int i = 0; i < 4; i++) {
+          unsigned char deg[BBC_POLY_MAX_AXES];
+          int fits = memcmp(cp[i]->deg, cr[i]->deg, sizeof deg) == 0, grows = 0;
+          for (int j = 0; j < BBC_POLY_MAX_AXES; j++) {
+            deg[j] = cp[i]->deg[j];
+            fits &= base[i].deg[j] <= deg[j];
+            grows |= base[i].deg[j] < deg[j];
+          }
+          if (fits && grows) TRY(bbc_poly_elevate(arena, &base[i], &base[i], deg));
+        }
+      }
       for (int k = 0; k < 2; k++) {
         if (!isfinite(shift[k])) continue;
         const double alpha[2] = {1.0, -shift[k]};
         bbc_poly *col[4] = {val[k + 1], ds[k + 1], dt[k + 1], &terms[k + 1]};
-        const bbc_poly *base[4] = {&qq, &qs, &qt, &terms[0]};
         for (int i = 0; i < 4; i++) {
-          const bbc_poly *in[2] = {col[i], base[i]};
+          const bbc_poly *in[2] = {col[i], &base[i]};
           TRY(bbc_poly_lincomb(arena, col[i], 2, alpha, in));
         }
       }
