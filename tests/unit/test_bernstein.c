@@ -1393,6 +1393,129 @@ TEST(sqrt_poly_enclosure) {
   CHECK_INT(bad_der, 0);
 }
 
+/* bbc_poly_sqrt_derivative_centred: the coefficients a b_i + b + S_k (b_i - c) + m within
+ * the radius of the exact ones (rational oracle), the slope likewise, and m +- radius
+ * covering [delta_lo, delta_hi]. */
+TEST(exact_sqrt_centred) {
+  rng r = {919};
+  long cases = harness_scale(400, 8000), bad = 0, overflow = 0;
+  for (long n = 0; n < cases; n++) {
+    bbc_arena A = fresh_arena();
+    axes2 ax = make_axes();
+    int pattern = rng_int(&r, 0, 3);
+    double err = ldexp((double)rng_int(&r, 1, 7), -36);
+    bbc_poly p, out, slope;
+    ro_bpoly a, x;
+    make_input(&A, &ax, &r, rng_int(&r, 0, 5), rng_int(&r, 0, 5), 53, 1, err, pattern, &p, &a);
+    bbc_sqrt_derivative_aware f;
+    double radius = -1;
+    int xi = -1;
+    REQUIRE(bbc_poly_sqrt_derivative_centred(&A, &ax.space, &out, &slope, &radius, &p, NULL, 0.0,
+                                             &f, &xi) == BBC_OK);
+    CHECK(xi >= 0 && xi != ax.x && xi != ax.y);
+    double m = 0.5 * f.delta_lo + 0.5 * f.delta_hi;
+    CHECK(m - radius <= f.delta_lo && m + radius >= f.delta_hi);
+    ro_rat fa = ro_from_double(f.a), fb = ro_from_double(f.b), fc = ro_from_double(f.c);
+    ro_rat S[2] = {ro_from_double(f.slope_lo), ro_from_double(f.slope_hi)};
+    ro_rat M = ro_from_double(m);
+    int res = 1;
+    for (int k = 0; k < 2 && res == 1; k++) {
+      x = a;
+      for (int i = 0; i <= a.nx; i++)
+        for (int j = 0; j <= a.ny; j++)
+          x.c[i][j] =
+              ro_add(ro_add(ro_add(ro_mul(fa, a.c[i][j]), fb), ro_mul(S[k], ro_sub(a.c[i][j], fc))),
+                     M);
+      res = ro_check_b(&out, &ax, &x, xi, k);
+    }
+    ro_rat want0 = ro_add(fa, S[0]), want1 = ro_add(fa, S[1]);
+    if (res == 1 && !(ro_within(want0, slope.coef[0], slope.err) &&
+                      ro_within(want1, slope.coef[1], slope.err)))
+      res = 0;
+    if (res == 0) bad++;
+    if (res < 0) overflow++;
+  }
+  printf("exact centred sqrt: %ld cases, %ld oracle overflows\n", cases, overflow);
+  CHECK_INT(bad, 0);
+  CHECK(overflow < cases / 20);
+}
+
+/* bbc_poly_sqrt_derivative_centred against long double: at the xi of the true slope,
+ * sqrt(beta) within the value's radius plus *radius, the slope and the derivative along
+ * the piece as for the two-axis form; below the clamp the value at xi = 1. And its value
+ * interval is never wider than the two-axis form's, and about a quarter as wide when the
+ * range is narrow. */
+TEST(sqrt_centred_enclosure) {
+  rng r = {919};
+  long points = harness_scale(40000, 1000000), done = 0, bad = 0, bad_slope = 0, bad_der = 0;
+  long narrow = 0, narrow_quarter = 0, wider = 0;
+  while (done < points) {
+    bbc_arena A = fresh_arena();
+    axes2 ax = make_axes();
+    double l, hi;
+    random_sqrt_interval(&r, &l, &hi);
+    bbc_poly beta, v, sl, dv;
+    REQUIRE(bbc_poly_linear(&A, &beta, ax.x, l, hi) == BBC_OK);
+    int xi = -1;
+    double radius = -1;
+    bbc_sqrt_derivative_aware df, paper;
+    REQUIRE(bbc_poly_sqrt_derivative_centred(&A, &ax.space, &v, &sl, &radius, &beta, NULL, 0.0,
+                                             &df, &xi) == BBC_OK);
+    REQUIRE(bbc_sqrt_derivative_aware_fit(l, hi, 0.0, &paper) == BBC_OK);
+    /* Where the widths are the mathematics' and not their rounding (about 1e-16 sqrt(hi)). */
+    const double pw = paper.delta_hi - paper.delta_lo;
+    if (pw > 1e-12 * sqrt(hi) && 2 * radius > pw * (1 + 1e-6)) wider++;
+    if (l > 0 && hi > l * (1 + 1e-4) && hi < l * 1.01) {
+      narrow++;
+      if (2 * radius < 0.3 * (paper.delta_hi - paper.delta_lo)) narrow_quarter++;
+    }
+    REQUIRE(bbc_poly_derivative(&A, &dv, &v, ax.x) == BBC_OK);
+    double mv = maxabs_coef(&v), md = maxabs_coef(&dv);
+    for (int k = 0; k < 100; k++, done++) {
+      double t = rng_in(&r, 0.0, 1.0);
+      long double x = (long double)l + ((long double)hi - l) * t;
+      if (x < 0) continue;
+      long double sx = sqrtl(x), slack = (sx + fabsl(x)) * 0x1p-56L;
+      double pt[NAX] = {0};
+      pt[ax.x] = t;
+      long double xs;
+      if (x >= df.clamp && x > 0) {
+        long double want = 0.5L / sx - df.a;
+        xs = df.slope_hi > df.slope_lo
+                 ? (want - df.slope_lo) / ((long double)df.slope_hi - df.slope_lo)
+                 : 0.5L;
+        if (xs < 0) xs = 0;
+        if (xs > 1) xs = 1;
+      } else {
+        xs = 1.0L;
+      }
+      pt[xi] = (double)xs;
+      double v0 = bbc_poly_eval(&v, pt);
+      long double tol = v.err + radius + 16 * DBL_EPSILON * mv + slack +
+                        fabsl(x - df.c) * 1e-15L * (df.slope_hi - df.slope_lo);
+      if (fabsl(sx - v0) > tol) bad++;
+      if (x >= df.clamp && x > 0) {
+        double spt[NAX] = {0};
+        spt[xi] = (double)xs;
+        long double want = 0.5L / sx;
+        if (fabsl(bbc_poly_eval(&sl, spt) - want) > 1e-12L * want + sl.err) bad_slope++;
+        long double dwant = want * ((long double)hi - l);
+        double dev = bbc_poly_eval(&dv, pt);
+        if (fabsl(dev - dwant) > 1e-11L * fabsl(dwant) + dv.err + 16 * DBL_EPSILON * md) bad_der++;
+      }
+    }
+  }
+  printf("centred sqrt: %ld points; %ld narrow ranges, %ld of them under 0.3 of the two-axis "
+         "width\n",
+         done, narrow, narrow_quarter);
+  CHECK_INT(bad, 0);
+  CHECK_INT(bad_slope, 0);
+  CHECK_INT(bad_der, 0);
+  CHECK_INT(wider, 0);
+  CHECK(narrow > 0);
+  CHECK_INT(narrow_quarter, narrow);
+}
+
 /* ---- Convergence ---------------------------------------------------------------------- */
 
 /* The exact range of an expression over a box, from below: a 201 x 201 grid in long double.

@@ -300,6 +300,23 @@ BBC_API bbc_result bbc_poly_sqrt_derivative_aware(bbc_arena *arena, bbc_space *s
                                                   const bbc_poly *beta, const bbc_interval *known,
                                                   double clamp, bbc_sqrt_derivative_aware *fit,
                                                   int axes[2]);
+/* The same surrogate with c = sqrt(clamp r) (the geometric mean of beta's range above the
+ * clamp, not its left end, Supp. Eq. 22: the value error is then about a quarter as wide)
+ * and its value remainder taken at its centre instead of on an axis of its own:
+ * value = a beta + b + S(xi) (beta - c) + m with m the middle of
+ * [delta_lo, delta_hi] and *radius >= its half-width, so that at every point where
+ * beta >= 0 (and beta >= clamp for the slope) some xi gives both
+ * sqrt(beta) = value + delta for one constant delta with |delta| <= *radius and the slope as
+ * above. The derivatives of value along the other axes are therefore those of
+ * sqrt(beta) - delta: a caller carries delta as a constant of its own (at the least as an
+ * error radius of *radius on value, which is valid for values but, differentiated, costs
+ * 2n *radius where the true derivative of a constant is 0). One fresh remainder axis, xi
+ * (*axis, may be NULL); slope and fit may be NULL. */
+BBC_API bbc_result bbc_poly_sqrt_derivative_centred(bbc_arena *arena, bbc_space *space,
+                                                    bbc_poly *value, bbc_poly *slope,
+                                                    double *radius, const bbc_poly *beta,
+                                                    const bbc_interval *known, double clamp,
+                                                    bbc_sqrt_derivative_aware *fit, int *axis);
 
 /* ---- Interval baseline on polynomials ------------------------------------------------- */
 

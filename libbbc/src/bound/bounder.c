@@ -14,6 +14,7 @@
 #include "bbc/interval.h"
 #include "chain_internal.h"
 #include "light_internal.h"
+#include "rounding_internal.h"
 #include "vec_internal.h"
 
 /* Working memory per piece: the largest single-refraction irradiance forms need a few
@@ -690,6 +691,67 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
     TRY(bbc_poly_derivative(arena, &pt, p, t_axis));
     TRY(bbc_poly_derivative(arena, &rs, r, s_axis));
     TRY(bbc_poly_derivative(arena, &rt, r, t_axis));
+    if (f->has_value_fold) {
+      /* sqrt(beta)'s value remainder, a constant delta with |delta| <= value_radius beside
+       * the forms (chain_internal.h): the exact q, p, r are q - delta q_n, ... and their
+       * derivatives q_s - delta q_n,s, ... for the same delta. First the shift of the
+       * two-bounce case below, (p, r) -> (p - u0 q, r - v0 q), which leaves the
+       * determinant as it is and makes the terms that the radii multiply small; the
+       * delta terms shift alike. Then every form is widened by value_radius times a bound
+       * of the coefficients of its delta term (the largest end of bbc_poly_bound, which
+       * includes their radius; elevation to the form's degrees keeps coefficients within
+       * it), so that each exact polynomial lies within the radius of the stored one, and
+       * the determinant below bounds every delta at once. The derivative terms are those
+       * of n1, small where the normal turns slowly, where a radius on the forms before
+       * differentiation would cost 2n times the radius. */
+      bbc_poly terms[3] = {f->kappa_n, f->up_n, f->vp_n};
+      bbc_poly *val[3] = {&qq, &pp, &rr}, *ds[3] = {&qs, &ps, &rs}, *dt[3] = {&qt, &pt, &rt};
+      qq = *q, pp = *p, rr = *r; /* the same coefficients, radii of their own */
+      double centre[BBC_POLY_MAX_AXES];
+      for (int j = 0; j < BBC_POLY_MAX_AXES; j++) centre[j] = 0.5;
+      const double qc = bbc_poly_eval(q, centre);
+      const double shift[2] = {bbc_poly_eval(p, centre) / qc, bbc_poly_eval(r, centre) / qc};
+      /* The q-column at the degrees of the p- and r-columns (the same, as up and vp have
+       * the same degrees), elevated once for both: bbc_poly_lincomb would elevate it
+       * alike (the same coefficients and radius). */
+      bbc_poly base[4] = {qq, qs, qt, terms[0]};
+      {
+        bbc_poly *cp[4] = {&pp, &ps, &pt, &terms[1]}, *cr[4] = {&rr, &rs, &rt, &terms[2]};
+        for (int i = 0; i < 4; i++) {
+          unsigned char deg[BBC_POLY_MAX_AXES];
+          int fits = memcmp(cp[i]->deg, cr[i]->deg, sizeof deg) == 0, grows = 0;
+          for (int j = 0; j < BBC_POLY_MAX_AXES; j++) {
+            deg[j] = cp[i]->deg[j];
+            fits &= base[i].deg[j] <= deg[j];
+            grows |= base[i].deg[j] < deg[j];
+          }
+          if (fits && grows) TRY(bbc_poly_elevate(arena, &base[i], &base[i], deg));
+        }
+      }
+      for (int k = 0; k < 2; k++) {
+        if (!isfinite(shift[k])) continue;
+        const double alpha[2] = {1.0, -shift[k]};
+        bbc_poly *col[4] = {val[k + 1], ds[k + 1], dt[k + 1], &terms[k + 1]};
+        for (int i = 0; i < 4; i++) {
+          const bbc_poly *in[2] = {col[i], &base[i]};
+          TRY(bbc_poly_lincomb(arena, col[i], 2, alpha, in));
+        }
+      }
+      for (int i = 0; i < 3; i++) {
+        bbc_poly ns, nt;
+        TRY(bbc_poly_derivative(arena, &ns, &terms[i], s_axis));
+        TRY(bbc_poly_derivative(arena, &nt, &terms[i], t_axis));
+        const bbc_poly *of[3] = {&terms[i], &ns, &nt};
+        bbc_poly *to[3] = {val[i], ds[i], dt[i]};
+        for (int k = 0; k < 3; k++) {
+          bbc_interval b = bbc_poly_bound(of[k]);
+          double m = fmax(fabs(b.lo), fabs(b.hi));
+          if (!(m < INFINITY)) m = INFINITY; /* NaN */
+          bbc_poly_widen(to[k], bbc__mul_up(f->value_radius, m));
+        }
+      }
+      q = &qq, p = &pp, r = &rr;
+    }
   }
   if (form == BBC_JACOBIAN_DETERMINANT) {
     TRY(bbc_poly_mul(arena, &q2, q, q));
@@ -1124,8 +1186,13 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       const chain_forms *irr = &forms;
       chain_forms irr_forms;
       if ((g->refract || (g->length == 2 && g->refract2)) && irradiance_mode != position_mode) {
-        result = bbc__chain_forms(&b->arena, &space, gp, box, s_axis, t_axis, irradiance_mode,
-                                  &irr_forms);
+        /* One bounce: only sqrt(beta) and what follows differ from the position forms. */
+        if (g->length == 1)
+          result = bbc__chain_forms_rescatter(&b->arena, &space, gp, &forms, irradiance_mode,
+                                              &irr_forms);
+        else
+          result = bbc__chain_forms(&b->arena, &space, gp, box, s_axis, t_axis, irradiance_mode,
+                                    &irr_forms);
         irr = &irr_forms;
       }
       const double uk_box[4] = {piece.uk_lo, piece.uk_hi, piece.vk_lo, piece.vk_hi};

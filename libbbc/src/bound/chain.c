@@ -29,12 +29,19 @@ static bbc_result rounded_constant(bbc_arena *arena, bbc_poly3 *out, bbc_vec3 v)
 
 /* The scattered direction of Eq. 10 for the incident direction d at a vertex with the
  * unnormalised normal n (on the incident side), given d_dot_n = d . n (the caller has it
- * for the facing condition): reflection, or refraction with ratio eta, where sqrt(beta)
- * (Eq. 11) enters as `mode` says. beta is stored in *beta for the sign
- * conditions; *slope_enclosed is cleared when a derivative-aware sqrt lost its slope. */
-static bbc_result scatter(bbc_arena *arena, bbc_space *space, const bbc_poly3 *d, const bbc_poly3 *n,
-                          const bbc_poly *d_dot_n, int refract, double eta, chain_sqrt_mode mode,
-                          bbc_poly3 *out, bbc_poly *beta, int *slope_enclosed) {
+ * for the facing condition): reflection, or refraction with ratio eta, whose part before
+ * sqrt(beta) (scatter_tangent) and whose sqrt (scatter_root) are two steps, so that the
+ * forms of another sqrt mode can start from the first (bbc__chain_forms_rescatter). */
+static bbc_result scatter_root(bbc_arena *arena, bbc_space *space, const bbc_poly3 *n,
+                               const bbc_poly3 *tangent, const bbc_poly *beta,
+                               chain_sqrt_mode mode, bbc_poly3 *out, int *slope_enclosed,
+                               double *value_radius);
+
+/* Refraction's tangent = eta ((n.n) d - (d.n) n) and beta (Eq. 11); reflection's direction
+ * (n.n) d - 2 (d.n) n in *out (tangent and beta untouched). */
+static bbc_result scatter_tangent(bbc_arena *arena, const bbc_poly3 *d, const bbc_poly3 *n,
+                                  const bbc_poly *d_dot_n, int refract, double eta,
+                                  bbc_poly3 *out, bbc_poly3 *tangent, bbc_poly *beta) {
   bbc_poly nn, dn = *d_dot_n;
   TRY(bbc_poly3_dot(arena, &nn, n, n));
   /* (n.n) d - k (d.n) n: the tangential part shared by both cases of Eq. 10. */
@@ -62,12 +69,29 @@ static bbc_result scatter(bbc_arena *arena, bbc_space *space, const bbc_poly3 *d
     double m = fmax(fabs(ra.lo), fabs(ra.hi)) + fmax(fabs(rb.lo), fabs(rb.hi)) * eta2;
     bbc_poly_widen(beta, 4 * DBL_EPSILON * m);
   }
+  /* eta ((n.n) d - (d.n) n), with n on the incident side. */
+  bbc_poly3 tangential;
+  TRY(bbc_poly3_sub(arena, &tangential, &nn_d, &dn_n));
+  return bbc_poly3_scale_const(arena, tangent, eta, &tangential);
+}
+
+/* d1 = tangent - sqrt(beta) n, with sqrt(beta) entering as `mode` says; *slope_enclosed is
+ * cleared when a derivative-aware sqrt lost its slope, *value_radius receives its value
+ * remainder's radius (chain_forms.value_radius). */
+static bbc_result scatter_root(bbc_arena *arena, bbc_space *space, const bbc_poly3 *n,
+                               const bbc_poly3 *tangent, const bbc_poly *beta,
+                               chain_sqrt_mode mode, bbc_poly3 *out, int *slope_enclosed,
+                               double *value_radius) {
   bbc_poly root;
   if (mode == CHAIN_SQRT_PRIMAL) {
     TRY(bbc_poly_sqrt_primal(arena, space, &root, beta, NULL, NULL, NULL));
   } else if (mode == CHAIN_SQRT_DERIVATIVE_AWARE) {
+    /* The value remainder (zeta of Supp. Eq. 16) stays out of the forms: on an axis of its
+     * own it made the Jacobian's determinant cubic in one more variable, four times the
+     * coefficients; beside them it is one constant for the whole piece. */
     bbc_sqrt_derivative_aware fit;
-    TRY(bbc_poly_sqrt_derivative_aware(arena, space, &root, NULL, beta, NULL, 0.0, &fit, NULL));
+    TRY(bbc_poly_sqrt_derivative_centred(arena, space, &root, NULL, value_radius, beta, NULL, 0.0,
+                                         &fit, NULL));
     if (!fit.slope_enclosed) *slope_enclosed = 0;
   } else {
     bbc_sqrt_primal fit;
@@ -77,12 +101,9 @@ static bbc_result scatter(bbc_arena *arena, bbc_space *space, const bbc_poly3 *d
     TRY(bbc_poly_scale(arena, &scaled, beta, fit.a));
     TRY(bbc_poly_add_scalar(arena, &root, &scaled, fit.b));
   }
-  /* eta ((n.n) d - (d.n) n) - sqrt(beta) n, with n on the incident side. */
-  bbc_poly3 tangential, scaled, root_n;
-  TRY(bbc_poly3_sub(arena, &tangential, &nn_d, &dn_n));
-  TRY(bbc_poly3_scale_const(arena, &scaled, eta, &tangential));
+  bbc_poly3 root_n;
   TRY(bbc_poly3_scale(arena, &root_n, &root, n));
-  return bbc_poly3_sub(arena, out, &scaled, &root_n);
+  return bbc_poly3_sub(arena, out, tangent, &root_n);
 }
 
 /* Moller-Trumbore (Eq. 9) for the ray o + t d against the triangle tri:
@@ -137,7 +158,33 @@ bbc_result bbc__chain_forms_rest(bbc_arena *arena, bbc_space *space, const bbc_t
                                  chain_sqrt_mode mode, chain_forms *out) {
   if (out->length == 2)
     return bbc__chain_double_rest(arena, space, g, mode == CHAIN_SQRT_DERIVATIVE_AWARE, out);
-  return hit(arena, &out->x1, &out->d1, g->r, &out->up, &out->vp, &out->kappa, &out->tnum);
+  TRY(hit(arena, &out->x1, &out->d1, g->r, &out->up, &out->vp, &out->kappa, &out->tnum));
+  if (mode == CHAIN_SQRT_DERIVATIVE_AWARE && out->has_beta && out->value_radius > 0) {
+    /* Eq. 9 is linear in the direction: the forms of d1 - delta n1 are those of d1 minus
+     * delta times those of n1 (tnum does not depend on the direction). */
+    bbc_poly tnum_n;
+    TRY(hit(arena, &out->x1, &out->n1, g->r, &out->up_n, &out->vp_n, &out->kappa_n, &tnum_n));
+    out->has_value_fold = 1;
+  }
+  return BBC_OK;
+}
+
+bbc_result bbc__chain_forms_rescatter(bbc_arena *arena, bbc_space *space,
+                                      const bbc_tuple_geometry *g, const chain_forms *from,
+                                      chain_sqrt_mode mode, chain_forms *out) {
+  if (from->length != 1 || !from->has_beta) return BBC_ERR_INVALID_ARGUMENT;
+  /* What does not depend on sqrt: the forms before it, by value (their coefficients stay
+   * where they are, in the arena). */
+  memset(out, 0, sizeof *out);
+  out->length = 1;
+  out->has_beta = 1;
+  out->slope_enclosed = 1;
+  out->x1 = from->x1, out->n1 = from->n1, out->tangent = from->tangent;
+  out->beta = from->beta, out->facing = from->facing, out->dist2 = from->dist2;
+  out->emit = from->emit;
+  TRY(scatter_root(arena, space, &out->n1, &out->tangent, &out->beta, mode, &out->d1,
+                   &out->slope_enclosed, &out->value_radius));
+  return bbc__chain_forms_rest(arena, space, g, mode, out);
 }
 
 bbc_result bbc__chain_forms(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
@@ -235,7 +282,10 @@ bbc_result bbc__chain_forms_prefix(bbc_arena *arena, bbc_space *space,
   if (g->light_model.kind != BBC_LIGHT_AREA) TRY(bbc_poly_constant(arena, &out->emit, 1.0));
   TRY(bbc_poly3_dot(arena, &dn, &d0, &n1));
   TRY(bbc_poly_scale(arena, &out->facing, &dn, -1.0));
-  TRY(scatter(arena, space, &d0, &n1, &dn, g->refract, g->eta, mode, d1, &out->beta,
-              &out->slope_enclosed));
+  out->n1 = n1;
+  TRY(scatter_tangent(arena, &d0, &n1, &dn, g->refract, g->eta, d1, &out->tangent, &out->beta));
+  if (g->refract)
+    TRY(scatter_root(arena, space, &n1, &out->tangent, &out->beta, mode, d1, &out->slope_enclosed,
+                     &out->value_radius));
   return BBC_OK;
 }

@@ -11,8 +11,10 @@
 typedef enum chain_sqrt_mode {
   CHAIN_SQRT_PRIMAL,           /* linearisation + one remainder variable (Supp. Eq. 6-12):
                                   encloses values, for position bounds */
-  CHAIN_SQRT_DERIVATIVE_AWARE, /* two remainder variables (Supp. Eq. 15-25): encloses
-                                  values and first derivatives, for irradiance */
+  CHAIN_SQRT_DERIVATIVE_AWARE, /* the slope remainder of Supp. Eq. 15-25 as a variable and
+                                  the value remainder as a constant beside the forms
+                                  (chain_forms.value_radius; two bounces: chain_double.c):
+                                  encloses values and first derivatives, for irradiance */
   CHAIN_SQRT_NO_REMAINDER      /* the bare linearisation: not conservative (Fig. 18) */
 } chain_sqrt_mode;
 
@@ -36,6 +38,18 @@ typedef struct chain_forms {
   int has_beta;
   int slope_enclosed; /* derivative-aware mode: 0 when a beta came too close to 0 for the
                          slope of sqrt to be enclosed (irradiance is then unbounded) */
+  /* One bounce, derivative-aware mode: sqrt(beta)'s value remainder is not an axis of the
+   * forms but a constant delta, |delta| <= value_radius (bbc_poly_sqrt_derivative_centred):
+   * the exact up, vp and kappa are up - delta up_n, vp - delta vp_n and kappa - delta kappa_n,
+   * the forms of Eq. 9 with d1 replaced by n1 (Eq. 10: d1 = ... - sqrt(beta) n1), for the
+   * same delta in all three and their derivatives. has_value_fold says that up_n, vp_n and
+   * kappa_n are set (only when value_radius > 0). */
+  double value_radius;
+  int has_value_fold;
+  bbc_poly3 n1;
+  bbc_poly up_n, vp_n, kappa_n;
+  /* One bounce, refraction: eta ((n1.n1) d0 - (d0.n1) n1), d1 but for its sqrt term. */
+  bbc_poly3 tangent;
   bbc_poly up2, vp2, kappa2, tnum2, facing2, beta2;
   int has_beta2;
   int slope_enclosed2; /* derivative mode: 0 when beta2 came too close to 0 for the slope
@@ -55,6 +69,15 @@ typedef struct chain_forms {
 bbc_result bbc__chain_forms(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
                             const double box[4], int s_axis, int t_axis, chain_sqrt_mode mode,
                             chain_forms *out);
+
+/* The forms of one refraction in `mode` from those `from` of another mode on the same piece
+ * and light box (computed in this arena, which must still hold them; space has their
+ * remainder axes claimed): sqrt(beta) and what follows it (d1, up, vp, kappa, tnum) are
+ * computed, the rest is shared. The same polynomials as bbc__chain_forms in `mode` with
+ * the same space gives. */
+bbc_result bbc__chain_forms_rescatter(bbc_arena *arena, bbc_space *space,
+                                      const bbc_tuple_geometry *g, const chain_forms *from,
+                                      chain_sqrt_mode mode, chain_forms *out);
 
 /* bbc__chain_forms in two steps, so that a piece whose light provably misses T2 is
  * discarded before the costly rest is built: the prefix computes x1, d1, facing, beta,

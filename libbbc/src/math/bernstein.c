@@ -808,25 +808,44 @@ static BBC__KERNEL void muln_any(const double *a, const double *b, double *dst, 
   muln_kernel(a, b, dst, ta, tb, da[0], da[1], da[2], da[3], db[0], db[1], db[2], db[3]);
 }
 
+/* Six bits per degree (the shapes below have degrees up to 16). */
 #define MULN_KEY(a0, a1, a2, a3, b0, b1, b2, b3)                                             \
-  (((uint32_t)(a0) << 28) | ((uint32_t)(a1) << 24) | ((uint32_t)(a2) << 20) |              \
-   ((uint32_t)(a3) << 16) | ((uint32_t)(b0) << 12) | ((uint32_t)(b1) << 8) |               \
-   ((uint32_t)(b2) << 4) | (uint32_t)(b3))
+  (((uint64_t)(a0) << 42) | ((uint64_t)(a1) << 36) | ((uint64_t)(a2) << 30) |              \
+   ((uint64_t)(a3) << 24) | ((uint64_t)(b0) << 18) | ((uint64_t)(b1) << 12) |              \
+   ((uint64_t)(b2) << 6) | (uint64_t)(b3))
 #define MULN_CASE(a0, a1, a2, a3, b0, b1, b2, b3)            \
   case MULN_KEY(a0, a1, a2, a3, b0, b1, b2, b3):             \
     muln_kernel(a, b, dst, ta, tb, a0, a1, a2, a3, b0, b1, b2, b3); \
     return
 
-/* The common shapes: the explicit Jacobian of single refraction (two remainder axes of
- * sqrt(beta) and the piece's two), then the implicit differentiation (the receiver's two
+/* The common shapes: the explicit Jacobian of single refraction with interpolated normals
+ * (the slope remainder of sqrt(beta) and the piece's two axes: the determinant's products,
+ * then the products of its forms), the same with the value remainder on an axis too (no
+ * longer made by the bounder), then the implicit differentiation (the receiver's two
  * barycentrics as extra axes, Eq. 17-19) at the flattening degree 3, by their share of
  * the work. */
 static BBC__KERNEL void muln(const double *a, const double *b, double *dst, double *ta,
                              double *tb, const int da[MULN_AXES], const int db[MULN_AXES]) {
   int small = 1;
-  for (int k = 0; k < MULN_AXES; k++) small &= da[k] <= 15 && db[k] <= 15;
+  for (int k = 0; k < MULN_AXES; k++) small &= da[k] <= 63 && db[k] <= 63;
   if (small) {
     switch (MULN_KEY(da[0], da[1], da[2], da[3], db[0], db[1], db[2], db[3])) {
+      MULN_CASE(0, 1, 6, 6, 0, 2, 10, 10);
+      MULN_CASE(0, 1, 5, 5, 0, 2, 11, 11);
+      MULN_CASE(0, 2, 10, 10, 0, 1, 5, 5);
+      MULN_CASE(0, 0, 2, 2, 0, 3, 16, 16);
+      MULN_CASE(0, 1, 5, 4, 0, 1, 5, 6);
+      MULN_CASE(0, 1, 4, 5, 0, 1, 6, 5);
+      MULN_CASE(0, 1, 6, 5, 0, 1, 5, 6);
+      MULN_CASE(0, 1, 5, 6, 0, 1, 6, 5);
+      MULN_CASE(0, 1, 5, 5, 0, 1, 5, 5);
+      MULN_CASE(0, 0, 1, 1, 0, 1, 5, 5);
+      MULN_CASE(0, 1, 4, 4, 0, 0, 1, 1);
+      MULN_CASE(0, 1, 5, 5, 0, 0, 1, 1);
+      MULN_CASE(0, 0, 1, 0, 0, 1, 5, 5);
+      MULN_CASE(0, 0, 0, 1, 0, 1, 5, 5);
+      MULN_CASE(0, 1, 5, 5, 0, 0, 1, 0);
+      MULN_CASE(0, 1, 5, 5, 0, 0, 0, 1);
       MULN_CASE(1, 1, 6, 6, 2, 2, 10, 10);
       MULN_CASE(1, 1, 5, 5, 2, 2, 11, 11);
       MULN_CASE(2, 2, 10, 10, 1, 1, 5, 5);
@@ -1237,15 +1256,26 @@ oom:
 
 /* ---- Evaluation --------------------------------------------------------------------- */
 
+/* de Casteljau along each axis in turn, the first axis outermost. With `tame` (every x in
+ * [0, 1] and every coefficient finite and at most DBL_MAX / 4, so that every intermediate
+ * value is finite: they are convex combinations up to rounding), an axis at x = 0 or 1
+ * takes only its end row: there the scheme computes 1 v_0 + 0 v_1 = v_0 (or 0 v_{n-1} +
+ * 1 v_n = v_n) at every level, which is v_0 (v_n) exactly when that is not zero (a zero's
+ * sign could change); a zero end is computed in full. */
 static double eval_rec(const double *c, const unsigned char *deg, const size_t *stride, int axis,
-                       const double *x) {
+                       const double *x, int tame) {
   while (axis < NAX && deg[axis] == 0) axis++;
   if (axis == NAX) return c[0];
   int n = deg[axis];
+  double t = x[axis], s = 1.0 - t;
+  if (tame && (t == 0.0 || t == 1.0)) {
+    const int end = t == 0.0 ? 0 : n;
+    const double e = eval_rec(c + (size_t)end * stride[axis], deg, stride, axis + 1, x, tame);
+    if (e != 0.0) return e;
+  }
   double v[MAXD + 1];
   for (int i = 0; i <= n; i++)
-    v[i] = eval_rec(c + (size_t)i * stride[axis], deg, stride, axis + 1, x);
-  double t = x[axis], s = 1.0 - t;
+    v[i] = eval_rec(c + (size_t)i * stride[axis], deg, stride, axis + 1, x, tame);
   for (int level = 1; level <= n; level++)
     for (int i = 0; i <= n - level; i++) v[i] = s * v[i] + t * v[i + 1];
   return v[0];
@@ -1254,8 +1284,17 @@ static double eval_rec(const double *c, const unsigned char *deg, const size_t *
 double bbc_poly_eval(const bbc_poly *p, const double x[NAX]) {
   if (!poly_ok(p) || !x) return NAN;
   size_t stride[NAX];
-  bbc__strides(p->deg, stride);
-  return eval_rec(p->coef, p->deg, stride, 0, x);
+  size_t size = bbc__strides(p->deg, stride);
+  int tame = 1, corner = 0;
+  for (int j = 0; j < NAX; j++) {
+    if (p->deg[j] == 0) continue;
+    tame &= x[j] >= 0.0 && x[j] <= 1.0;
+    corner |= x[j] == 0.0 || x[j] == 1.0;
+  }
+  /* The scan for tameness only where it can pay. */
+  if (tame && corner) tame = bbc__maxabs(p->coef, size) <= DBL_MAX / 4;
+  else tame = 0;
+  return eval_rec(p->coef, p->deg, stride, 0, x, tame);
 }
 
 /* ---- Vectors of polynomials --------------------------------------------------------- */

@@ -377,8 +377,9 @@ bbc_result bbc_sqrt_primal_fit(double l, double r, bbc_sqrt_primal *out) {
   return BBC_OK;
 }
 
-bbc_result bbc_sqrt_derivative_aware_fit(double l, double r, double clamp,
-                                         bbc_sqrt_derivative_aware *out) {
+/* geometric: c = sqrt(lc r0) instead of the left end (see bbc_poly_sqrt_derivative_centred). */
+static bbc_result derivative_aware_fit(double l, double r, double clamp, int geometric,
+                                       bbc_sqrt_derivative_aware *out) {
   if (!out || !isfinite(l) || !isfinite(r) || !(l <= r) || isnan(clamp))
     return BBC_ERR_INVALID_ARGUMENT;
   bbc_sqrt_derivative_aware f;
@@ -398,6 +399,16 @@ bbc_result bbc_sqrt_derivative_aware_fit(double l, double r, double clamp,
   f.a = 0.5 * (0.5 / sl + 0.5 / sr); /* Supp. Eq. 18 */
   f.b = sl - f.a * lc;               /* Supp. Eq. 21 */
   f.c = lc;                          /* Supp. Eq. 22 */
+  if (geometric) {
+    /* The value error below is g(x) - K with g(x) = (x + c) / (2 sqrt x), whose ends on
+     * [lc, r0] are equal for c = sqrt(lc r0): the error interval is then
+     * (r0^(1/4) - lc^(1/4))^2 / 2 wide, a quarter of the width for c = lc,
+     * (sqrt r0 - sqrt lc)^2 / (2 sqrt r0), when lc is near r0. Any double c is valid: the
+     * bounds below hold for the stored constants. b makes K = b + a c about sqrt(c). */
+    const double c = sl * sr;
+    f.c = c;
+    f.b = sqrt(c) - f.a * c;
+  }
   bbc_interval A = ipt(f.a), B = ipt(f.b), C = ipt(f.c);
   bbc_interval half = ipt(0.5);
 
@@ -445,6 +456,11 @@ bbc_result bbc_sqrt_derivative_aware_fit(double l, double r, double clamp,
   return BBC_OK;
 }
 
+bbc_result bbc_sqrt_derivative_aware_fit(double l, double r, double clamp,
+                                         bbc_sqrt_derivative_aware *out) {
+  return derivative_aware_fit(l, r, clamp, 0, out);
+}
+
 /* The range of beta, intersected with the caller's enclosure when given. */
 static bbc_result beta_range(const bbc_poly *beta, const bbc_interval *known, double *l,
                              double *r) {
@@ -476,25 +492,24 @@ bbc_result bbc_poly_sqrt_primal(bbc_arena *arena, bbc_space *space, bbc_poly *ou
   return BBC_OK;
 }
 
-bbc_result bbc_poly_sqrt_derivative_aware(bbc_arena *arena, bbc_space *space, bbc_poly *value,
-                                          bbc_poly *slope, const bbc_poly *beta,
-                                          const bbc_interval *known, double clamp,
-                                          bbc_sqrt_derivative_aware *fit, int axes[2]) {
-  if (!space || !value || !poly_ok(beta)) return BBC_ERR_INVALID_ARGUMENT;
-  double l, r;
-  BBC__TRY(beta_range(beta, known, &l, &r));
-  bbc_sqrt_derivative_aware f;
-  BBC__TRY(bbc_sqrt_derivative_aware_fit(l, r, clamp, &f));
-  int xi, zeta;
+/* value (and slope) of the derivative-aware surrogate with nz value corrections D[0..nz-1]
+ * on the axis zeta (nz = 2) or a single constant D[0] and no zeta axis (nz = 1, zeta = -1). */
+static bbc_result sqrt_derivative_surrogate(bbc_arena *arena, bbc_space *space, bbc_poly *value,
+                                            bbc_poly *slope, const bbc_poly *beta,
+                                            const bbc_sqrt_derivative_aware *fit, const double *D,
+                                            int nz, int axes[2]) {
+  const bbc_sqrt_derivative_aware f = *fit;
+  int xi, zeta = -1;
   BBC__TRY(bbc_space_add_axis(space, BBC_AXIS_REMAINDER, &xi));
-  bbc_result res = bbc_space_add_axis(space, BBC_AXIS_REMAINDER, &zeta);
+  bbc_result res = BBC_OK;
+  if (nz == 2) res = bbc_space_add_axis(space, BBC_AXIS_REMAINDER, &zeta);
   if (res != BBC_OK) {
     bbc_space_release_axis(space, xi);
     return res;
   }
-  if (beta->deg[xi] != 0 || beta->deg[zeta] != 0) {
+  if (beta->deg[xi] != 0 || (zeta >= 0 && beta->deg[zeta] != 0)) {
     bbc_space_release_axis(space, xi);
-    bbc_space_release_axis(space, zeta);
+    if (zeta >= 0) bbc_space_release_axis(space, zeta);
     return BBC_ERR_INVALID_ARGUMENT;
   }
   size_t mark = bbc_arena_mark(arena);
@@ -503,24 +518,25 @@ bbc_result bbc_poly_sqrt_derivative_aware(bbc_arena *arena, bbc_space *space, bb
   memset(&s, 0, sizeof s);
   memcpy(v.deg, beta->deg, NAX);
   v.deg[xi] = 1;
-  v.deg[zeta] = 1;
+  if (zeta >= 0) v.deg[zeta] = 1;
   s.deg[xi] = 1;
   res = bbc__alloc_coef(arena, v.deg, &v.coef);
   if (res == BBC_OK && slope) res = bbc__alloc_coef(arena, s.deg, &s.coef);
   if (res != BBC_OK) {
     bbc_arena_reset(arena, mark);
     bbc_space_release_axis(space, xi);
-    bbc_space_release_axis(space, zeta);
+    if (zeta >= 0) bbc_space_release_axis(space, zeta);
     return res;
   }
 
   /* Supp. Eq. 15-16: value = a beta + b + S(xi) (beta - c) + D(zeta) with S the slope
-   * correction and D the value correction, both degree 1 on their own axes. beta does not
-   * depend on xi or zeta, so the tensor coefficients are the plain products
-   * a beta_i + b + S_k (beta_i - c) + D_m. */
-  const double S[2] = {f.slope_lo, f.slope_hi}, D[2] = {f.delta_lo, f.delta_hi};
+   * correction and D the value correction, both degree 1 on their own axes (D a constant
+   * when nz = 1). beta does not depend on xi or zeta, so the tensor coefficients are the
+   * plain products a beta_i + b + S_k (beta_i - c) + D_m. */
+  const double S[2] = {f.slope_lo, f.slope_hi};
   size_t stride[NAX];
   bbc__strides(v.deg, stride);
+  const size_t zstride = zeta >= 0 ? stride[zeta] : 0;
   size_t bstride[NAX];
   size_t nb = bbc__strides(beta->deg, bstride);
   int idx[NAX] = {0};
@@ -530,9 +546,8 @@ bbc_result bbc_poly_sqrt_derivative_aware(bbc_arena *arena, bbc_space *space, bb
     double bi = beta->coef[i];
     double base = f.a * bi + f.b, centred = bi - f.c;
     for (int k = 0; k < 2; k++)
-      for (int m = 0; m < 2; m++)
-        v.coef[off + (size_t)k * stride[xi] + (size_t)m * stride[zeta]] =
-            (base + S[k] * centred) + D[m];
+      for (int m = 0; m < nz; m++)
+        v.coef[off + (size_t)k * stride[xi] + (size_t)m * zstride] = (base + S[k] * centred) + D[m];
     for (int j = NAX - 1; j >= 0; j--) {
       if (beta->deg[j] == 0) continue;
       if (idx[j] < beta->deg[j]) {
@@ -546,7 +561,9 @@ bbc_result bbc_poly_sqrt_derivative_aware(bbc_arena *arena, bbc_space *space, bb
    * difference, product, two sums); beta's radius is multiplied by |a| + max|S|. */
   double mb = bbc__maxabs(beta->coef, nb);
   double smax = fabs(S[0]) > fabs(S[1]) ? fabs(S[0]) : fabs(S[1]);
-  double dmax = fabs(D[0]) > fabs(D[1]) ? fabs(D[0]) : fabs(D[1]);
+  double dmax = 0.0;
+  for (int m = 0; m < nz; m++)
+    if (fabs(D[m]) > dmax) dmax = fabs(D[m]);
   double mag = bbc__add_up(bbc__mul_up(fabs(f.a), mb), fabs(f.b));
   mag = bbc__add_up(mag, bbc__mul_up(smax, bbc__add_up(mb, fabs(f.c))));
   mag = bbc__add_up(mag, dmax);
@@ -561,10 +578,49 @@ bbc_result bbc_poly_sqrt_derivative_aware(bbc_arena *arena, bbc_space *space, bb
     *slope = s;
   }
   *value = v;
-  if (fit) *fit = f;
   if (axes) {
     axes[0] = xi;
     axes[1] = zeta;
   }
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_sqrt_derivative_aware(bbc_arena *arena, bbc_space *space, bbc_poly *value,
+                                          bbc_poly *slope, const bbc_poly *beta,
+                                          const bbc_interval *known, double clamp,
+                                          bbc_sqrt_derivative_aware *fit, int axes[2]) {
+  if (!space || !value || !poly_ok(beta)) return BBC_ERR_INVALID_ARGUMENT;
+  double l, r;
+  BBC__TRY(beta_range(beta, known, &l, &r));
+  bbc_sqrt_derivative_aware f;
+  BBC__TRY(bbc_sqrt_derivative_aware_fit(l, r, clamp, &f));
+  const double D[2] = {f.delta_lo, f.delta_hi};
+  BBC__TRY(sqrt_derivative_surrogate(arena, space, value, slope, beta, &f, D, 2, axes));
+  if (fit) *fit = f;
+  return BBC_OK;
+}
+
+bbc_result bbc_poly_sqrt_derivative_centred(bbc_arena *arena, bbc_space *space, bbc_poly *value,
+                                            bbc_poly *slope, double *radius, const bbc_poly *beta,
+                                            const bbc_interval *known, double clamp,
+                                            bbc_sqrt_derivative_aware *fit, int *axis) {
+  if (!space || !value || !radius || !poly_ok(beta)) return BBC_ERR_INVALID_ARGUMENT;
+  double l, r;
+  BBC__TRY(beta_range(beta, known, &l, &r));
+  bbc_sqrt_derivative_aware f;
+  BBC__TRY(derivative_aware_fit(l, r, clamp, 1, &f));
+  /* The centre m of [delta_lo, delta_hi] is any double (the surrogate's constants are
+   * exact by definition); what must hold is delta_lo >= m - radius and delta_hi <= m +
+   * radius for the stored m, hence the upward-rounded differences. Halving is exact but
+   * for subnormals, whose rounding the differences then absorb. */
+  const double m = 0.5 * f.delta_lo + 0.5 * f.delta_hi;
+  double rad = bbc__sub_up(f.delta_hi, m), rad_lo = bbc__sub_up(m, f.delta_lo);
+  if (rad_lo > rad) rad = rad_lo;
+  if (!(rad >= 0.0)) rad = INFINITY;
+  int axes[2];
+  BBC__TRY(sqrt_derivative_surrogate(arena, space, value, slope, beta, &f, &m, 1, axes));
+  *radius = rad;
+  if (fit) *fit = f;
+  if (axis) *axis = axes[0];
   return BBC_OK;
 }
