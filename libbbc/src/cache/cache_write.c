@@ -309,6 +309,10 @@ static int entry_cmp(const void *a, const void *b) {
 /* Sorts a cell's entries by tuple and keeps the maximum code per tuple. */
 static void cell_compact(cell_list *c) {
   if (c->count < 2) return;
+  /* Lists filled in tuple order (bbc__cache_builder_add_rows) are sorted already. */
+  uint32_t k = 1;
+  while (k < c->count && c->e[k - 1].tuple < c->e[k].tuple) k++;
+  if (k == c->count) return;
   if (c->count <= 16) {
     for (uint32_t i = 1; i < c->count; i++) {
       cell_entry x = c->e[i];
@@ -409,6 +413,36 @@ bbc_result bbc_cache_builder_splat_cells(bbc_cache_builder *b, uint32_t tuple_id
     }
     pthread_mutex_unlock(lock);
     if (res != BBC_OK) return res;
+  }
+  return BBC_OK;
+}
+
+bbc_result bbc__cache_builder_add_rows(bbc_cache_builder *b, uint32_t id, uint32_t receiver,
+                                       uint32_t y0, uint32_t h, const uint32_t *spans,
+                                       const uint16_t *codes, uint32_t part, uint32_t parts) {
+  if (!b || (h && (!spans || !codes)) || id >= b->tuple_count ||
+      receiver >= b->grid->receiver_count || parts == 0 || part >= parts)
+    return BBC_ERR_INVALID_ARGUMENT;
+  const bbc_receiver *r = &b->grid->receivers[receiver];
+  if (h == 0) return BBC_OK;
+  if (y0 >= r->height || h > r->height - y0) return BBC_ERR_INVALID_ARGUMENT;
+  /* Rows whose (y + receiver) % parts is `part`: the first is `skip` rows in. */
+  uint32_t skip = (part + parts - (uint32_t)(((uint64_t)y0 + receiver) % parts)) % parts;
+  const uint16_t *in = codes;
+  for (uint32_t k = 0; k < h; k++) {
+    const uint32_t x0 = spans[2 * k], n = spans[2 * k + 1];
+    if (k == skip) {
+      skip += parts;
+      if (n && (x0 >= r->width || n > r->width - x0)) return BBC_ERR_INVALID_ARGUMENT;
+      cell_list *row = b->cells + r->first_cell + (uint64_t)(y0 + k) * r->width + x0;
+      for (uint32_t x = 0; x < n; x++) {
+        if (in[x] == 0) continue;
+        if (in[x] > BBC__CODE_INF) return BBC_ERR_INVALID_ARGUMENT;
+        bbc_result res = cell_add(b, &row[x], id, in[x]);
+        if (res != BBC_OK) return res;
+      }
+    }
+    in += n;
   }
   return BBC_OK;
 }

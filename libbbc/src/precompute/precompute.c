@@ -1,9 +1,10 @@
-/* The precompute driver: candidate tuples (tuples.c), bounded in parallel batches; the
- * kept pieces of each batch are recorded in tuple order, so tuple ids and the written
- * cache do not depend on the number of threads. Only tuples with a kept piece are
- * stored. Memory stays bounded by one batch of pieces and the builder's entry budget:
- * between batches, the builder spills its cell lists to a temporary file when they
- * exceed it. */
+/* The precompute driver: candidate tuples (tuples.c), bounded in parallel batches; each
+ * tuple's cells and bounds are read off the raster its subdivision keeps (coverage) by
+ * the thread that bounded it, and the batch's cells are recorded in tuple order, so
+ * tuple ids and the written cache do not depend on the number of threads. Only tuples
+ * with a kept piece are stored. Memory stays bounded by one batch of pieces and cells
+ * and the builder's entry budget: between batches, the builder spills its cell lists to
+ * a temporary file when they exceed it. */
 #define _POSIX_C_SOURCE 200809L
 #include "bbc/precompute.h"
 
@@ -14,6 +15,7 @@
 
 #include <omp.h>
 
+#include "cache_format_internal.h"
 #include "cache_shard_internal.h"
 #include "light_internal.h"
 #include "report_internal.h"
@@ -40,6 +42,7 @@ typedef struct piece_list {
 typedef struct coverage {
   double *cells;
   size_t capacity;
+  uint32_t receiver;     /* the receiver (grid) the triangle is in */
   uint32_t x0, y0, w, h; /* the receiver triangle's cell rectangle */
   uint32_t tx0, ty0, tx1, ty1;
   int touched;
@@ -83,7 +86,7 @@ static bbc_result rows_reserve(const bbc_grid *grid, uint32_t **x0, uint32_t **x
 
 /* A region splatted and its result (coverage_range). */
 typedef struct splat_memo {
-  int valid, hit;
+  int valid, hit, escaped;
   footprint footprint;
   bbc_cell_range range;
 } splat_memo;
@@ -99,6 +102,10 @@ typedef struct tuple_sink {
    * judged on the same parent's region first. */
   splat_memo memo[2];
   int newest;
+  /* A piece was stored whose cells the raster does not hold (its polygon reaches cells
+   * outside the raster, or its E_hi is not positive): the tuple's cells are then
+   * splatted again from its pieces (tuple_cells_from_pieces). */
+  int escaped;
 } tuple_sink;
 
 static bbc_result coverage_begin(coverage *c, const bbc_grid *grid, uint32_t receiver) {
@@ -117,6 +124,7 @@ static bbc_result coverage_begin(coverage *c, const bbc_grid *grid, uint32_t rec
     c->capacity = c->cells ? w * h : 0;
     if (!c->cells) return BBC_ERR_OUT_OF_MEMORY;
   }
+  c->receiver = t.receiver;
   c->x0 = t.x0, c->y0 = t.y0, c->w = (uint32_t)w, c->h = (uint32_t)h;
   return BBC_OK;
 }
@@ -131,9 +139,10 @@ static void coverage_end(coverage *c) {
 
 /* The piece's cells (rows r->y0..r->y1, columns in (*x0)[y - r->y0] ..
  * (*x1)[y - r->y0], arrays valid until the second-next call); 0 when it reaches none.
- * Splats of the triangle's points stay in its rectangle, the raster's. */
+ * Splats of the triangle's points stay in its rectangle, the raster's; *escaped is set
+ * when the piece reaches cells but the raster does not hold them all (not expected). */
 static int coverage_range(tuple_sink *s, const bbc_piece *p, bbc_cell_range *r,
-                          const uint32_t **x0, const uint32_t **x1) {
+                          const uint32_t **x0, const uint32_t **x1, int *escaped) {
   const coverage *c = s->cover;
   footprint f;
   piece_footprint(p, &f);
@@ -144,17 +153,20 @@ static int coverage_range(tuple_sink *s, const bbc_piece *p, bbc_cell_range *r,
       *r = m->range;
       *x0 = c->row_x0[i], *x1 = c->row_x1[i];
       s->newest = i;
+      *escaped = m->escaped;
       return m->hit;
     }
   }
   const int i = s->newest ^ 1; /* the older one */
   splat_memo *m = &s->memo[i];
-  int hit = c->w != 0 &&
-            splat_footprint(s->grid, s->receiver, &f, r, c->row_x0[i], c->row_x1[i]) &&
-            r->x0 >= c->x0 && r->y0 >= c->y0 && r->x1 < c->x0 + c->w && r->y1 < c->y0 + c->h;
+  const int reaches =
+      c->w != 0 && splat_footprint(s->grid, s->receiver, &f, r, c->row_x0[i], c->row_x1[i]);
+  int hit =
+      reaches && r->x0 >= c->x0 && r->y0 >= c->y0 && r->x1 < c->x0 + c->w && r->y1 < c->y0 + c->h;
   /* The row arrays hold this region's columns until they are reused. */
   m->valid = c->w != 0;
   m->hit = hit;
+  m->escaped = *escaped = c->w == 0 || (reaches && !hit);
   m->footprint = f;
   if (hit) m->range = *r;
   s->newest = i;
@@ -167,7 +179,9 @@ static bbc_piece_need piece_need(void *user, const bbc_piece *piece) {
   const coverage *c = s->cover;
   bbc_cell_range r;
   const uint32_t *rx0, *rx1;
-  if (!coverage_range(s, piece, &r, &rx0, &rx1)) return BBC_NEED_NONE; /* it reaches no cell */
+  int escaped;
+  if (!coverage_range(s, piece, &r, &rx0, &rx1, &escaped))
+    return BBC_NEED_NONE; /* it reaches no cell */
   int dominated = 1, cells = 0;
   for (uint32_t y = r.y0; y <= r.y1 && dominated; y++) {
     const double *row = c->cells + (size_t)(y - c->y0) * c->w - c->x0;
@@ -190,9 +204,10 @@ static int keep_piece(void *user, const bbc_piece *piece) {
   coverage *c = s->cover;
   bbc_cell_range r;
   const uint32_t *rx0, *rx1;
-  if (coverage_range(s, piece, &r, &rx0, &rx1)) {
+  int escaped = 0;
+  if (coverage_range(s, piece, &r, &rx0, &rx1, &escaped)) {
     /* A piece that raises no cell (each already holds a positive bound at least its
-     * E_hi, from pieces kept before it) changes nothing record_tuple computes, the
+     * E_hi, from pieces kept before it) changes nothing the tuple's cells hold, the
      * maximum per cell: it is not stored. The first piece kept always raises a cell, so
      * the tuple is stored exactly when some piece is kept. */
     int raises = 0;
@@ -205,6 +220,7 @@ static int keep_piece(void *user, const bbc_piece *piece) {
         }
     }
     if (!raises) return 0;
+    if (!(piece->e_hi > 0)) s->escaped = 1; /* the raster does not tell it from none */
     if (!c->touched) {
       c->tx0 = r.x0, c->ty0 = r.y0, c->tx1 = r.x1, c->ty1 = r.y1;
       c->touched = 1;
@@ -215,6 +231,7 @@ static int keep_piece(void *user, const bbc_piece *piece) {
       if (r.y1 > c->ty1) c->ty1 = r.y1;
     }
   }
+  if (escaped) s->escaped = 1;
   if (l->count == l->capacity) {
     size_t capacity = l->capacity ? 2 * l->capacity : 16;
     bbc_piece *items = realloc(l->items, capacity * sizeof *items);
@@ -237,16 +254,123 @@ typedef struct raster {
   size_t rows;
 } raster;
 
-/* Rasterises the kept pieces of one tuple into the cells they cover, keeping the
- * maximum bound per cell (Eq. 21), and hands every cell to the builder once. */
-static bbc_result record_tuple(bbc_cache_builder *builder, const bbc_grid *grid,
-                               const bbc_scene *scene, const bbc_precompute_params *params,
-                               const bbc_tuple *tuple, uint32_t id, const piece_list *pieces,
-                               raster *r, uint64_t *entries) {
-  /* The light's brightest channel: W/sr, W/m^2 (a sun) or an emitter's radiance. */
+/* The cells of a batch's tuples as the builder takes them (bbc__cache_builder_add_rows),
+ * per bounding thread: for each row of a tuple's cell rectangle, the span from its first
+ * to its last cell with an entry, and the codes of the span, 0 for no entry. Emptied
+ * before each batch, so it holds one batch, about its entries. */
+typedef struct cell_arena {
+  uint16_t *codes;
+  uint32_t *spans; /* per row: first column, count */
+  size_t codes_used, codes_cap, spans_used, spans_cap;
+} cell_arena;
+
+/* One tuple's cells: h rows from row y0 of its receiver, in arena `arena`; h == 0 when
+ * it has none. */
+typedef struct tuple_cells {
+  int arena;
+  size_t codes, spans; /* where its codes and spans start in the arena */
+  uint32_t receiver, y0, h;
+  uint64_t entries; /* codes not 0 */
+} tuple_cells;
+
+static int arena_reserve(void **p, size_t *cap, size_t need, size_t size) {
+  if (need <= *cap) return 1;
+  size_t c = *cap ? *cap : 4096;
+  while (c < need) c *= 2;
+  void *q = realloc(*p, c * size);
+  if (!q) return 0;
+  *p = q;
+  *cap = c;
+  return 1;
+}
+
+/* Appends a tuple's cells from a rectangle of bounds per cell (w x h from cell x0, y0 of
+ * the receiver, rows `stride` apart): a cell has an entry where its value is positive,
+ * with the code of the value itself, or with that of cell_bound(value, power) when
+ * `scaled`. */
+static double cell_bound(double e_hi, double power);
+static bbc_result arena_add(cell_arena *a, int arena, tuple_cells *out, uint32_t receiver,
+                            uint32_t x0, uint32_t y0, uint32_t w, uint32_t h, const double *cells,
+                            size_t stride, int scaled, double power) {
+  if (!arena_reserve((void **)&a->codes, &a->codes_cap, a->codes_used + (size_t)w * h,
+                     sizeof *a->codes) ||
+      !arena_reserve((void **)&a->spans, &a->spans_cap, a->spans_used + 2 * (size_t)h,
+                     sizeof *a->spans))
+    return BBC_ERR_OUT_OF_MEMORY;
+  out->arena = arena, out->codes = a->codes_used, out->spans = a->spans_used;
+  out->receiver = receiver, out->y0 = y0, out->h = h;
+  uint64_t entries = 0;
+  uint16_t *codes = a->codes + a->codes_used;
+  uint32_t *spans = a->spans + a->spans_used;
+  for (uint32_t y = 0; y < h; y++) {
+    const double *row = cells + y * stride;
+    uint32_t first = w, last = 0;
+    for (uint32_t x = 0; x < w; x++) {
+      if (isnan(row[x]) || row[x] < 0) return BBC_ERR_INVALID_ARGUMENT;
+      if (row[x] > 0) {
+        if (first == w) first = x;
+        last = x;
+      }
+    }
+    spans[2 * y] = x0 + (first < w ? first : 0);
+    spans[2 * y + 1] = first < w ? last - first + 1 : 0;
+    for (uint32_t x = first; x <= last && first < w; x++) {
+      if (!(row[x] > 0)) {
+        *codes++ = 0;
+        continue;
+      }
+      const double e = scaled ? cell_bound(row[x], power) : row[x];
+      if (isnan(e)) return BBC_ERR_INVALID_ARGUMENT;
+      *codes++ = bbc__bound_encode(e);
+      entries++;
+    }
+  }
+  a->codes_used = (size_t)(codes - a->codes);
+  a->spans_used += 2 * (size_t)h;
+  out->entries = entries;
+  return BBC_OK;
+}
+
+/* The light's brightest channel (W/sr, W/m^2 for a sun, or an emitter's radiance) times
+ * Eq. 21's m: what a piece's E_hi per unit intensity is multiplied by. */
+static double tuple_power(const bbc_scene *scene, const bbc_precompute_params *params,
+                          const bbc_tuple *tuple) {
   float radiance[3];
   const float *intensity = bbc__cache_light_intensity(scene, tuple->light, radiance);
-  double power = fmax(intensity[0], fmax(intensity[1], intensity[2])) * params->m;
+  return fmax(intensity[0], fmax(intensity[1], intensity[2])) * params->m;
+}
+
+/* A cell's stored bound from the largest E_hi of the pieces reaching it: the product of
+ * non-negative doubles, pushed up by an ulp, so that the stored bound stays above the
+ * true one. It does not decrease as e_hi grows, so the bound of the largest E_hi is the
+ * largest of the pieces' bounds (Eq. 21). */
+static double cell_bound(double e_hi, double power) {
+  return isfinite(e_hi) ? nextafter(e_hi * power, INFINITY) : INFINITY;
+}
+
+/* The tuple's cells from the coverage raster, which holds, per cell, the largest E_hi of
+ * the stored pieces reaching it (keep_piece), over the rectangle they touched: the same
+ * cells and bounds as splatting the stored pieces again (tuple_cells_from_pieces) when
+ * every stored piece's cells are in the raster and its E_hi is positive (tuple_sink's
+ * `escaped` says when not). */
+static bbc_result tuple_cells_from_coverage(cell_arena *a, int arena, tuple_cells *out,
+                                            const coverage *c, double power) {
+  out->h = 0;
+  out->entries = 0;
+  if (!c->touched) return BBC_OK;
+  return arena_add(a, arena, out, c->receiver, c->tx0, c->ty0, c->tx1 - c->tx0 + 1,
+                   c->ty1 - c->ty0 + 1,
+                   c->cells + (size_t)(c->ty0 - c->y0) * c->w + (c->tx0 - c->x0), c->w, 1, power);
+}
+
+/* Rasterises the kept pieces of one tuple into the cells they cover, keeping the
+ * maximum bound per cell (Eq. 21), and gives the tuple's cells. */
+static bbc_result tuple_cells_from_pieces(cell_arena *a, int arena, tuple_cells *out,
+                                          const bbc_grid *grid, double power,
+                                          const bbc_tuple *tuple, const piece_list *pieces,
+                                          raster *r) {
+  out->h = 0;
+  out->entries = 0;
   bbc_cell_range all = {0, UINT32_MAX, UINT32_MAX, 0, 0};
   int any = 0;
   for (size_t k = 0; k < pieces->count; k++) {
@@ -278,18 +402,15 @@ static bbc_result record_tuple(bbc_cache_builder *builder, const bbc_grid *grid,
     footprint f;
     piece_footprint(p, &f);
     if (!splat_footprint(grid, tuple->receiver, &f, &c, r->row_x0, r->row_x1)) continue;
-    /* Products of non-negative doubles, pushed up by an ulp: the stored bound stays
-     * above the true one. */
-    double e = isfinite(p->e_hi) ? nextafter(p->e_hi * power, INFINITY) : INFINITY;
+    double e = cell_bound(p->e_hi, power);
     for (uint32_t y = c.y0; y <= c.y1; y++) {
       double *row = r->cells + (y - all.y0) * w - all.x0;
       for (uint32_t x = r->row_x0[y - c.y0]; x <= r->row_x1[y - c.y0]; x++)
         if (e > row[x]) row[x] = e;
     }
   }
-  /* Each cell gets this tuple once: the distinct entries are counted here. */
-  for (size_t k = 0; k < w * h; k++) *entries += r->cells[k] > 0;
-  return bbc_cache_builder_splat_cells(builder, id, &all, r->cells);
+  return arena_add(a, arena, out, all.receiver, all.x0, all.y0, (uint32_t)w, (uint32_t)h, r->cells,
+                   w, 0, 0.0);
 }
 
 bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
@@ -366,13 +487,16 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   bbc_bounder **bounders = calloc((size_t)threads, sizeof *bounders);
   piece_list *pieces = calloc(BATCH_TUPLES, sizeof *pieces);
   uint32_t *ids = calloc(BATCH_TUPLES, sizeof *ids);
+  tuple_cells *cells = calloc(BATCH_TUPLES, sizeof *cells);
+  cell_arena *arenas = calloc((size_t)threads, sizeof *arenas);
+  size_t *resume = calloc((size_t)threads, sizeof *resume);
   raster *rasters = calloc((size_t)threads, sizeof *rasters);
   coverage *covers = calloc((size_t)threads, sizeof *covers);
   const bbc_grid *grid = bbc_cache_builder_grid(builder);
   bbc_bound_stats *thread_stats = calloc((size_t)threads, sizeof *thread_stats);
   bbc_bound_stats *cpu_split = calloc((size_t)threads, sizeof *cpu_split);
-  if (result == BBC_OK &&
-      (!bounders || !pieces || !ids || !rasters || !covers || !thread_stats || !cpu_split))
+  if (result == BBC_OK && (!bounders || !pieces || !ids || !cells || !arenas || !resume ||
+                           !rasters || !covers || !thread_stats || !cpu_split))
     result = BBC_ERR_OUT_OF_MEMORY;
   for (int i = 0; i < threads && result == BBC_OK; i++) result = bbc_bounder_create(&bounders[i]);
 
@@ -380,6 +504,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     size_t n = tuple_count - first < BATCH_TUPLES ? tuple_count - first : BATCH_TUPLES;
     double b0 = omp_get_wtime();
     int failed = 0;
+    for (int k = 0; k < threads; k++) arenas[k].codes_used = arenas[k].spans_used = 0;
 #pragma omp parallel num_threads(threads) reduction(| : failed)
     {
       /* The thread's CPU time over the batch (one system call at each end, not per tuple),
@@ -408,6 +533,18 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
           ok = bbc_bound_tuple(bounders[id], &g, &prm, keep_piece, &sink, &thread_stats[id]) ==
                    BBC_OK &&
                !pieces[i].failed;
+        }
+        /* The tuple's cells, while the raster holds them (a tuple is stored when it
+         * has a stored piece). */
+        cells[i].h = 0;
+        cells[i].entries = 0;
+        if (ok && pieces[i].count) {
+          const bbc_tuple *t = &tuples[first + i];
+          const double power = tuple_power(scene, params, t);
+          ok = (sink.escaped ? tuple_cells_from_pieces(&arenas[id], id, &cells[i], grid, power, t,
+                                                       &pieces[i], &rasters[id])
+                             : tuple_cells_from_coverage(&arenas[id], id, &cells[i], &covers[id],
+                                                         power)) == BBC_OK;
         }
         coverage_end(&covers[id]);
         if (!ok) failed = 1;
@@ -439,28 +576,38 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       st.tuples++;
       st.tuples_per_chain[tuple->chain]++;
     }
-    /* One parallel pass records the batch; a thread that finds the builder over its
-     * entry budget leaves its remaining tuples for the next pass, after the spill. */
+    /* The batch's cells go to the builder in tuple order, so that every cell's list stays
+     * sorted; its rows are shared between the threads (bbc__cache_builder_add_rows), so
+     * no two touch a cell and none waits for a lock. A part that finds the builder over
+     * its entry budget stops there and resumes after the spill. */
+    for (int p = 0; p < threads; p++) resume[p] = 0;
     for (int pass = 1; pass && result == BBC_OK;) {
       int splat_failed = 0;
-      uint64_t entries = 0;
       pass = 0;
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) \
-    reduction(| : splat_failed, pass) reduction(+ : entries)
-      for (size_t i = 0; i < n; i++) {
-        if (ids[i] == UINT32_MAX) continue;
-        if (bbc__cache_builder_full(builder)) {
-          pass = 1;
-          continue;
+#pragma omp parallel for schedule(static, 1) num_threads(threads) reduction(| : splat_failed, pass)
+      for (int p = 0; p < threads; p++) {
+        size_t i = resume[p];
+        for (; i < n; i++) {
+          const tuple_cells *t = &cells[i];
+          if (ids[i] == UINT32_MAX || t->h == 0) continue;
+          if (bbc__cache_builder_full(builder)) {
+            pass = 1;
+            break;
+          }
+          const cell_arena *a = &arenas[t->arena];
+          if (bbc__cache_builder_add_rows(builder, ids[i], t->receiver, t->y0, t->h,
+                                          a->spans + t->spans, a->codes + t->codes, (uint32_t)p,
+                                          (uint32_t)threads) != BBC_OK) {
+            splat_failed = 1;
+            break;
+          }
         }
-        if (record_tuple(builder, grid, scene, params, &tuples[first + i], ids[i], &pieces[i],
-                         &rasters[omp_get_thread_num()], &entries) != BBC_OK)
-          splat_failed = 1;
-        ids[i] = UINT32_MAX; /* recorded */
+        resume[p] = i;
       }
-      st.entries += entries;
       result = splat_failed ? BBC_ERR_OUT_OF_MEMORY : bbc__cache_builder_spill_if_full(builder);
     }
+    for (size_t i = 0; i < n; i++)
+      if (ids[i] != UINT32_MAX) st.entries += cells[i].entries;
     st.recording_seconds += omp_get_wtime() - b1;
     if (options->progress && options->progress(options->progress_user, first + n, tuple_count)) {
       result = BBC_ERR_CANCELLED;
@@ -481,6 +628,13 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   free(bounders);
   free(pieces);
   free(ids);
+  for (int i = 0; arenas && i < threads; i++) {
+    free(arenas[i].codes);
+    free(arenas[i].spans);
+  }
+  free(arenas);
+  free(cells);
+  free(resume);
   for (int i = 0; rasters && i < threads; i++) {
     free(rasters[i].cells);
     free(rasters[i].row_x0);
