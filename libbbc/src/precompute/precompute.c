@@ -267,6 +267,7 @@ typedef struct cell_arena {
 /* One tuple's cells: h rows from row y0 of its receiver, in arena `arena`; h == 0 when
  * it has none. */
 typedef struct tuple_cells {
+  int stored; /* the tuple has a stored piece (it is stored even with no cells) */
   int arena;
   size_t codes, spans; /* where its codes and spans start in the arena */
   uint32_t receiver, y0, h;
@@ -413,6 +414,45 @@ static bbc_result tuple_cells_from_pieces(cell_arena *a, int arena, tuple_cells 
                    w, 0, 0.0);
 }
 
+/* A batch of tuples: bounded, then given ids and recorded while the next batch is
+ * bounded. */
+typedef struct batch {
+  size_t first, n; /* its candidates first .. first + n - 1 */
+  uint32_t *ids;   /* per tuple its id, UINT32_MAX when not stored */
+  tuple_cells *cells;
+  cell_arena *arenas; /* per bounding thread */
+} batch;
+
+/* Row classes of the recording per thread: more classes than threads, so that a thread
+ * that ends its share of the bounding early takes more of them. */
+#define RECORD_PARTS_PER_THREAD 4
+
+/* Records the batch's cells in the rows of class `part` of `parts`, from its tuple
+ * *resume on, in tuple order; 1 when it stopped (*resume then says where) because the
+ * builder is over its entry budget, -1 on failure, 0 when done. */
+static int record_part(bbc_cache_builder *builder, const batch *b, uint32_t part, uint32_t parts,
+                       size_t *resume) {
+  size_t i = *resume;
+  int status = 0;
+  for (; i < b->n; i++) {
+    const tuple_cells *t = &b->cells[i];
+    if (b->ids[i] == UINT32_MAX || t->h == 0) continue;
+    if (bbc__cache_builder_full(builder)) {
+      status = 1;
+      break;
+    }
+    const cell_arena *a = &b->arenas[t->arena];
+    if (bbc__cache_builder_add_rows(builder, b->ids[i], t->receiver, t->y0, t->h,
+                                    a->spans + t->spans, a->codes + t->codes, part,
+                                    parts) != BBC_OK) {
+      status = -1;
+      break;
+    }
+  }
+  *resume = i;
+  return status;
+}
+
 bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
                           const bbc_precompute_options *options, bbc_precompute_stats *stats) {
   *out = NULL;
@@ -485,30 +525,50 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
 
   const int threads = st.threads;
   bbc_bounder **bounders = calloc((size_t)threads, sizeof *bounders);
-  piece_list *pieces = calloc(BATCH_TUPLES, sizeof *pieces);
-  uint32_t *ids = calloc(BATCH_TUPLES, sizeof *ids);
-  tuple_cells *cells = calloc(BATCH_TUPLES, sizeof *cells);
-  cell_arena *arenas = calloc((size_t)threads, sizeof *arenas);
-  size_t *resume = calloc((size_t)threads, sizeof *resume);
+  /* Per thread: the stored pieces of the tuple it bounds. */
+  piece_list *pieces = calloc((size_t)threads, sizeof *pieces);
+  const uint32_t parts = RECORD_PARTS_PER_THREAD * (uint32_t)threads;
+  size_t *resume = calloc(parts, sizeof *resume);
+  batch batches[2];
+  memset(batches, 0, sizeof batches);
+  int batches_ok = 1;
+  for (int k = 0; k < 2; k++) {
+    batches[k].ids = calloc(BATCH_TUPLES, sizeof *batches[k].ids);
+    batches[k].cells = calloc(BATCH_TUPLES, sizeof *batches[k].cells);
+    batches[k].arenas = calloc((size_t)threads, sizeof *batches[k].arenas);
+    batches_ok &= batches[k].ids && batches[k].cells && batches[k].arenas;
+  }
   raster *rasters = calloc((size_t)threads, sizeof *rasters);
   coverage *covers = calloc((size_t)threads, sizeof *covers);
   const bbc_grid *grid = bbc_cache_builder_grid(builder);
   bbc_bound_stats *thread_stats = calloc((size_t)threads, sizeof *thread_stats);
   bbc_bound_stats *cpu_split = calloc((size_t)threads, sizeof *cpu_split);
-  if (result == BBC_OK && (!bounders || !pieces || !ids || !cells || !arenas || !resume ||
-                           !rasters || !covers || !thread_stats || !cpu_split))
+  if (result == BBC_OK && (!bounders || !pieces || !resume || !batches_ok || !rasters || !covers ||
+                           !thread_stats || !cpu_split))
     result = BBC_ERR_OUT_OF_MEMORY;
   for (int i = 0; i < threads && result == BBC_OK; i++) result = bbc_bounder_create(&bounders[i]);
 
-  for (size_t first = 0; first < tuple_count && result == BBC_OK; first += BATCH_TUPLES) {
-    size_t n = tuple_count - first < BATCH_TUPLES ? tuple_count - first : BATCH_TUPLES;
+  /* Batch k is bounded while batch k - 1, its ids given in tuple order, is recorded (so
+   * ids and the file are the same for any thread count): a thread done with its share
+   * of the bounding records rows instead of waiting for the others. */
+  size_t first = 0;
+  for (size_t k = 0; result == BBC_OK; k++) {
+    batch *cur = &batches[k & 1], *prev = &batches[(k + 1) & 1];
+    const size_t n = first < tuple_count
+                         ? (tuple_count - first < BATCH_TUPLES ? tuple_count - first : BATCH_TUPLES)
+                         : 0;
+    const int pending = k > 0 && prev->n > 0;
+    if (n == 0 && !pending) break;
+    cur->first = first, cur->n = n;
+    for (int i = 0; i < threads; i++) cur->arenas[i].codes_used = cur->arenas[i].spans_used = 0;
+    for (uint32_t p = 0; p < parts; p++) resume[p] = 0;
     double b0 = omp_get_wtime();
-    int failed = 0;
-    for (int k = 0; k < threads; k++) arenas[k].codes_used = arenas[k].spans_used = 0;
-#pragma omp parallel num_threads(threads) reduction(| : failed)
+    int failed = 0, stopped = 0;
+#pragma omp parallel num_threads(threads) reduction(| : failed, stopped)
     {
-      /* The thread's CPU time over the batch (one system call at each end, not per tuple),
-       * split between position and irradiance bounds as their clocked times were. */
+      /* The thread's CPU time over its bounding (one system call at each end, not per
+       * tuple), split between position and irradiance bounds as their clocked times
+       * were. */
       const int self = omp_get_thread_num();
       const double cpu0 = thread_cpu_seconds();
       const double pos0 = thread_stats[self].position_seconds;
@@ -516,13 +576,16 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
 #pragma omp for schedule(dynamic, 1) nowait
       for (size_t i = 0; i < n; i++) {
         int id = omp_get_thread_num();
+        const bbc_tuple *t = &tuples[first + i];
         bbc_tuple_geometry g;
-        pieces[i].count = 0;
+        piece_list *list = &pieces[id];
+        list->count = 0;
+        list->failed = 0;
         tuple_sink sink;
         memset(&sink, 0, sizeof sink);
-        sink.pieces = &pieces[i], sink.cover = &covers[id], sink.grid = grid;
-        sink.receiver = tuples[first + i].receiver;
-        int ok = bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) == BBC_OK &&
+        sink.pieces = list, sink.cover = &covers[id], sink.grid = grid;
+        sink.receiver = t->receiver;
+        int ok = bbc_tuple_geometry_init(&g, scene, t) == BBC_OK &&
                  coverage_begin(&covers[id], grid, sink.receiver) == BBC_OK;
         if (ok) {
           /* Area lights stop at the two-bounce ratio too (docs/lights.md). */
@@ -532,18 +595,19 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
           prm.need_user = &sink;
           ok = bbc_bound_tuple(bounders[id], &g, &prm, keep_piece, &sink, &thread_stats[id]) ==
                    BBC_OK &&
-               !pieces[i].failed;
+               !list->failed;
         }
         /* The tuple's cells, while the raster holds them (a tuple is stored when it
          * has a stored piece). */
-        cells[i].h = 0;
-        cells[i].entries = 0;
-        if (ok && pieces[i].count) {
-          const bbc_tuple *t = &tuples[first + i];
+        tuple_cells *c = &cur->cells[i];
+        c->stored = ok && list->count > 0;
+        c->h = 0;
+        c->entries = 0;
+        if (c->stored) {
           const double power = tuple_power(scene, params, t);
-          ok = (sink.escaped ? tuple_cells_from_pieces(&arenas[id], id, &cells[i], grid, power, t,
-                                                       &pieces[i], &rasters[id])
-                             : tuple_cells_from_coverage(&arenas[id], id, &cells[i], &covers[id],
+          ok = (sink.escaped ? tuple_cells_from_pieces(&cur->arenas[id], id, c, grid, power, t,
+                                                       list, &rasters[id])
+                             : tuple_cells_from_coverage(&cur->arenas[id], id, c, &covers[id],
                                                          power)) == BBC_OK;
         }
         coverage_end(&covers[id]);
@@ -555,6 +619,19 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       const double share = clocked > 0 ? pos / clocked : 1.0;
       cpu_split[self].position_seconds += cpu * share;
       cpu_split[self].irradiance_seconds += cpu - cpu * share;
+      /* The previous batch's cells go to the builder in tuple order, so that every
+       * cell's list stays sorted; its rows are shared out by class
+       * (bbc__cache_builder_add_rows), so no two threads touch a cell and none waits for
+       * a lock. A class that finds the builder over its entry budget stops there and
+       * resumes after the spill. */
+      if (pending) {
+#pragma omp for schedule(dynamic, 1) nowait
+        for (uint32_t p = 0; p < parts; p++) {
+          const int r = record_part(builder, prev, p, parts, &resume[p]);
+          if (r > 0) stopped = 1;
+          if (r < 0) failed = 1;
+        }
+      }
     }
     double b1 = omp_get_wtime();
     st.bounding_seconds += b1 - b0;
@@ -562,56 +639,42 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       result = BBC_ERR_OUT_OF_MEMORY;
       break;
     }
+    if (pending) {
+      result = bbc__cache_builder_spill_if_full(builder);
+      while (stopped && result == BBC_OK) {
+        int splat_failed = 0;
+        stopped = 0;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) \
+    reduction(|                                                    \
+              : splat_failed, stopped)
+        for (uint32_t p = 0; p < parts; p++) {
+          const int r = record_part(builder, prev, p, parts, &resume[p]);
+          if (r > 0) stopped = 1;
+          if (r < 0) splat_failed = 1;
+        }
+        result = splat_failed ? BBC_ERR_OUT_OF_MEMORY : bbc__cache_builder_spill_if_full(builder);
+      }
+      for (size_t i = 0; i < prev->n; i++)
+        if (prev->ids[i] != UINT32_MAX) st.entries += prev->cells[i].entries;
+    }
     /* Ids are given in tuple order, so they (and the file) are the same for any thread
-     * count; the splats themselves may then run in parallel (the builder keeps the
-     * maximum per cell and tuple, which does not depend on their order). */
+     * count. */
     for (size_t i = 0; i < n && result == BBC_OK; i++) {
-      ids[i] = UINT32_MAX;
-      if (pieces[i].count == 0) continue;
+      cur->ids[i] = UINT32_MAX;
+      if (!cur->cells[i].stored) continue;
       const bbc_tuple *tuple = &tuples[first + i];
-      if ((result = bbc_cache_builder_add_tuple(builder, tuple, &ids[i])) != BBC_OK) break;
-      if (candidate && (result = bbc__cache_builder_set_candidate(builder, ids[i],
+      if ((result = bbc_cache_builder_add_tuple(builder, tuple, &cur->ids[i])) != BBC_OK) break;
+      if (candidate && (result = bbc__cache_builder_set_candidate(builder, cur->ids[i],
                                                                   candidate[first + i])) != BBC_OK)
         break;
       st.tuples++;
       st.tuples_per_chain[tuple->chain]++;
     }
-    /* The batch's cells go to the builder in tuple order, so that every cell's list stays
-     * sorted; its rows are shared between the threads (bbc__cache_builder_add_rows), so
-     * no two touch a cell and none waits for a lock. A part that finds the builder over
-     * its entry budget stops there and resumes after the spill. */
-    for (int p = 0; p < threads; p++) resume[p] = 0;
-    for (int pass = 1; pass && result == BBC_OK;) {
-      int splat_failed = 0;
-      pass = 0;
-#pragma omp parallel for schedule(static, 1) num_threads(threads) reduction(| : splat_failed, pass)
-      for (int p = 0; p < threads; p++) {
-        size_t i = resume[p];
-        for (; i < n; i++) {
-          const tuple_cells *t = &cells[i];
-          if (ids[i] == UINT32_MAX || t->h == 0) continue;
-          if (bbc__cache_builder_full(builder)) {
-            pass = 1;
-            break;
-          }
-          const cell_arena *a = &arenas[t->arena];
-          if (bbc__cache_builder_add_rows(builder, ids[i], t->receiver, t->y0, t->h,
-                                          a->spans + t->spans, a->codes + t->codes, (uint32_t)p,
-                                          (uint32_t)threads) != BBC_OK) {
-            splat_failed = 1;
-            break;
-          }
-        }
-        resume[p] = i;
-      }
-      result = splat_failed ? BBC_ERR_OUT_OF_MEMORY : bbc__cache_builder_spill_if_full(builder);
-    }
-    for (size_t i = 0; i < n; i++)
-      if (ids[i] != UINT32_MAX) st.entries += cells[i].entries;
     st.recording_seconds += omp_get_wtime() - b1;
-    if (options->progress && options->progress(options->progress_user, first + n, tuple_count)) {
+    first += n;
+    if (n && result == BBC_OK && options->progress &&
+        options->progress(options->progress_user, first, tuple_count))
       result = BBC_ERR_CANCELLED;
-    }
   }
 
   for (int i = 0; i < threads; i++) {
@@ -624,16 +687,18 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       st.irradiance_cpu_seconds += cpu_split[i].irradiance_seconds;
     }
   }
-  for (size_t i = 0; pieces && i < BATCH_TUPLES; i++) free(pieces[i].items);
+  for (int i = 0; pieces && i < threads; i++) free(pieces[i].items);
   free(bounders);
   free(pieces);
-  free(ids);
-  for (int i = 0; arenas && i < threads; i++) {
-    free(arenas[i].codes);
-    free(arenas[i].spans);
+  for (int k = 0; k < 2; k++) {
+    for (int i = 0; batches[k].arenas && i < threads; i++) {
+      free(batches[k].arenas[i].codes);
+      free(batches[k].arenas[i].spans);
+    }
+    free(batches[k].arenas);
+    free(batches[k].cells);
+    free(batches[k].ids);
   }
-  free(arenas);
-  free(cells);
   free(resume);
   for (int i = 0; rasters && i < threads; i++) {
     free(rasters[i].cells);
