@@ -703,8 +703,8 @@ typedef struct chunk_stream {
   int slot_count, head, tail, queued, open;
   ZSTD_CCtx **cctx;
   int threads, level;
-  omp_lock_t lock; /* tail, queued, the slots' done, and everything written */
-  int locked;      /* the lock is initialised */
+  omp_lock_t lock;   /* tail, queued, the slots' done, and everything written */
+  int locked;        /* the lock is initialised */
   bbc_result result; /* of the tasks */
 } chunk_stream;
 

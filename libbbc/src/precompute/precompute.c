@@ -303,26 +303,30 @@ static bbc_result arena_add(cell_arena *a, int arena, tuple_cells *out, uint32_t
   uint64_t entries = 0;
   uint16_t *codes = a->codes + a->codes_used;
   uint32_t *spans = a->spans + a->spans_used;
+  /* Neighbouring cells often hold the same value: its code is kept. */
+  double last_value = 0;
+  uint16_t last_code = 0;
   for (uint32_t y = 0; y < h; y++) {
     const double *row = cells + y * stride;
-    uint32_t first = w, last = 0;
-    for (uint32_t x = 0; x < w; x++) {
-      if (isnan(row[x]) || row[x] < 0) return BBC_ERR_INVALID_ARGUMENT;
-      if (row[x] > 0) {
-        if (first == w) first = x;
-        last = x;
-      }
-    }
+    uint32_t first = 0, last = w;
+    while (first < w && row[first] == 0) first++;
+    while (last > first && row[last - 1] == 0) last--;
     spans[2 * y] = x0 + (first < w ? first : 0);
-    spans[2 * y + 1] = first < w ? last - first + 1 : 0;
-    for (uint32_t x = first; x <= last && first < w; x++) {
-      if (!(row[x] > 0)) {
+    spans[2 * y + 1] = last - first;
+    for (uint32_t x = first; x < last; x++) {
+      const double v = row[x];
+      if (v == 0) {
         *codes++ = 0;
         continue;
       }
-      const double e = scaled ? cell_bound(row[x], power) : row[x];
-      if (isnan(e)) return BBC_ERR_INVALID_ARGUMENT;
-      *codes++ = bbc__bound_encode(e);
+      if (!(v > 0)) return BBC_ERR_INVALID_ARGUMENT; /* negative or NaN */
+      if (v != last_value) {
+        const double e = scaled ? cell_bound(v, power) : v;
+        if (isnan(e)) return BBC_ERR_INVALID_ARGUMENT;
+        last_value = v;
+        last_code = bbc__bound_encode(e);
+      }
+      *codes++ = last_code;
       entries++;
     }
   }
