@@ -688,7 +688,8 @@ typedef struct chunk_slot {
   uint8_t *raw, *out; /* decoded records (Sec. 7.2), the zstd frame */
   size_t raw_cap, out_cap, out_size;
   uint32_t entries;
-  int done; /* compressed, waiting to be written */
+  uint32_t crc; /* of the zstd frame */
+  int done;     /* compressed, waiting to be written */
 } chunk_slot;
 
 typedef struct chunk_stream {
@@ -769,8 +770,9 @@ static void stream_write_done(chunk_stream *cs) {
     bbc__st64(rec, cs->size);
     bbc__st32(rec + 8, (uint32_t)k->out_size);
     bbc__st32(rec + 12, k->entries);
-    bbc__st32(rec + 16, crc_of(crc32_z(0, NULL, 0), k->out, k->out_size));
-    cs->crc = crc_of(cs->crc, k->out, k->out_size);
+    bbc__st32(rec + 16, k->crc);
+    /* CDAT's CRC from the chunk's, without reading the chunk again. */
+    cs->crc = (uint32_t)crc32_combine(cs->crc, k->crc, (z_off_t)k->out_size);
     cs->result = sink_write(cs->s, cs->offset + cs->size, k->out, k->out_size);
     cs->size += k->out_size;
   }
@@ -785,6 +787,7 @@ static void stream_compress(chunk_stream *cs, chunk_slot *k) {
   if (ok && !*ctx) *ctx = ZSTD_createCCtx();
   if (ok && *ctx) size = ZSTD_compressCCtx(*ctx, k->out, k->out_cap, k->raw, raw, cs->level);
   k->out_size = ok && *ctx && !ZSTD_isError(size) ? size : 0;
+  k->crc = crc_of(crc32_z(0, NULL, 0), k->out, k->out_size);
   omp_set_lock(&cs->lock);
   if (k->out_size == 0 && cs->result == BBC_OK) cs->result = BBC_ERR_OUT_OF_MEMORY;
   k->done = 1;
