@@ -362,6 +362,87 @@ TEST(grid_splat_covers_every_sampled_point) {
   CHECK_INT(missed, 0);
 }
 
+/* The same oracle for polygonal position bounds (bbc_grid_splat_polygon): boxes cut by
+ * b1 + b2, b1 - b2 and two random lines; every sampled point of the region that lies in
+ * the triangle is located in a listed cell of its row. */
+static void check_polygon_splats(const bbc_grid *g, uint32_t first, uint32_t count, uint64_t seed,
+                                 int regions, int *missed, int *tested) {
+  uint64_t state = seed;
+  uint32_t height = 1;
+  for (uint32_t i = 0; i < g->receiver_count; i++)
+    if (g->receivers[i].height > height) height = g->receivers[i].height;
+  uint32_t *x0 = malloc(height * sizeof *x0), *x1 = malloc(height * sizeof *x1);
+  REQUIRE(x0 && x1);
+  for (int i = 0; i < regions; i++) {
+    uint32_t t = first + (uint32_t)(fx_random(&state) * count);
+    double c1 = fx_random(&state) * 1.2 - 0.1, c2 = fx_random(&state) * 1.2 - 0.1;
+    double h1 = fx_random(&state) * 0.5, h2 = fx_random(&state) * 0.5;
+    double region[8] = {c1 - h1, c1 + h1, c2 - h2, c2 + h2, 0, 0, 0, 0};
+    double s = c1 + c2, d = c1 - c2, hs = fx_random(&state) * 0.6, hd = fx_random(&state) * 0.6;
+    region[4] = s - hs, region[5] = s + hs, region[6] = d - hd, region[7] = d + hd;
+    double cut[2][4];
+    for (int j = 0; j < 2; j++) {
+      double a = fx_random(&state) * 2 - 1, b = fx_random(&state) * 2 - 1;
+      double mid = a * c1 + b * c2, half = fx_random(&state) * 0.4;
+      cut[j][0] = a, cut[j][1] = b, cut[j][2] = mid - half, cut[j][3] = mid + half;
+    }
+    if (i % 13 == 0) cut[1][0] = cut[1][1] = 0; /* no second cut */
+    if (i % 17 == 0) region[0] = -INFINITY;
+    if (i % 19 == 0) region[4] = NAN;
+    bbc_cell_range range;
+    int any = bbc_grid_splat_polygon(g, t, region, (const double(*)[4])cut, &range, x0, x1);
+    for (int si = 0; si <= 60; si++)
+      for (int ui = 0; ui <= 60; ui++) {
+        double p1 = si / 60.0, p2 = ui / 60.0;
+        double q = p1 + p2, e = p1 - p2;
+        if (!(p1 + p2 <= 1 && p1 >= region[0] && p1 <= region[1] && p2 >= region[2] &&
+              p2 <= region[3] && !(q < region[4]) && q <= region[5] && e >= region[6] &&
+              e <= region[7]))
+          continue;
+        int inside = 1;
+        for (int j = 0; j < 2; j++) {
+          double v = cut[j][0] * p1 + cut[j][1] * p2;
+          if ((cut[j][0] != 0 || cut[j][1] != 0) && !(v >= cut[j][2] && v <= cut[j][3])) inside = 0;
+        }
+        if (!inside) continue;
+        bbc_cell cell;
+        if (!bbc_grid_locate(g, t, p1, p2, &cell)) continue;
+        (*tested)++;
+        if (!any || cell.receiver != range.receiver || cell.y < range.y0 || cell.y > range.y1 ||
+            cell.x < x0[cell.y - range.y0] || cell.x > x1[cell.y - range.y0])
+          (*missed)++;
+      }
+  }
+  free(x0);
+  free(x1);
+}
+
+TEST(grid_polygon_splat_covers_every_sampled_point) {
+  bbc_scene *scene = load(TEST_SCENE("pool.gltf"));
+  REQUIRE(scene);
+  bbc_grid *g = NULL;
+  int missed = 0, tested = 0;
+  /* 2048 rows: polygons taller than the row sweep's limit too. */
+  const uint32_t resolutions[2] = {512, 2048};
+  for (int k = 0; k < 2; k++) {
+    REQUIRE(bbc_grid_create(&g, scene, resolutions[k], NULL, NULL) == BBC_OK);
+    const bbc_receiver *r = &g->receivers[0];
+    check_polygon_splats(g, r->first_triangle, r->triangle_count, 7 + (uint64_t)k,
+                         (int)harness_scale(1500, 15000), &missed, &tested);
+    bbc_grid_free(g);
+  }
+  bbc_scene_free(scene);
+  field_scene f;
+  make_field(&f, 6, 3.0, 2.0, 0.2, 0.0);
+  REQUIRE(bbc_grid_create(&g, &f.s, 1000, NULL, NULL) == BBC_OK);
+  check_polygon_splats(g, 0, f.s.triangle_count, 11, (int)harness_scale(1500, 15000), &missed,
+                       &tested);
+  bbc_grid_free(g);
+  free_field(&f);
+  CHECK(tested > 100000);
+  CHECK_INT(missed, 0);
+}
+
 TEST(grid_splat_is_tight_and_clipped) {
   bbc_scene s = fx_tiny_scene();
   bbc_grid *g = NULL;

@@ -47,9 +47,11 @@ typedef struct bbc_precompute_stats {
   uint32_t spill_runs;         /* sorted runs written to the spill file */
   uint64_t spill_bytes;        /* and their size */
   double construction_seconds; /* finding tuples */
-  double bounding_seconds;     /* bounding (position + irradiance) */
+  double bounding_seconds;     /* bounding (position + irradiance), and recording the
+                                  previous batch's cells alongside */
   double position_cpu_seconds, irradiance_cpu_seconds;
-  double recording_seconds; /* splatting into the grids */
+  double recording_seconds; /* what is left of recording: giving ids, spilling, the part
+                               of a batch past the entry budget */
   int threads;
 } bbc_precompute_stats;
 

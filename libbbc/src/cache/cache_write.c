@@ -309,6 +309,10 @@ static int entry_cmp(const void *a, const void *b) {
 /* Sorts a cell's entries by tuple and keeps the maximum code per tuple. */
 static void cell_compact(cell_list *c) {
   if (c->count < 2) return;
+  /* Lists filled in tuple order (bbc__cache_builder_add_rows) are sorted already. */
+  uint32_t k = 1;
+  while (k < c->count && c->e[k - 1].tuple < c->e[k].tuple) k++;
+  if (k == c->count) return;
   if (c->count <= 16) {
     for (uint32_t i = 1; i < c->count; i++) {
       cell_entry x = c->e[i];
@@ -409,6 +413,36 @@ bbc_result bbc_cache_builder_splat_cells(bbc_cache_builder *b, uint32_t tuple_id
     }
     pthread_mutex_unlock(lock);
     if (res != BBC_OK) return res;
+  }
+  return BBC_OK;
+}
+
+bbc_result bbc__cache_builder_add_rows(bbc_cache_builder *b, uint32_t id, uint32_t receiver,
+                                       uint32_t y0, uint32_t h, const uint32_t *spans,
+                                       const uint16_t *codes, uint32_t part, uint32_t parts) {
+  if (!b || (h && (!spans || !codes)) || id >= b->tuple_count ||
+      receiver >= b->grid->receiver_count || parts == 0 || part >= parts)
+    return BBC_ERR_INVALID_ARGUMENT;
+  const bbc_receiver *r = &b->grid->receivers[receiver];
+  if (h == 0) return BBC_OK;
+  if (y0 >= r->height || h > r->height - y0) return BBC_ERR_INVALID_ARGUMENT;
+  /* Rows whose (y + receiver) % parts is `part`: the first is `skip` rows in. */
+  uint32_t skip = (part + parts - (uint32_t)(((uint64_t)y0 + receiver) % parts)) % parts;
+  const uint16_t *in = codes;
+  for (uint32_t k = 0; k < h; k++) {
+    const uint32_t x0 = spans[2 * k], n = spans[2 * k + 1];
+    if (k == skip) {
+      skip += parts;
+      if (n && (x0 >= r->width || n > r->width - x0)) return BBC_ERR_INVALID_ARGUMENT;
+      cell_list *row = b->cells + r->first_cell + (uint64_t)(y0 + k) * r->width + x0;
+      for (uint32_t x = 0; x < n; x++) {
+        if (in[x] == 0) continue;
+        if (in[x] > BBC__CODE_INF) return BBC_ERR_INVALID_ARGUMENT;
+        bbc_result res = cell_add(b, &row[x], id, in[x]);
+        if (res != BBC_OK) return res;
+      }
+    }
+    in += n;
   }
   return BBC_OK;
 }
@@ -645,13 +679,17 @@ static bbc_result write_zeros(sink *s, uint64_t from, uint64_t to) {
 }
 
 /* CDAT and CHNK (Sec. 7.2-7.3), streamed: the final lists come cell by cell (list_walk)
- * and are cut greedily into chunks; each batch of chunks is compressed in parallel and
- * written in chunk order, so the bytes do not depend on the number of threads. Memory:
- * one batch of decoded and compressed chunks, whatever the number of entries. */
+ * and are cut greedily into chunks by one thread, the producer; each chunk is then
+ * compressed by a task while the producer goes on, and the task that completes the
+ * oldest chunks appends them to CDAT in chunk order, so the bytes do not depend on the
+ * number of threads. Memory: a ring of decoded and compressed chunks, whatever the
+ * number of entries. */
 typedef struct chunk_slot {
   uint8_t *raw, *out; /* decoded records (Sec. 7.2), the zstd frame */
   size_t raw_cap, out_cap, out_size;
   uint32_t entries;
+  uint32_t crc; /* of the zstd frame */
+  int done;     /* compressed, waiting to be written */
 } chunk_slot;
 
 typedef struct chunk_stream {
@@ -661,9 +699,14 @@ typedef struct chunk_stream {
   uint8_t *chnk; /* CHNK records of the chunks written */
   uint32_t chunks, cap, started;
   chunk_slot *slots;
-  int slot_count, filled, open; /* open: slots[filled] is the chunk being filled */
+  /* The ring: slots[head] is the chunk being filled when open; `queued` chunks from
+   * slots[tail] on are being compressed or wait to be written. */
+  int slot_count, head, tail, queued, open;
   ZSTD_CCtx **cctx;
   int threads, level;
+  omp_lock_t lock;   /* tail, queued, the slots' done, and everything written */
+  int locked;        /* the lock is initialised */
+  bbc_result result; /* of the tasks */
 } chunk_stream;
 
 static int grow(uint8_t **p, size_t *cap, size_t need) {
@@ -687,6 +730,8 @@ static bbc_result stream_init(chunk_stream *cs, sink *s, uint64_t offset, int le
   cs->slot_count = 8 * cs->threads < 16 ? 16 : 8 * cs->threads > 64 ? 64 : 8 * cs->threads;
   cs->slots = calloc((size_t)cs->slot_count, sizeof *cs->slots);
   cs->cctx = calloc((size_t)cs->threads, sizeof *cs->cctx);
+  omp_init_lock(&cs->lock);
+  cs->locked = 1;
   return cs->slots && cs->cctx ? BBC_OK : BBC_ERR_OUT_OF_MEMORY;
 }
 
@@ -699,57 +744,78 @@ static void stream_free(chunk_stream *cs) {
   free(cs->slots);
   free(cs->cctx);
   free(cs->chnk);
+  if (cs->locked) omp_destroy_lock(&cs->lock);
 }
 
-/* Compresses the filled slots in parallel and appends them to CDAT in order. */
-static bbc_result stream_flush(chunk_stream *cs) {
-  int n = cs->filled, failed = 0;
-  for (int i = 0; i < n; i++) {
-    chunk_slot *k = &cs->slots[i];
-    if (!grow(&k->out, &k->out_cap, ZSTD_compressBound((size_t)k->entries * BBC__ENTRY_BYTES)))
-      return BBC_ERR_OUT_OF_MEMORY;
-  }
-  if (cs->chunks + (uint32_t)n > cs->cap) {
-    uint32_t cap = cs->cap ? 2 * cs->cap : 64;
-    while (cap < cs->chunks + (uint32_t)n) cap *= 2;
-    uint8_t *c = realloc(cs->chnk, (size_t)cap * BBC__CHNK_SIZE);
-    if (!c) return BBC_ERR_OUT_OF_MEMORY;
-    cs->chnk = c;
-    cs->cap = cap;
-  }
-#pragma omp parallel for schedule(dynamic, 1) num_threads(cs->threads) reduction(| : failed)
-  for (int i = 0; i < n; i++) {
-    ZSTD_CCtx **ctx = &cs->cctx[omp_get_thread_num()];
-    chunk_slot *k = &cs->slots[i];
-    if (!*ctx) *ctx = ZSTD_createCCtx();
-    size_t size = *ctx ? ZSTD_compressCCtx(*ctx, k->out, k->out_cap, k->raw,
-                                           (size_t)k->entries * BBC__ENTRY_BYTES, cs->level)
-                       : 0;
-    k->out_size = *ctx && !ZSTD_isError(size) ? size : 0;
-    if (k->out_size == 0) failed = 1;
-  }
-  if (failed) return BBC_ERR_OUT_OF_MEMORY;
-  bbc_result r = BBC_OK;
-  for (int i = 0; i < n && r == BBC_OK; i++) {
-    const chunk_slot *k = &cs->slots[i];
+/* Appends the compressed chunks at the ring's tail to CDAT, in order; under the lock. */
+static void stream_write_done(chunk_stream *cs) {
+  while (cs->queued > 0 && cs->slots[cs->tail].done) {
+    chunk_slot *k = &cs->slots[cs->tail];
+    k->done = 0;
+    cs->tail = (cs->tail + 1) % cs->slot_count;
+    cs->queued--;
+    if (cs->result != BBC_OK) continue;
+    if (cs->chunks == cs->cap) {
+      uint32_t cap = cs->cap ? 2 * cs->cap : 64;
+      uint8_t *c = realloc(cs->chnk, (size_t)cap * BBC__CHNK_SIZE);
+      if (!c) {
+        cs->result = BBC_ERR_OUT_OF_MEMORY;
+        continue;
+      }
+      cs->chnk = c;
+      cs->cap = cap;
+    }
     uint8_t *rec = cs->chnk + BBC__CHNK_SIZE * (size_t)cs->chunks++;
     memset(rec, 0, BBC__CHNK_SIZE);
     bbc__st64(rec, cs->size);
     bbc__st32(rec + 8, (uint32_t)k->out_size);
     bbc__st32(rec + 12, k->entries);
-    bbc__st32(rec + 16, crc_of(crc32_z(0, NULL, 0), k->out, k->out_size));
-    cs->crc = crc_of(cs->crc, k->out, k->out_size);
-    r = sink_write(cs->s, cs->offset + cs->size, k->out, k->out_size);
+    bbc__st32(rec + 16, k->crc);
+    /* CDAT's CRC from the chunk's, without reading the chunk again. */
+    cs->crc = (uint32_t)crc32_combine(cs->crc, k->crc, (z_off_t)k->out_size);
+    cs->result = sink_write(cs->s, cs->offset + cs->size, k->out, k->out_size);
     cs->size += k->out_size;
   }
-  cs->filled = 0;
+}
+
+/* A task: compresses one chunk, then writes what is ready in order. */
+static void stream_compress(chunk_stream *cs, chunk_slot *k) {
+  ZSTD_CCtx **ctx = &cs->cctx[omp_get_thread_num()];
+  size_t size = 0;
+  const size_t raw = (size_t)k->entries * BBC__ENTRY_BYTES;
+  int ok = grow(&k->out, &k->out_cap, ZSTD_compressBound(raw));
+  if (ok && !*ctx) *ctx = ZSTD_createCCtx();
+  if (ok && *ctx) size = ZSTD_compressCCtx(*ctx, k->out, k->out_cap, k->raw, raw, cs->level);
+  k->out_size = ok && *ctx && !ZSTD_isError(size) ? size : 0;
+  k->crc = crc_of(crc32_z(0, NULL, 0), k->out, k->out_size);
+  omp_set_lock(&cs->lock);
+  if (k->out_size == 0 && cs->result == BBC_OK) cs->result = BBC_ERR_OUT_OF_MEMORY;
+  k->done = 1;
+  stream_write_done(cs);
+  omp_unset_lock(&cs->lock);
+}
+
+/* Waits for every chunk queued (running queued tasks meanwhile): they are written. */
+static bbc_result stream_drain(chunk_stream *cs) {
+#pragma omp taskwait
+  omp_set_lock(&cs->lock);
+  bbc_result r = cs->result;
+  omp_unset_lock(&cs->lock);
   return r;
 }
 
 static bbc_result stream_close_chunk(chunk_stream *cs) {
   if (!cs->open) return BBC_OK;
   cs->open = 0;
-  return ++cs->filled == cs->slot_count ? stream_flush(cs) : BBC_OK;
+  chunk_slot *k = &cs->slots[cs->head];
+  cs->head = (cs->head + 1) % cs->slot_count;
+  omp_set_lock(&cs->lock);
+  cs->queued++;
+  bbc_result r = cs->result;
+  omp_unset_lock(&cs->lock);
+#pragma omp task firstprivate(k, cs)
+  stream_compress(cs, k);
+  return r;
 }
 
 /* Sec. 7.3: a list goes into the current chunk unless that chunk is not empty and would
@@ -758,10 +824,17 @@ static bbc_result stream_list(chunk_stream *cs, uint32_t target, const cell_entr
                               uint8_t *rec) {
   if (n > BBC__MAX_CHUNK_ENTRIES) return BBC_ERR_UNSUPPORTED;
   bbc_result r = BBC_OK;
-  if (cs->open && (uint64_t)cs->slots[cs->filled].entries + n > target)
+  if (cs->open && (uint64_t)cs->slots[cs->head].entries + n > target)
     r = stream_close_chunk(cs);
   if (r != BBC_OK) return r;
-  chunk_slot *k = &cs->slots[cs->filled];
+  if (!cs->open) {
+    /* A free slot: when every slot is queued, wait until they are written. */
+    omp_set_lock(&cs->lock);
+    int full = cs->queued == cs->slot_count;
+    omp_unset_lock(&cs->lock);
+    if (full && (r = stream_drain(cs)) != BBC_OK) return r;
+  }
+  chunk_slot *k = &cs->slots[cs->head];
   if (!cs->open) {
     if (cs->started == UINT32_MAX) return BBC_ERR_UNSUPPORTED;
     cs->started++;
@@ -896,20 +969,30 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
       (r = walk_open(&w, b)) == BBC_OK)
     walking = 1;
   uint64_t cell = 0, reported = 0;
-  while (walking && r == BBC_OK) {
-    const cell_entry *e;
-    uint32_t n;
-    if ((r = walk_next(&w, &cell, &e, &n)) != BBC_OK || cell == UINT64_MAX) break;
-    r = stream_list(&cs, target, e, n, cidx + BBC__CIDX_SIZE * cell);
-    /* Progress and cancellation about every million cells. */
-    if (r == BBC_OK && o->progress_fn && cell - reported >= (1u << 20)) {
-      reported = cell;
-      if (o->progress_fn(o->progress_user, cell, g->cell_count) != 0) r = BBC_ERR_CANCELLED;
+  if (walking) {
+    /* This thread walks the lists and cuts the chunks; the others, waiting at the end
+     * of the region, compress them (stream_close_chunk's tasks). */
+#pragma omp parallel num_threads(cs.threads)
+#pragma omp master
+    {
+      while (r == BBC_OK) {
+        const cell_entry *e;
+        uint32_t n;
+        if ((r = walk_next(&w, &cell, &e, &n)) != BBC_OK || cell == UINT64_MAX) break;
+        r = stream_list(&cs, target, e, n, cidx + BBC__CIDX_SIZE * cell);
+        /* Progress and cancellation about every million cells. */
+        if (r == BBC_OK && o->progress_fn && cell - reported >= (1u << 20)) {
+          reported = cell;
+          if (o->progress_fn(o->progress_user, cell, g->cell_count) != 0) r = BBC_ERR_CANCELLED;
+        }
+      }
+      if (r == BBC_OK) r = stream_close_chunk(&cs);
+      /* Every task ends before the slots they use are freed. */
+      bbc_result d = stream_drain(&cs);
+      if (r == BBC_OK) r = d;
     }
+    walk_close(&w);
   }
-  if (walking) walk_close(&w);
-  if (r == BBC_OK) r = stream_close_chunk(&cs);
-  if (r == BBC_OK && cs.filled) r = stream_flush(&cs);
   if (r == BBC_OK && o->progress_fn && o->progress_fn(o->progress_user, g->cell_count, g->cell_count))
     r = BBC_ERR_CANCELLED;
   if (r == BBC_OK) r = write_section(s, &sec[SEC_CIDX], cidx);

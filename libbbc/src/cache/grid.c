@@ -414,6 +414,57 @@ static int clip_polygon(const double (*p)[2], int n, double ka, double kb, doubl
   return m;
 }
 
+/* Edge i of the polygon (to vertex i + 1) within the band [lo, hi] of a row: its first
+ * vertex if inside the band, and its strict crossings of the band's two lines, widen
+ * [*xmin, *xmax]. */
+static inline void edge_extent(const double *px, const double *py, int n, int i, double lo,
+                               double hi, double *xmin, double *xmax) {
+  int j = i + 1 < n ? i + 1 : 0;
+  double ya = py[i], yb = py[j], xa = px[i], xb = px[j];
+  if (ya >= lo && ya <= hi) {
+    if (xa < *xmin) *xmin = xa;
+    if (xa > *xmax) *xmax = xa;
+  }
+  if ((ya < lo && yb > lo) || (ya > lo && yb < lo)) {
+    double x = xa + (lo - ya) / (yb - ya) * (xb - xa);
+    if (x < *xmin) *xmin = x;
+    if (x > *xmax) *xmax = x;
+  }
+  if ((ya < hi && yb > hi) || (ya > hi && yb < hi)) {
+    double x = xa + (hi - ya) / (yb - ya) * (xb - xa);
+    if (x < *xmin) *xmin = x;
+    if (x > *xmax) *xmax = x;
+  }
+}
+
+/* Rows a polygon's edges are swept over at most (else every edge is tried at every row). */
+#define SWEEP_ROWS 1024
+
+/* The x extent of each row y0..y1 (xmin > xmax: none) as edge_extent gives it over
+ * every edge, found by trying each edge only at the rows from floor(its lowest y) - 2
+ * to floor(its highest y) + 2: its first vertex lies in the band of a row y only if
+ * y - 1 - margin <= y_a <= y + margin, and it crosses the row's lines only if they lie
+ * strictly between its ends, so (the margin being below 1) in no other row. Returns 0,
+ * doing nothing, when the rows are too many or a vertex is not finite. */
+static int sweep_edges(const double *px, const double *py, int n, uint32_t y0, uint32_t y1,
+                       double margin, double *xmin, double *xmax) {
+  if (y1 - y0 >= SWEEP_ROWS || !(margin < 0.5)) return 0;
+  for (int i = 0; i < n; i++)
+    if (!isfinite(px[i]) || !isfinite(py[i])) return 0;
+  for (uint32_t k = 0; k <= y1 - y0; k++) xmin[k] = INFINITY, xmax[k] = -INFINITY;
+  for (int i = 0; i < n; i++) {
+    const double ya = py[i], yb = py[i + 1 < n ? i + 1 : 0];
+    double first = floor(ya < yb ? ya : yb) - 2, last = floor(ya < yb ? yb : ya) + 2;
+    if (first < (double)y0) first = (double)y0;
+    if (last > (double)y1) last = (double)y1;
+    if (first > last) continue;
+    for (uint32_t y = (uint32_t)first; y <= (uint32_t)last; y++)
+      edge_extent(px, py, n, i, (double)y - margin, (double)y + 1 + margin, &xmin[y - y0],
+                  &xmax[y - y0]);
+  }
+  return 1;
+}
+
 int bbc_grid_splat_polygon(const bbc_grid *grid, uint32_t triangle, const double region[8],
                            const double cut[2][4], bbc_cell_range *out, uint32_t *x0,
                            uint32_t *x1) {
@@ -471,28 +522,22 @@ int bbc_grid_splat_polygon(const bbc_grid *grid, uint32_t triangle, const double
   if (y1 > out->y1) y1 = out->y1;
   if (y0 > y1) return 0;
   uint32_t bx0 = out->x0, bx1 = out->x1, ux0 = UINT32_MAX, ux1 = 0;
-  for (uint32_t y = out->y0; y <= out->y1; y++) x0[y - out->y0] = 1, x1[y - out->y0] = 0;
+  /* Only rows y0..y1 can be listed (the range shrinks to them below). */
+  for (uint32_t y = y0; y <= y1; y++) x0[y - out->y0] = 1, x1[y - out->y0] = 0;
+  /* Each row's x extent: the least and greatest of the polygon's vertices in the row's
+   * band [y - margin, y + 1 + margin] and of its edges' crossings of the band's two
+   * lines. Each edge is tried only at the rows its y extent can reach, with two rows to
+   * spare either side for the margin, by the same tests as at every row (sweep_edges);
+   * the least and greatest of the same values do not depend on the order they come. */
+  double xmin_rows[SWEEP_ROWS], xmax_rows[SWEEP_ROWS];
+  const int swept = sweep_edges(px, py, n, y0, y1, margin, xmin_rows, xmax_rows);
   for (uint32_t y = y0; y <= y1; y++) {
-    /* The polygon's x extent within the band of the row, widened by the margin. */
-    const double lo = (double)y - margin, hi = (double)y + 1 + margin;
     double xmin = INFINITY, xmax = -INFINITY;
-    for (int i = 0; i < n; i++) {
-      int j = (i + 1) % n;
-      double ya = py[i], yb = py[j], xa = px[i], xb = px[j];
-      if (ya >= lo && ya <= hi) {
-        if (xa < xmin) xmin = xa;
-        if (xa > xmax) xmax = xa;
-      }
-      if ((ya < lo && yb > lo) || (ya > lo && yb < lo)) {
-        double x = xa + (lo - ya) / (yb - ya) * (xb - xa);
-        if (x < xmin) xmin = x;
-        if (x > xmax) xmax = x;
-      }
-      if ((ya < hi && yb > hi) || (ya > hi && yb < hi)) {
-        double x = xa + (hi - ya) / (yb - ya) * (xb - xa);
-        if (x < xmin) xmin = x;
-        if (x > xmax) xmax = x;
-      }
+    if (swept) {
+      xmin = xmin_rows[y - y0], xmax = xmax_rows[y - y0];
+    } else {
+      const double lo = (double)y - margin, hi = (double)y + 1 + margin;
+      for (int i = 0; i < n; i++) edge_extent(px, py, n, i, lo, hi, &xmin, &xmax);
     }
     if (!(xmin <= xmax)) continue;
     uint32_t c0 = cell_of(xmin - margin, r->width), c1 = cell_of(xmax + margin, r->width);

@@ -186,11 +186,18 @@ static uint64_t key(const bbc__spill_reader *r, uint32_t i) {
   return r->runs[r->heap[i]].next.cell;
 }
 
+/* Heap order: by next cell, then by run, so that a cell's lists come in the order of the
+ * runs (the precompute's tuple order: their concatenation is then sorted already). */
+static int before(const bbc__spill_reader *r, uint32_t i, uint32_t j) {
+  uint64_t a = key(r, i), b = key(r, j);
+  return a < b || (a == b && r->heap[i] < r->heap[j]);
+}
+
 static void sift_down(bbc__spill_reader *r, uint32_t i) {
   for (;;) {
     uint32_t l = 2 * i + 1, m = i;
-    if (l < r->heap_count && key(r, l) < key(r, m)) m = l;
-    if (l + 1 < r->heap_count && key(r, l + 1) < key(r, m)) m = l + 1;
+    if (l < r->heap_count && before(r, l, m)) m = l;
+    if (l + 1 < r->heap_count && before(r, l + 1, m)) m = l + 1;
     if (m == i) return;
     uint32_t t = r->heap[i];
     r->heap[i] = r->heap[m];

@@ -1,9 +1,10 @@
-/* The precompute driver: candidate tuples (tuples.c), bounded in parallel batches; the
- * kept pieces of each batch are recorded in tuple order, so tuple ids and the written
- * cache do not depend on the number of threads. Only tuples with a kept piece are
- * stored. Memory stays bounded by one batch of pieces and the builder's entry budget:
- * between batches, the builder spills its cell lists to a temporary file when they
- * exceed it. */
+/* The precompute driver: candidate tuples (tuples.c), bounded in parallel batches; each
+ * tuple's cells and bounds are read off the raster its subdivision keeps (coverage) by
+ * the thread that bounded it, and the batch's cells are recorded in tuple order, so
+ * tuple ids and the written cache do not depend on the number of threads. Only tuples
+ * with a kept piece are stored. Memory stays bounded by one batch of pieces and cells
+ * and the builder's entry budget: between batches, the builder spills its cell lists to
+ * a temporary file when they exceed it. */
 #define _POSIX_C_SOURCE 200809L
 #include "bbc/precompute.h"
 
@@ -14,6 +15,7 @@
 
 #include <omp.h>
 
+#include "cache_format_internal.h"
 #include "cache_shard_internal.h"
 #include "light_internal.h"
 #include "report_internal.h"
@@ -40,6 +42,7 @@ typedef struct piece_list {
 typedef struct coverage {
   double *cells;
   size_t capacity;
+  uint32_t receiver;     /* the receiver (grid) the triangle is in */
   uint32_t x0, y0, w, h; /* the receiver triangle's cell rectangle */
   uint32_t tx0, ty0, tx1, ty1;
   int touched;
@@ -83,7 +86,7 @@ static bbc_result rows_reserve(const bbc_grid *grid, uint32_t **x0, uint32_t **x
 
 /* A region splatted and its result (coverage_range). */
 typedef struct splat_memo {
-  int valid, hit;
+  int valid, hit, escaped;
   footprint footprint;
   bbc_cell_range range;
 } splat_memo;
@@ -99,6 +102,10 @@ typedef struct tuple_sink {
    * judged on the same parent's region first. */
   splat_memo memo[2];
   int newest;
+  /* A piece was stored whose cells the raster does not hold (its polygon reaches cells
+   * outside the raster, or its E_hi is not positive): the tuple's cells are then
+   * splatted again from its pieces (tuple_cells_from_pieces). */
+  int escaped;
 } tuple_sink;
 
 static bbc_result coverage_begin(coverage *c, const bbc_grid *grid, uint32_t receiver) {
@@ -117,6 +124,7 @@ static bbc_result coverage_begin(coverage *c, const bbc_grid *grid, uint32_t rec
     c->capacity = c->cells ? w * h : 0;
     if (!c->cells) return BBC_ERR_OUT_OF_MEMORY;
   }
+  c->receiver = t.receiver;
   c->x0 = t.x0, c->y0 = t.y0, c->w = (uint32_t)w, c->h = (uint32_t)h;
   return BBC_OK;
 }
@@ -131,9 +139,10 @@ static void coverage_end(coverage *c) {
 
 /* The piece's cells (rows r->y0..r->y1, columns in (*x0)[y - r->y0] ..
  * (*x1)[y - r->y0], arrays valid until the second-next call); 0 when it reaches none.
- * Splats of the triangle's points stay in its rectangle, the raster's. */
+ * Splats of the triangle's points stay in its rectangle, the raster's; *escaped is set
+ * when the piece reaches cells but the raster does not hold them all (not expected). */
 static int coverage_range(tuple_sink *s, const bbc_piece *p, bbc_cell_range *r,
-                          const uint32_t **x0, const uint32_t **x1) {
+                          const uint32_t **x0, const uint32_t **x1, int *escaped) {
   const coverage *c = s->cover;
   footprint f;
   piece_footprint(p, &f);
@@ -144,17 +153,20 @@ static int coverage_range(tuple_sink *s, const bbc_piece *p, bbc_cell_range *r,
       *r = m->range;
       *x0 = c->row_x0[i], *x1 = c->row_x1[i];
       s->newest = i;
+      *escaped = m->escaped;
       return m->hit;
     }
   }
   const int i = s->newest ^ 1; /* the older one */
   splat_memo *m = &s->memo[i];
-  int hit = c->w != 0 &&
-            splat_footprint(s->grid, s->receiver, &f, r, c->row_x0[i], c->row_x1[i]) &&
-            r->x0 >= c->x0 && r->y0 >= c->y0 && r->x1 < c->x0 + c->w && r->y1 < c->y0 + c->h;
+  const int reaches =
+      c->w != 0 && splat_footprint(s->grid, s->receiver, &f, r, c->row_x0[i], c->row_x1[i]);
+  int hit =
+      reaches && r->x0 >= c->x0 && r->y0 >= c->y0 && r->x1 < c->x0 + c->w && r->y1 < c->y0 + c->h;
   /* The row arrays hold this region's columns until they are reused. */
   m->valid = c->w != 0;
   m->hit = hit;
+  m->escaped = *escaped = c->w == 0 || (reaches && !hit);
   m->footprint = f;
   if (hit) m->range = *r;
   s->newest = i;
@@ -167,7 +179,9 @@ static bbc_piece_need piece_need(void *user, const bbc_piece *piece) {
   const coverage *c = s->cover;
   bbc_cell_range r;
   const uint32_t *rx0, *rx1;
-  if (!coverage_range(s, piece, &r, &rx0, &rx1)) return BBC_NEED_NONE; /* it reaches no cell */
+  int escaped;
+  if (!coverage_range(s, piece, &r, &rx0, &rx1, &escaped))
+    return BBC_NEED_NONE; /* it reaches no cell */
   int dominated = 1, cells = 0;
   for (uint32_t y = r.y0; y <= r.y1 && dominated; y++) {
     const double *row = c->cells + (size_t)(y - c->y0) * c->w - c->x0;
@@ -190,9 +204,10 @@ static int keep_piece(void *user, const bbc_piece *piece) {
   coverage *c = s->cover;
   bbc_cell_range r;
   const uint32_t *rx0, *rx1;
-  if (coverage_range(s, piece, &r, &rx0, &rx1)) {
+  int escaped = 0;
+  if (coverage_range(s, piece, &r, &rx0, &rx1, &escaped)) {
     /* A piece that raises no cell (each already holds a positive bound at least its
-     * E_hi, from pieces kept before it) changes nothing record_tuple computes, the
+     * E_hi, from pieces kept before it) changes nothing the tuple's cells hold, the
      * maximum per cell: it is not stored. The first piece kept always raises a cell, so
      * the tuple is stored exactly when some piece is kept. */
     int raises = 0;
@@ -205,6 +220,7 @@ static int keep_piece(void *user, const bbc_piece *piece) {
         }
     }
     if (!raises) return 0;
+    if (!(piece->e_hi > 0)) s->escaped = 1; /* the raster does not tell it from none */
     if (!c->touched) {
       c->tx0 = r.x0, c->ty0 = r.y0, c->tx1 = r.x1, c->ty1 = r.y1;
       c->touched = 1;
@@ -215,6 +231,7 @@ static int keep_piece(void *user, const bbc_piece *piece) {
       if (r.y1 > c->ty1) c->ty1 = r.y1;
     }
   }
+  if (escaped) s->escaped = 1;
   if (l->count == l->capacity) {
     size_t capacity = l->capacity ? 2 * l->capacity : 16;
     bbc_piece *items = realloc(l->items, capacity * sizeof *items);
@@ -237,16 +254,128 @@ typedef struct raster {
   size_t rows;
 } raster;
 
-/* Rasterises the kept pieces of one tuple into the cells they cover, keeping the
- * maximum bound per cell (Eq. 21), and hands every cell to the builder once. */
-static bbc_result record_tuple(bbc_cache_builder *builder, const bbc_grid *grid,
-                               const bbc_scene *scene, const bbc_precompute_params *params,
-                               const bbc_tuple *tuple, uint32_t id, const piece_list *pieces,
-                               raster *r, uint64_t *entries) {
-  /* The light's brightest channel: W/sr, W/m^2 (a sun) or an emitter's radiance. */
+/* The cells of a batch's tuples as the builder takes them (bbc__cache_builder_add_rows),
+ * per bounding thread: for each row of a tuple's cell rectangle, the span from its first
+ * to its last cell with an entry, and the codes of the span, 0 for no entry. Emptied
+ * before each batch, so it holds one batch, about its entries. */
+typedef struct cell_arena {
+  uint16_t *codes;
+  uint32_t *spans; /* per row: first column, count */
+  size_t codes_used, codes_cap, spans_used, spans_cap;
+} cell_arena;
+
+/* One tuple's cells: h rows from row y0 of its receiver, in arena `arena`; h == 0 when
+ * it has none. */
+typedef struct tuple_cells {
+  int stored; /* the tuple has a stored piece (it is stored even with no cells) */
+  int arena;
+  size_t codes, spans; /* where its codes and spans start in the arena */
+  uint32_t receiver, y0, h;
+  uint64_t entries; /* codes not 0 */
+} tuple_cells;
+
+static int arena_reserve(void **p, size_t *cap, size_t need, size_t size) {
+  if (need <= *cap) return 1;
+  size_t c = *cap ? *cap : 4096;
+  while (c < need) c *= 2;
+  void *q = realloc(*p, c * size);
+  if (!q) return 0;
+  *p = q;
+  *cap = c;
+  return 1;
+}
+
+/* Appends a tuple's cells from a rectangle of bounds per cell (w x h from cell x0, y0 of
+ * the receiver, rows `stride` apart): a cell has an entry where its value is positive,
+ * with the code of the value itself, or with that of cell_bound(value, power) when
+ * `scaled`. */
+static double cell_bound(double e_hi, double power);
+static bbc_result arena_add(cell_arena *a, int arena, tuple_cells *out, uint32_t receiver,
+                            uint32_t x0, uint32_t y0, uint32_t w, uint32_t h, const double *cells,
+                            size_t stride, int scaled, double power) {
+  if (!arena_reserve((void **)&a->codes, &a->codes_cap, a->codes_used + (size_t)w * h,
+                     sizeof *a->codes) ||
+      !arena_reserve((void **)&a->spans, &a->spans_cap, a->spans_used + 2 * (size_t)h,
+                     sizeof *a->spans))
+    return BBC_ERR_OUT_OF_MEMORY;
+  out->arena = arena, out->codes = a->codes_used, out->spans = a->spans_used;
+  out->receiver = receiver, out->y0 = y0, out->h = h;
+  uint64_t entries = 0;
+  uint16_t *codes = a->codes + a->codes_used;
+  uint32_t *spans = a->spans + a->spans_used;
+  /* Neighbouring cells often hold the same value: its code is kept. */
+  double last_value = 0;
+  uint16_t last_code = 0;
+  for (uint32_t y = 0; y < h; y++) {
+    const double *row = cells + y * stride;
+    uint32_t first = 0, last = w;
+    while (first < w && row[first] == 0) first++;
+    while (last > first && row[last - 1] == 0) last--;
+    spans[2 * y] = x0 + (first < w ? first : 0);
+    spans[2 * y + 1] = last - first;
+    for (uint32_t x = first; x < last; x++) {
+      const double v = row[x];
+      if (v == 0) {
+        *codes++ = 0;
+        continue;
+      }
+      if (!(v > 0)) return BBC_ERR_INVALID_ARGUMENT; /* negative or NaN */
+      if (v != last_value) {
+        const double e = scaled ? cell_bound(v, power) : v;
+        if (isnan(e)) return BBC_ERR_INVALID_ARGUMENT;
+        last_value = v;
+        last_code = bbc__bound_encode(e);
+      }
+      *codes++ = last_code;
+      entries++;
+    }
+  }
+  a->codes_used = (size_t)(codes - a->codes);
+  a->spans_used += 2 * (size_t)h;
+  out->entries = entries;
+  return BBC_OK;
+}
+
+/* The light's brightest channel (W/sr, W/m^2 for a sun, or an emitter's radiance) times
+ * Eq. 21's m: what a piece's E_hi per unit intensity is multiplied by. */
+static double tuple_power(const bbc_scene *scene, const bbc_precompute_params *params,
+                          const bbc_tuple *tuple) {
   float radiance[3];
   const float *intensity = bbc__cache_light_intensity(scene, tuple->light, radiance);
-  double power = fmax(intensity[0], fmax(intensity[1], intensity[2])) * params->m;
+  return fmax(intensity[0], fmax(intensity[1], intensity[2])) * params->m;
+}
+
+/* A cell's stored bound from the largest E_hi of the pieces reaching it: the product of
+ * non-negative doubles, pushed up by an ulp, so that the stored bound stays above the
+ * true one. It does not decrease as e_hi grows, so the bound of the largest E_hi is the
+ * largest of the pieces' bounds (Eq. 21). */
+static double cell_bound(double e_hi, double power) {
+  return isfinite(e_hi) ? nextafter(e_hi * power, INFINITY) : INFINITY;
+}
+
+/* The tuple's cells from the coverage raster, which holds, per cell, the largest E_hi of
+ * the stored pieces reaching it (keep_piece), over the rectangle they touched: the same
+ * cells and bounds as splatting the stored pieces again (tuple_cells_from_pieces) when
+ * every stored piece's cells are in the raster and its E_hi is positive (tuple_sink's
+ * `escaped` says when not). */
+static bbc_result tuple_cells_from_coverage(cell_arena *a, int arena, tuple_cells *out,
+                                            const coverage *c, double power) {
+  out->h = 0;
+  out->entries = 0;
+  if (!c->touched) return BBC_OK;
+  return arena_add(a, arena, out, c->receiver, c->tx0, c->ty0, c->tx1 - c->tx0 + 1,
+                   c->ty1 - c->ty0 + 1,
+                   c->cells + (size_t)(c->ty0 - c->y0) * c->w + (c->tx0 - c->x0), c->w, 1, power);
+}
+
+/* Rasterises the kept pieces of one tuple into the cells they cover, keeping the
+ * maximum bound per cell (Eq. 21), and gives the tuple's cells. */
+static bbc_result tuple_cells_from_pieces(cell_arena *a, int arena, tuple_cells *out,
+                                          const bbc_grid *grid, double power,
+                                          const bbc_tuple *tuple, const piece_list *pieces,
+                                          raster *r) {
+  out->h = 0;
+  out->entries = 0;
   bbc_cell_range all = {0, UINT32_MAX, UINT32_MAX, 0, 0};
   int any = 0;
   for (size_t k = 0; k < pieces->count; k++) {
@@ -278,18 +407,54 @@ static bbc_result record_tuple(bbc_cache_builder *builder, const bbc_grid *grid,
     footprint f;
     piece_footprint(p, &f);
     if (!splat_footprint(grid, tuple->receiver, &f, &c, r->row_x0, r->row_x1)) continue;
-    /* Products of non-negative doubles, pushed up by an ulp: the stored bound stays
-     * above the true one. */
-    double e = isfinite(p->e_hi) ? nextafter(p->e_hi * power, INFINITY) : INFINITY;
+    double e = cell_bound(p->e_hi, power);
     for (uint32_t y = c.y0; y <= c.y1; y++) {
       double *row = r->cells + (y - all.y0) * w - all.x0;
       for (uint32_t x = r->row_x0[y - c.y0]; x <= r->row_x1[y - c.y0]; x++)
         if (e > row[x]) row[x] = e;
     }
   }
-  /* Each cell gets this tuple once: the distinct entries are counted here. */
-  for (size_t k = 0; k < w * h; k++) *entries += r->cells[k] > 0;
-  return bbc_cache_builder_splat_cells(builder, id, &all, r->cells);
+  return arena_add(a, arena, out, all.receiver, all.x0, all.y0, (uint32_t)w, (uint32_t)h, r->cells,
+                   w, 0, 0.0);
+}
+
+/* A batch of tuples: bounded, then given ids and recorded while the next batch is
+ * bounded. */
+typedef struct batch {
+  size_t first, n; /* its candidates first .. first + n - 1 */
+  uint32_t *ids;   /* per tuple its id, UINT32_MAX when not stored */
+  tuple_cells *cells;
+  cell_arena *arenas; /* per bounding thread */
+} batch;
+
+/* Row classes of the recording per thread: more classes than threads, so that a thread
+ * that ends its share of the bounding early takes more of them. */
+#define RECORD_PARTS_PER_THREAD 4
+
+/* Records the batch's cells in the rows of class `part` of `parts`, from its tuple
+ * *resume on, in tuple order; 1 when it stopped (*resume then says where) because the
+ * builder is over its entry budget, -1 on failure, 0 when done. */
+static int record_part(bbc_cache_builder *builder, const batch *b, uint32_t part, uint32_t parts,
+                       size_t *resume) {
+  size_t i = *resume;
+  int status = 0;
+  for (; i < b->n; i++) {
+    const tuple_cells *t = &b->cells[i];
+    if (b->ids[i] == UINT32_MAX || t->h == 0) continue;
+    if (bbc__cache_builder_full(builder)) {
+      status = 1;
+      break;
+    }
+    const cell_arena *a = &b->arenas[t->arena];
+    if (bbc__cache_builder_add_rows(builder, b->ids[i], t->receiver, t->y0, t->h,
+                                    a->spans + t->spans, a->codes + t->codes, part,
+                                    parts) != BBC_OK) {
+      status = -1;
+      break;
+    }
+  }
+  *resume = i;
+  return status;
 }
 
 bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
@@ -364,26 +529,50 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
 
   const int threads = st.threads;
   bbc_bounder **bounders = calloc((size_t)threads, sizeof *bounders);
-  piece_list *pieces = calloc(BATCH_TUPLES, sizeof *pieces);
-  uint32_t *ids = calloc(BATCH_TUPLES, sizeof *ids);
+  /* Per thread: the stored pieces of the tuple it bounds. */
+  piece_list *pieces = calloc((size_t)threads, sizeof *pieces);
+  const uint32_t parts = RECORD_PARTS_PER_THREAD * (uint32_t)threads;
+  size_t *resume = calloc(parts, sizeof *resume);
+  batch batches[2];
+  memset(batches, 0, sizeof batches);
+  int batches_ok = 1;
+  for (int k = 0; k < 2; k++) {
+    batches[k].ids = calloc(BATCH_TUPLES, sizeof *batches[k].ids);
+    batches[k].cells = calloc(BATCH_TUPLES, sizeof *batches[k].cells);
+    batches[k].arenas = calloc((size_t)threads, sizeof *batches[k].arenas);
+    batches_ok &= batches[k].ids && batches[k].cells && batches[k].arenas;
+  }
   raster *rasters = calloc((size_t)threads, sizeof *rasters);
   coverage *covers = calloc((size_t)threads, sizeof *covers);
   const bbc_grid *grid = bbc_cache_builder_grid(builder);
   bbc_bound_stats *thread_stats = calloc((size_t)threads, sizeof *thread_stats);
   bbc_bound_stats *cpu_split = calloc((size_t)threads, sizeof *cpu_split);
-  if (result == BBC_OK &&
-      (!bounders || !pieces || !ids || !rasters || !covers || !thread_stats || !cpu_split))
+  if (result == BBC_OK && (!bounders || !pieces || !resume || !batches_ok || !rasters || !covers ||
+                           !thread_stats || !cpu_split))
     result = BBC_ERR_OUT_OF_MEMORY;
   for (int i = 0; i < threads && result == BBC_OK; i++) result = bbc_bounder_create(&bounders[i]);
 
-  for (size_t first = 0; first < tuple_count && result == BBC_OK; first += BATCH_TUPLES) {
-    size_t n = tuple_count - first < BATCH_TUPLES ? tuple_count - first : BATCH_TUPLES;
+  /* Batch k is bounded while batch k - 1, its ids given in tuple order, is recorded (so
+   * ids and the file are the same for any thread count): a thread done with its share
+   * of the bounding records rows instead of waiting for the others. */
+  size_t first = 0;
+  for (size_t k = 0; result == BBC_OK; k++) {
+    batch *cur = &batches[k & 1], *prev = &batches[(k + 1) & 1];
+    const size_t n = first < tuple_count
+                         ? (tuple_count - first < BATCH_TUPLES ? tuple_count - first : BATCH_TUPLES)
+                         : 0;
+    const int pending = k > 0 && prev->n > 0;
+    if (n == 0 && !pending) break;
+    cur->first = first, cur->n = n;
+    for (int i = 0; i < threads; i++) cur->arenas[i].codes_used = cur->arenas[i].spans_used = 0;
+    for (uint32_t p = 0; p < parts; p++) resume[p] = 0;
     double b0 = omp_get_wtime();
-    int failed = 0;
-#pragma omp parallel num_threads(threads) reduction(| : failed)
+    int failed = 0, stopped = 0;
+#pragma omp parallel num_threads(threads) reduction(| : failed, stopped)
     {
-      /* The thread's CPU time over the batch (one system call at each end, not per tuple),
-       * split between position and irradiance bounds as their clocked times were. */
+      /* The thread's CPU time over its bounding (one system call at each end, not per
+       * tuple), split between position and irradiance bounds as their clocked times
+       * were. */
       const int self = omp_get_thread_num();
       const double cpu0 = thread_cpu_seconds();
       const double pos0 = thread_stats[self].position_seconds;
@@ -391,13 +580,16 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
 #pragma omp for schedule(dynamic, 1) nowait
       for (size_t i = 0; i < n; i++) {
         int id = omp_get_thread_num();
+        const bbc_tuple *t = &tuples[first + i];
         bbc_tuple_geometry g;
-        pieces[i].count = 0;
+        piece_list *list = &pieces[id];
+        list->count = 0;
+        list->failed = 0;
         tuple_sink sink;
         memset(&sink, 0, sizeof sink);
-        sink.pieces = &pieces[i], sink.cover = &covers[id], sink.grid = grid;
-        sink.receiver = tuples[first + i].receiver;
-        int ok = bbc_tuple_geometry_init(&g, scene, &tuples[first + i]) == BBC_OK &&
+        sink.pieces = list, sink.cover = &covers[id], sink.grid = grid;
+        sink.receiver = t->receiver;
+        int ok = bbc_tuple_geometry_init(&g, scene, t) == BBC_OK &&
                  coverage_begin(&covers[id], grid, sink.receiver) == BBC_OK;
         if (ok) {
           /* Area lights stop at the two-bounce ratio too (docs/lights.md). */
@@ -407,7 +599,20 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
           prm.need_user = &sink;
           ok = bbc_bound_tuple(bounders[id], &g, &prm, keep_piece, &sink, &thread_stats[id]) ==
                    BBC_OK &&
-               !pieces[i].failed;
+               !list->failed;
+        }
+        /* The tuple's cells, while the raster holds them (a tuple is stored when it
+         * has a stored piece). */
+        tuple_cells *c = &cur->cells[i];
+        c->stored = ok && list->count > 0;
+        c->h = 0;
+        c->entries = 0;
+        if (c->stored) {
+          const double power = tuple_power(scene, params, t);
+          ok = (sink.escaped ? tuple_cells_from_pieces(&cur->arenas[id], id, c, grid, power, t,
+                                                       list, &rasters[id])
+                             : tuple_cells_from_coverage(&cur->arenas[id], id, c, &covers[id],
+                                                         power)) == BBC_OK;
         }
         coverage_end(&covers[id]);
         if (!ok) failed = 1;
@@ -418,6 +623,19 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       const double share = clocked > 0 ? pos / clocked : 1.0;
       cpu_split[self].position_seconds += cpu * share;
       cpu_split[self].irradiance_seconds += cpu - cpu * share;
+      /* The previous batch's cells go to the builder in tuple order, so that every
+       * cell's list stays sorted; its rows are shared out by class
+       * (bbc__cache_builder_add_rows), so no two threads touch a cell and none waits for
+       * a lock. A class that finds the builder over its entry budget stops there and
+       * resumes after the spill. */
+      if (pending) {
+#pragma omp for schedule(dynamic, 1) nowait
+        for (uint32_t p = 0; p < parts; p++) {
+          const int r = record_part(builder, prev, p, parts, &resume[p]);
+          if (r > 0) stopped = 1;
+          if (r < 0) failed = 1;
+        }
+      }
     }
     double b1 = omp_get_wtime();
     st.bounding_seconds += b1 - b0;
@@ -425,46 +643,42 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       result = BBC_ERR_OUT_OF_MEMORY;
       break;
     }
+    if (pending) {
+      result = bbc__cache_builder_spill_if_full(builder);
+      while (stopped && result == BBC_OK) {
+        int splat_failed = 0;
+        stopped = 0;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) \
+    reduction(|                                                    \
+              : splat_failed, stopped)
+        for (uint32_t p = 0; p < parts; p++) {
+          const int r = record_part(builder, prev, p, parts, &resume[p]);
+          if (r > 0) stopped = 1;
+          if (r < 0) splat_failed = 1;
+        }
+        result = splat_failed ? BBC_ERR_OUT_OF_MEMORY : bbc__cache_builder_spill_if_full(builder);
+      }
+      for (size_t i = 0; i < prev->n; i++)
+        if (prev->ids[i] != UINT32_MAX) st.entries += prev->cells[i].entries;
+    }
     /* Ids are given in tuple order, so they (and the file) are the same for any thread
-     * count; the splats themselves may then run in parallel (the builder keeps the
-     * maximum per cell and tuple, which does not depend on their order). */
+     * count. */
     for (size_t i = 0; i < n && result == BBC_OK; i++) {
-      ids[i] = UINT32_MAX;
-      if (pieces[i].count == 0) continue;
+      cur->ids[i] = UINT32_MAX;
+      if (!cur->cells[i].stored) continue;
       const bbc_tuple *tuple = &tuples[first + i];
-      if ((result = bbc_cache_builder_add_tuple(builder, tuple, &ids[i])) != BBC_OK) break;
-      if (candidate && (result = bbc__cache_builder_set_candidate(builder, ids[i],
+      if ((result = bbc_cache_builder_add_tuple(builder, tuple, &cur->ids[i])) != BBC_OK) break;
+      if (candidate && (result = bbc__cache_builder_set_candidate(builder, cur->ids[i],
                                                                   candidate[first + i])) != BBC_OK)
         break;
       st.tuples++;
       st.tuples_per_chain[tuple->chain]++;
     }
-    /* One parallel pass records the batch; a thread that finds the builder over its
-     * entry budget leaves its remaining tuples for the next pass, after the spill. */
-    for (int pass = 1; pass && result == BBC_OK;) {
-      int splat_failed = 0;
-      uint64_t entries = 0;
-      pass = 0;
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) \
-    reduction(| : splat_failed, pass) reduction(+ : entries)
-      for (size_t i = 0; i < n; i++) {
-        if (ids[i] == UINT32_MAX) continue;
-        if (bbc__cache_builder_full(builder)) {
-          pass = 1;
-          continue;
-        }
-        if (record_tuple(builder, grid, scene, params, &tuples[first + i], ids[i], &pieces[i],
-                         &rasters[omp_get_thread_num()], &entries) != BBC_OK)
-          splat_failed = 1;
-        ids[i] = UINT32_MAX; /* recorded */
-      }
-      st.entries += entries;
-      result = splat_failed ? BBC_ERR_OUT_OF_MEMORY : bbc__cache_builder_spill_if_full(builder);
-    }
     st.recording_seconds += omp_get_wtime() - b1;
-    if (options->progress && options->progress(options->progress_user, first + n, tuple_count)) {
+    first += n;
+    if (n && result == BBC_OK && options->progress &&
+        options->progress(options->progress_user, first, tuple_count))
       result = BBC_ERR_CANCELLED;
-    }
   }
 
   for (int i = 0; i < threads; i++) {
@@ -477,10 +691,19 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       st.irradiance_cpu_seconds += cpu_split[i].irradiance_seconds;
     }
   }
-  for (size_t i = 0; pieces && i < BATCH_TUPLES; i++) free(pieces[i].items);
+  for (int i = 0; pieces && i < threads; i++) free(pieces[i].items);
   free(bounders);
   free(pieces);
-  free(ids);
+  for (int k = 0; k < 2; k++) {
+    for (int i = 0; batches[k].arenas && i < threads; i++) {
+      free(batches[k].arenas[i].codes);
+      free(batches[k].arenas[i].spans);
+    }
+    free(batches[k].arenas);
+    free(batches[k].cells);
+    free(batches[k].ids);
+  }
+  free(resume);
   for (int i = 0; rasters && i < threads; i++) {
     free(rasters[i].cells);
     free(rasters[i].row_x0);
