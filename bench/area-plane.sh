@@ -36,12 +36,12 @@
 #    caustic (lit mean about 0.01) is nearly an absolute error, and relMSE' with
 #    eps = 1e-2 (lit mean)^2, the relMSE of the images scaled to a lit mean of 1; a black
 #    image's score is given for both.
-# Cost at 843c6ff, 2 cores shared with other jobs (load average 7-15): the precompute
-# 217 CPU-s (1012 s wall), the rest 446 s wall (about 290 CPU-s, 220 of them the long pt
-# render; the references, cached, 29 more). CPU-s: user + sys of each process
-# (/usr/bin/time); the load average is recorded. Writes bench/results/area-plane.md and
-# area-plane.png (gnuplot, if installed: scripts/install-deps.sh --bench). Builds bbc
-# (Release) in build/ if needed.
+# Cost at 26e828a, 2 cores shared with other jobs: 559 s wall in all at load average 5
+# (the precompute 229 CPU-s, 208 s wall; the long pt render 263 CPU-s; the references,
+# cached, 29 more); at load 8-12 the precompute alone took 1012 s wall, the rest 446 s.
+# CPU-s: user + sys of each process (/usr/bin/time); the load average is recorded. Writes
+# bench/results/area-plane.md and area-plane.png (gnuplot, if installed:
+# scripts/install-deps.sh --bench). Builds bbc (Release) in build/ if needed.
 set -eu
 root=$(cd "$(dirname "$0")/.." && pwd)
 size=7000
