@@ -14,6 +14,16 @@
  *       the floor lit by the light alone (no mirror), albedo/pi I cos(theta)/r^2, at the
  *       pixel centres: the calibration target of a renderer's translation of the scene.
  *
+ * The scene may have, instead of its point light, an area light (bbc-scenegen flat-mirror
+ * --area-light SIDE: emissive triangles of radiance L making a horizontal rectangle that
+ * faces down, within the mirror's extent); then only --caustic --seen-directly is made:
+ * albedo/pi R L times the integral over the mirrored emitter of cos(theta) cos(theta_e)/r^2
+ * dA, every floor point seeing all of it through the mirror, and zero where the emitter
+ * hides the floor from the camera (the emitter's shadow from the camera, a rectangle of
+ * the floor plane: the pixel is cut along its edges too). The emitter integral is
+ * Gauss-Legendre on each triangle's map from the unit square, 6 nodes per axis with the
+ * pixel's 8 and 10 with its 16.
+ *
  * With the camera looking straight down, film coordinates map affinely to the floor
  * plane, so a pixel's footprint is a rectangle there and the box filter is the mean over
  * it. The image is smooth except across the floor's edges and the mirror's foot (the
@@ -64,12 +74,51 @@ typedef struct geometry {
   double mirror_x_min;    /* the image x below which a ray passes over the mirror's top */
   int caustic;            /* 1: the mirrored light, seen directly and in the mirror */
   int seen_directly;      /* caustic only: not in the mirror */
+  /* Area light: its triangles (already mirrored to x < 0), their number (0 for a point
+   * light), the floor rectangle the emitter hides from the camera, and the emitter
+   * quadrature's Gauss-Legendre rule on [-1, 1]. */
+  double emitter[8][3][3];
+  int emitters;
+  double hide_x0, hide_x1, hide_z0, hide_z1;
+  int en;
+  const double *ex, *ew;
 } geometry;
+
+/* The integral over the mirrored emitter of cos(theta) cos(theta_e) / r^2 dA at floor
+ * point (x, 0, z): the emitter faces down, so both cosines are (its height) / r. */
+static double area_value(const geometry *g, double x, double z) {
+  double sum = 0;
+  for (int t = 0; t < g->emitters; t++) {
+    const double(*q)[3] = g->emitter[t];
+    double e1[3], f[3];
+    for (int k = 0; k < 3; k++) e1[k] = q[1][k] - q[0][k], f[k] = q[2][k] - q[1][k];
+    /* |d(point)/d(a, b)| = a |e1 x f| = a 2 area. */
+    double c[3] = {e1[1] * f[2] - e1[2] * f[1], e1[2] * f[0] - e1[0] * f[2],
+                   e1[0] * f[1] - e1[1] * f[0]};
+    double twice_area = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+    for (int i = 0; i < g->en; i++) {
+      double a = 0.5 * (1 + g->ex[i]);
+      for (int j = 0; j < g->en; j++) {
+        double b = 0.5 * (1 + g->ex[j]);
+        double dx = q[0][0] + a * e1[0] + a * b * f[0] - x;
+        double dy = q[0][1] + a * e1[1] + a * b * f[1];
+        double dz = q[0][2] + a * e1[2] + a * b * f[2] - z;
+        double r2 = dx * dx + dy * dy + dz * dz;
+        sum += 0.25 * g->ew[i] * g->ew[j] * a * twice_area * dy * dy / (r2 * r2);
+      }
+    }
+  }
+  return sum;
+}
 
 /* The value, per unit of scale, at the point where a camera ray meets the floor plane at
  * (x, z); 0 off the floor. */
 static double value(const geometry *g, double x, double z) {
   if (z < g->z0 || z > g->z1 || x > g->floor_x1) return 0;
+  if (g->emitters) {
+    if (x < 0 || (x > g->hide_x0 && x < g->hide_x1 && z > g->hide_z0 && z < g->hide_z1)) return 0;
+    return area_value(g, x, z);
+  }
   double lx = g->light[0], ly = g->light[1], lz = g->light[2];
   if (g->caustic) {
     if (x < g->mirror_x_min || (g->seen_directly && x < 0)) return 0;
@@ -88,13 +137,15 @@ static double rect_mean(const geometry *g, double xa, double xb, double za, doub
   double xs[8], zs[8];
   int nx = 0, nz = 0;
   xs[nx++] = xa;
-  const double xcuts[3] = {g->mirror_x_min, 0, g->floor_x1};
-  for (int i = 0; i < 3; i++)
-    if (xcuts[i] > xa && xcuts[i] < xb) xs[nx++] = xcuts[i];
+  /* Increasing: the mirror's top's image < 0 < the emitter's shadow < the floor's edge. */
+  const double xcuts[5] = {g->mirror_x_min, 0, g->hide_x0, g->hide_x1, g->floor_x1};
+  for (int i = 0; i < 5; i++)
+    if (xcuts[i] > xa && xcuts[i] < xb && (i < 2 || i == 4 || g->emitters)) xs[nx++] = xcuts[i];
   xs[nx++] = xb;
+  const double zcuts[4] = {g->z0, g->hide_z0, g->hide_z1, g->z1};
   zs[nz++] = za;
-  if (g->z0 > za && g->z0 < zb) zs[nz++] = g->z0;
-  if (g->z1 > za && g->z1 < zb) zs[nz++] = g->z1;
+  for (int i = 0; i < 4; i++)
+    if (zcuts[i] > za && zcuts[i] < zb && (i == 0 || i == 3 || g->emitters)) zs[nz++] = zcuts[i];
   zs[nz++] = zb;
   double sum = 0;
   for (int i = 0; i + 1 < nx; i++) {
@@ -148,10 +199,43 @@ int main(int argc, char **argv) {
   memset(&g, 0, sizeof g);
   g.caustic = caustic;
   g.seen_directly = caustic && seen_directly;
-  if (scene->point_light_count != 1 || scene->emitter_count != 0)
-    return fail("the scene must have exactly one point light");
-  const bbc_point_light *light = &scene->point_lights[0];
-  g.light[0] = light->position.x, g.light[1] = light->position.y, g.light[2] = light->position.z;
+  const int area = scene->emitter_count > 0;
+  if (area ? scene->point_light_count != 0 || scene->emitter_count > 8
+           : scene->point_light_count != 1)
+    return fail(
+        "the scene must have exactly one point light, or an area light of at most 8 "
+        "triangles and no other light");
+  if (area && !(caustic && seen_directly))
+    return fail("an area light's image is made with --caustic --seen-directly only");
+  /* Area: the emitter's rectangle (y = height, facing down) and radiance. */
+  double ex0 = 1e300, ex1 = -1e300, ez0 = 1e300, ez1 = -1e300, ey = 0, emitter_area = 0;
+  float radiance[3] = {0, 0, 0};
+  for (uint32_t e = 0; e < scene->emitter_count; e++) {
+    bbc_light_model model;
+    float le[3];
+    bbc_scene_area_light(scene, e, &model, le);
+    if (e > 0 && memcmp(le, radiance, sizeof le)) return fail("one emitter radiance");
+    memcpy(radiance, le, sizeof le);
+    const bbc_vec3 n = model.emitter_normal;
+    if (!(n.y < 0 && n.x == 0 && n.z == 0)) return fail("the area light must face straight down");
+    if (e == 0) ey = model.emitter[0].y;
+    for (int k = 0; k < 3; k++) {
+      const bbc_vec3 q = model.emitter[k];
+      if (q.y != ey) return fail("the area light must be horizontal");
+      ex0 = fmin(ex0, q.x), ex1 = fmax(ex1, q.x), ez0 = fmin(ez0, q.z), ez1 = fmax(ez1, q.z);
+      /* Mirrored across x = 0. */
+      g.emitter[e][k][0] = -q.x, g.emitter[e][k][1] = q.y, g.emitter[e][k][2] = q.z;
+    }
+    emitter_area += -0.5 * n.y;
+  }
+  g.emitters = (int)scene->emitter_count;
+  if (area && fabs(emitter_area - (ex1 - ex0) * (ez1 - ez0)) > 1e-9 * emitter_area)
+    return fail("the area light must be a rectangle x in [X0, X1], z in [Z0, Z1]");
+  const bbc_point_light *light = area ? NULL : &scene->point_lights[0];
+  if (area) /* the layout test below takes the emitter's corners' extremes */
+    g.light[0] = ex0, g.light[1] = ey, g.light[2] = ez0;
+  else
+    g.light[0] = light->position.x, g.light[1] = light->position.y, g.light[2] = light->position.z;
   double my0 = 1e300, my1 = -1e300, mz0 = 1e300, mz1 = -1e300, fx0 = 1e300;
   g.floor_x1 = -1e300, g.z0 = 1e300, g.z1 = -1e300;
   float albedo[3] = {0, 0, 0}, reflectance[3] = {0, 0, 0};
@@ -162,6 +246,9 @@ int main(int argc, char **argv) {
     for (uint32_t v = mesh->first_vertex; v < mesh->first_vertex + mesh->vertex_count; v++) {
       const float *p = scene->positions + 3 * (size_t)v;
       const float *nrm = scene->normals + 3 * (size_t)v;
+      if (mesh->role == BBC_ROLE_NONE &&
+          (mat->emission[0] > 0 || mat->emission[1] > 0 || mat->emission[2] > 0))
+        break; /* the area light, checked above */
       if (mat->type == BBC_MATERIAL_MIRROR) {
         if (p[0] != 0 || nrm[0] != 1) return fail("the mirror must be the plane x = 0 facing +x");
         my0 = fmin(my0, p[1]), my1 = fmax(my1, p[1]);
@@ -174,6 +261,9 @@ int main(int argc, char **argv) {
         return fail("only a mirror and a diffuse floor are allowed");
       }
     }
+    if (mesh->role == BBC_ROLE_NONE &&
+        (mat->emission[0] > 0 || mat->emission[1] > 0 || mat->emission[2] > 0))
+      continue;
     if (mat->type == BBC_MATERIAL_MIRROR) {
       if (mirrors++ && memcmp(reflectance, mat->base_color, sizeof reflectance))
         return fail("one mirror material");
@@ -188,7 +278,10 @@ int main(int argc, char **argv) {
   /* The floor is one rectangle (its triangles' area is that of its bounding box). */
   double floor_area = 0;
   for (uint32_t t = 0; t < scene->triangle_count; t++) {
-    if (bbc_scene_triangle_material(scene, t)->type != BBC_MATERIAL_DIFFUSE) continue;
+    const bbc_material *tm = bbc_scene_triangle_material(scene, t);
+    if (tm->type != BBC_MATERIAL_DIFFUSE || tm->emission[0] > 0 || tm->emission[1] > 0 ||
+        tm->emission[2] > 0)
+      continue;
     const float *a = scene->positions + 3 * (size_t)scene->indices[3 * t];
     const float *b = scene->positions + 3 * (size_t)scene->indices[3 * t + 1];
     const float *c = scene->positions + 3 * (size_t)scene->indices[3 * t + 2];
@@ -210,18 +303,33 @@ int main(int argc, char **argv) {
         g.light[2] >= mz0 && g.light[2] <= mz1 && g.z0 >= mz0 && g.z1 <= mz1 && o.x > 0 &&
         o.y > my1 && o.z >= g.z0 && o.z <= g.z1))
     return fail("unexpected layout of light, mirror, floor and camera");
+  if (area) {
+    /* Every corner of the emitter within the mirror's extent (then all of it is seen
+     * through the mirror from every floor point), below the camera; the floor it hides
+     * from the camera is its projection from the camera onto y = 0. */
+    if (!(ex0 > 0 && ez0 >= mz0 && ez1 <= mz1 && ey < o.y))
+      return fail("unexpected layout of the area light");
+    double k = o.y / (o.y - ey);
+    g.hide_x0 = o.x + (ex0 - o.x) * k, g.hide_x1 = o.x + (ex1 - o.x) * k;
+    g.hide_z0 = o.z + (ez0 - o.z) * k, g.hide_z1 = o.z + (ez1 - o.z) * k;
+    if (!(g.hide_x0 > 0 && g.hide_x1 < g.floor_x1 && g.hide_z0 > g.z0 && g.hide_z1 < g.z1))
+      return fail("unexpected layout of the area light");
+  }
   /* A ray towards floor-plane point (x < 0, z) crosses x = 0 at height o.y (-x)/(o.x - x),
    * at most the mirror's top when x >= -o.x top / (o.y - top). */
   g.mirror_x_min = -o.x * my1 / (o.y - my1);
   for (int c = 0; c < 3; c++)
-    g.scale[c] = albedo[c] / PI * light->intensity[c] * (caustic ? reflectance[c] : 1.0f);
+    g.scale[c] = albedo[c] / PI * (area ? radiance[c] : light->intensity[c]) *
+                 (caustic ? reflectance[c] : 1.0f);
 
   const uint32_t w = (uint32_t)width, h = (uint32_t)height;
   bbc_image *image = NULL;
   if (bbc_image_create(&image, w, h) != BBC_OK) return fail("out of memory");
-  double gx8[8], gw8[8], gx16[16], gw16[16];
+  double gx8[8], gw8[8], gx16[16], gw16[16], gx6[6], gw6[6], gx10[10], gw10[10];
   gauss_legendre(8, gx8, gw8);
   gauss_legendre(16, gx16, gw16);
+  gauss_legendre(6, gx6, gw6);
+  gauss_legendre(10, gx10, gw10);
   double worst = 0;
   for (uint32_t y = 0; y < h; y++) {
     for (uint32_t x = 0; x < w; x++) {
@@ -232,7 +340,9 @@ int main(int argc, char **argv) {
         floor_point(cam, w, h, x + 1.0, y + 1.0, &xb, &zb);
         if (xa > xb) { double t = xa; xa = xb; xb = t; }
         if (za > zb) { double t = za; za = zb; zb = t; }
+        g.en = 6, g.ex = gx6, g.ew = gw6;
         v = rect_mean(&g, xa, xb, za, zb, 8, gx8, gw8);
+        g.en = 10, g.ex = gx10, g.ew = gw10;
         double v16 = rect_mean(&g, xa, xb, za, zb, 16, gx16, gw16);
         if (v16 > 0) worst = fmax(worst, fabs(v - v16) / v16);
         v = v16;
@@ -247,7 +357,9 @@ int main(int argc, char **argv) {
   if (worst > 1e-12) return fail("the quadrature has not converged");
   if (bbc_image_write_exr(image, out, NULL, NULL) != BBC_OK) return fail("cannot write the image");
   fprintf(stderr, "flat_mirror_exact: %s, %ux%u, quadrature 8 vs 16 nodes: %.2g relative\n",
-          caustic ? "caustic (box filter)" : "direct (pixel centres)", w, h, worst);
+          caustic ? (area ? "area light's caustic (box filter)" : "caustic (box filter)")
+                  : "direct (pixel centres)",
+          w, h, worst);
   bbc_image_free(image);
   bbc_scene_free(scene);
   return 0;

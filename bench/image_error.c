@@ -2,11 +2,12 @@
  *
  *   image_error IMAGE.exr REFERENCE.exr [--eps E]
  *
- * prints "relMSE R lit_mean_ratio Q": R is bbc's relMSE (bbc_image_relmse: the mean over
- * pixels of the mean over RGB of (I - R)^2 / (R^2 + eps), eps 1e-2 by default), Q the mean
- * of the image over the lit pixels (those where the reference is positive in some
- * channel) divided by the reference's mean over the same pixels: 1 for an unbiased image,
- * below 1 for a dark one. */
+ * prints "relMSE R lit_mean_ratio Q reference_lit_mean M": R is bbc's relMSE
+ * (bbc_image_relmse: the mean over pixels of the mean over RGB of (I - R)^2 / (R^2 + eps),
+ * eps 1e-2 by default), Q the mean of the image over the lit pixels (those where the
+ * reference is positive in some channel) divided by the reference's mean over the same
+ * pixels: 1 for an unbiased image, below 1 for a dark one; M the reference's mean over its
+ * lit pixels and channels (the scale eps is compared with). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -38,7 +39,13 @@ int main(int argc, char **argv) {
     sum_i += (double)i[0] + i[1] + i[2];
     sum_r += (double)r[0] + r[1] + r[2];
   }
-  printf("relMSE %.6g lit_mean_ratio %.7f\n", relmse, sum_r > 0 ? sum_i / sum_r : 0.0);
+  size_t lit = 0;
+  for (size_t p = 0; p < (size_t)ref->width * ref->height; p++) {
+    const float *r = ref->rgb + 3 * p;
+    lit += r[0] > 0 || r[1] > 0 || r[2] > 0;
+  }
+  printf("relMSE %.6g lit_mean_ratio %.7f reference_lit_mean %.6g\n", relmse,
+         sum_r > 0 ? sum_i / sum_r : 0.0, lit ? sum_r / (3.0 * lit) : 0.0);
   bbc_image_free(image);
   bbc_image_free(ref);
   return 0;

@@ -7,7 +7,13 @@
  *
  * Photons leave each point or spot light uniformly over the cone of directions that holds
  * the bounding sphere of the scene's casters (the mirrors and glass that bbc-precompute
- * bounds), N per light, each with flux I * falloff * Omega / N. They follow exactly the
+ * bounds), N per light, each with flux I * falloff * Omega / N. From an area light (an
+ * emissive triangle, scene->emitters, bbc_scene_area_light) of radiance L_e and area A,
+ * N photons per emitter triangle each start at a point y drawn uniformly by area and leave
+ * it uniformly over the cone from y that holds the casters' sphere (solid angle Omega(y)),
+ * with flux L_e * max(0, cos theta_e) * A * Omega(y) / N, theta_e against the emitter's
+ * front normal (the side its vertex normals point to, the only side it emits to,
+ * docs/lights.md): the density of (y, direction) is 1 / (A Omega(y)). They follow exactly the
  * chain types of LIST (R reflects on a mirror, weighted by its base colour; T refracts
  * through a dielectric, weighted by 1 - Fresnel unless --no-fresnel), then land on a
  * Lambertian receiver. A landing point x that the camera sees directly adds
@@ -22,7 +28,7 @@
  *
  * Deterministic: photons are split into batches with their own random streams, summed
  * into 64 lanes in a fixed order, whatever the thread count. Untextured Lambertian
- * receivers, point and spot lights in air only (anything else is refused). */
+ * receivers; point and spot lights in air and area lights (a sun is refused). */
 #define _POSIX_C_SOURCE 200809L /* strtok_r */
 #include <math.h>
 #include <omp.h>
@@ -204,6 +210,25 @@ static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d,
   follow(tr, x, t, next, f2, made + 1, made == 0 ? letter : (letters << 1) | letter, lane);
 }
 
+/* The cone of directions from p that holds the sphere (centre, radius): every direction
+ * when p is inside it. */
+typedef struct cone {
+  bbc_vec3 axis, b1, b2;
+  double cos_max, omega;
+} cone;
+
+static cone cone_toward(bbc_vec3 p, bbc_vec3 centre, double radius) {
+  cone c;
+  bbc_vec3 axis = sub(centre, p);
+  double dist = sqrt(dot(axis, axis));
+  c.cos_max = dist > radius ? sqrt(1 - (radius / dist) * (radius / dist)) : -1;
+  c.axis = dist > 0 ? scale(axis, 1 / dist) : (bbc_vec3){0, 0, 1};
+  c.b1 = unit(cross(fabs(c.axis.x) > 0.5 ? (bbc_vec3){0, 1, 0} : (bbc_vec3){1, 0, 0}, c.axis));
+  c.b2 = cross(c.axis, c.b1);
+  c.omega = 2 * PI * (1 - c.cos_max);
+  return c;
+}
+
 int main(int argc, char **argv) {
   const char *scene_path = NULL, *out = NULL, *chain_list = NULL;
   long width = 0, threads = 0;
@@ -294,14 +319,25 @@ int main(int argc, char **argv) {
       fprintf(stderr, "light_trace: light %u is not a point or spot light in air\n", l);
       return 1;
     }
-    /* The cone toward the casters' sphere (every direction from inside it). */
-    bbc_vec3 axis = sub(centre, light->position);
-    double dist = sqrt(dot(axis, axis));
-    double cos_max = dist > radius ? sqrt(1 - (radius / dist) * (radius / dist)) : -1;
-    axis = dist > 0 ? scale(axis, 1 / dist) : (bbc_vec3){0, 0, 1};
-    bbc_vec3 b1 = unit(cross(fabs(axis.x) > 0.5 ? (bbc_vec3){0, 1, 0} : (bbc_vec3){1, 0, 0}, axis));
-    bbc_vec3 b2 = cross(axis, b1);
-    const double omega = 2 * PI * (1 - cos_max);
+  }
+  /* Lights 0 .. point_light_count - 1 are the punctual ones, then one per emitter
+   * triangle (the cache's numbering); each has its own random streams. */
+  const uint32_t light_count = scene->point_light_count + scene->emitter_count;
+  for (uint32_t l = 0; l < light_count; l++) {
+    const int area = l >= scene->point_light_count;
+    const bbc_point_light *light = area ? NULL : &scene->point_lights[l];
+    bbc_light_model model;
+    float radiance[3] = {0, 0, 0};
+    double emitter_area = 0;
+    bbc_vec3 front = {0, 0, 0};
+    if (area) {
+      if (!bbc_scene_area_light(scene, l - scene->point_light_count, &model, radiance)) return 1;
+      emitter_area = 0.5 * sqrt(dot(model.emitter_normal, model.emitter_normal));
+      front = unit(model.emitter_normal);
+    }
+    /* A point light's cone is the same for every photon; an emitter's depends on y. */
+    const cone fixed = area ? (cone){{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0, 0}
+                            : cone_toward(light->position, centre, radius);
 #pragma omp parallel for schedule(dynamic, 1)
     for (int lane = 0; lane < LANES; lane++) {
       double *image = lanes + (size_t)lane * pixels * 3;
@@ -310,15 +346,38 @@ int main(int argc, char **argv) {
         mix(&state);
         uint64_t count = b + 1 < batches ? BATCH : per_light - b * BATCH;
         for (uint64_t i = 0; i < count; i++) {
-          double cz = 1 - uniform(&state) * (1 - cos_max), phi = 2 * PI * uniform(&state);
+          bbc_vec3 origin;
+          if (area) {
+            /* A point uniform by area: q0 + a (q1 - q0) + a b (q2 - q1), a = sqrt(r1). */
+            double a = sqrt(uniform(&state)), bb = uniform(&state);
+            const bbc_vec3 *q = model.emitter;
+            origin = add(q[0], add(scale(sub(q[1], q[0]), a), scale(sub(q[2], q[1]), a * bb)));
+          } else {
+            origin = light->position;
+          }
+          const cone c = area ? cone_toward(origin, centre, radius) : fixed;
+          double cz = 1 - uniform(&state) * (1 - c.cos_max), phi = 2 * PI * uniform(&state);
           double sz = sqrt(fmax(0, 1 - cz * cz));
-          bbc_vec3 d = add(scale(axis, cz), add(scale(b1, sz * cos(phi)), scale(b2, sz * sin(phi))));
-          double falloff = bbc_light_falloff(&light->model, d);
-          if (!(falloff > 0)) continue;
+          bbc_vec3 d =
+              add(scale(c.axis, cz), add(scale(c.b1, sz * cos(phi)), scale(c.b2, sz * sin(phi))));
           double flux[3];
-          for (int k = 0; k < 3; k++)
-            flux[k] = light->intensity[k] * falloff * omega / (double)per_light;
-          follow(&tr, light->position, UINT32_MAX, d, flux, 0, 0, image);
+          if (area) {
+            double cos_e = dot(front, d);
+            if (!(cos_e > 0)) continue; /* the emitter's back emits nothing */
+            for (int k = 0; k < 3; k++)
+              flux[k] = radiance[k] * cos_e * emitter_area * c.omega / (double)per_light;
+            /* Off the emitter's plane to its front, beyond the rounding of the point (its
+             * own triangle is skipped by follow, its neighbours in the plane are not). */
+            double off = 1e-6 * (1 + fmax(fabs(origin.x), fmax(fabs(origin.y), fabs(origin.z))));
+            origin = add(origin, scale(front, off));
+          } else {
+            double falloff = bbc_light_falloff(&light->model, d);
+            if (!(falloff > 0)) continue;
+            for (int k = 0; k < 3; k++)
+              flux[k] = light->intensity[k] * falloff * c.omega / (double)per_light;
+          }
+          follow(&tr, origin, area ? scene->emitters[l - scene->point_light_count] : UINT32_MAX, d,
+                 flux, 0, 0, image);
         }
       }
     }
