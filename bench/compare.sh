@@ -70,26 +70,15 @@ ren=$bin/bbc-render/bbc-render
 work=$root/bench/work
 out=$root/bench/results
 mkdir -p "$work/flat" "$work/scenes" "$work/refs" "$out"
+tool=compare.sh
+. "$root/bench/lib.sh"
 # BBC_COMMIT names the commit measured when root is not a git checkout.
 commit=${BBC_COMMIT:-$(git -C "$root" rev-parse --short HEAD 2> /dev/null || echo unknown)}
 dirty=$(git -C "$root" status --porcelain --untracked-files=no -- libbbc bbc-render bbc-precompute \
   scenes 2> /dev/null | head -1)
 [ -z "$dirty" ] || commit="$commit+changes"
 
-# n K: the budget N times the scale, at least 1, rounded.
-n() { awk -v a="$1" -v k="$scale" 'BEGIN { v = a * k; if (v < 1) v = 1; printf "%d", v + 0.5 }'; }
 
-# cpu LOG CMD...: runs CMD (output to LOG), prints its CPU-seconds (user + sys).
-cpu() {
-  log=$1
-  shift
-  if ! /usr/bin/time -f '%U %S' -o "$work/time" "$@" > "$log" 2>&1; then
-    echo "compare.sh: failed: $*" >&2
-    tail -5 "$log" >&2
-    exit 1
-  fi
-  awk '{ printf "%.3f", $1 + $2 }' "$work/time"
-}
 
 err() { "$bin/bench/image_error" "$1" "$2"; }   # "relMSE R lit_mean_ratio Q"
 
@@ -114,29 +103,7 @@ seeded() {
 
 machine="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //'), $(nproc) cores"
 
-# interpolate FILE X: log-log interpolation of the curve "x y" (sorted by x) at X; beyond
-# its ends, extrapolated along 1/x (the rate of unbiased Monte Carlo).
-interpolate() {
-  sort -g "$1" | awk -v X="$2" '
-    { x[NR] = log($1); y[NR] = log($2) }
-    END {
-      lx = log(X)
-      if (lx <= x[1]) { printf "%.4g", exp(y[1] - (lx - x[1])); exit }
-      if (lx >= x[NR]) { printf "%.4g", exp(y[NR] - (lx - x[NR])); exit }
-      for (i = 1; i < NR; i++)
-        if (lx <= x[i + 1]) {
-          t = x[i + 1] > x[i] ? (lx - x[i]) / (x[i + 1] - x[i]) : 0
-          printf "%.4g", exp(y[i] + t * (y[i + 1] - y[i])); exit
-        }
-    }'
-}
 
-# slope FILE: the least-squares slope of log y against log x of the curve "x y" (-1 for
-# unbiased Monte Carlo with independent samples; a floor or a bias flattens it).
-slope() {
-  awk '{ x = log($1); y = log($2); n++; sx += x; sy += y; sxx += x * x; sxy += x * y }
-    END { d = n * sxx - sx * sx; if (n > 1 && d > 0) printf "%.2f", (n * sxy - sx * sy) / d; else printf "?" }' "$1"
-}
 
 # reach FILE E: the least x at which the curve "x y" (sorted by x) falls to E, by log-log
 # interpolation between its points ("never" if it does not within them).
