@@ -1316,6 +1316,18 @@ TEST(sqrt_supplement_eq24_is_too_small) {
   CHECK(d.delta_lo <= 0.0 && d.delta_lo > -1e-12);
 }
 
+/* The xi at which the derivative-aware surrogate's slope a + S(xi) is the true slope
+ * 1 / (2 sqrt x), clamped to [0, 1]; 1 below the clamp (where the slope is not claimed). */
+static long double true_slope_xi(const bbc_sqrt_derivative_aware *df, long double x,
+                                 long double sx) {
+  if (!(x >= df->clamp && x > 0)) return 1.0L;
+  long double want = 0.5L / sx - df->a;
+  long double xs = df->slope_hi > df->slope_lo
+                       ? (want - df->slope_lo) / ((long double)df->slope_hi - df->slope_lo)
+                       : 0.5L;
+  return xs < 0 ? 0 : xs > 1 ? 1 : xs;
+}
+
 TEST(sqrt_poly_enclosure) {
   rng r = {808};
   long points = harness_scale(40000, 1000000), done = 0, bad = 0, bad_slope = 0, bad_der = 0;
@@ -1353,17 +1365,7 @@ TEST(sqrt_poly_enclosure) {
         bad++;
       pt[xi] = 0.0;
       /* Derivative-aware: the xi that gives the true slope, then zeta spans the value. */
-      long double xs;
-      if (x >= df.clamp && x > 0) {
-        long double want = 0.5L / sx - df.a;
-        xs = df.slope_hi > df.slope_lo
-                 ? (want - df.slope_lo) / ((long double)df.slope_hi - df.slope_lo)
-                 : 0.5L;
-        if (xs < 0) xs = 0;
-        if (xs > 1) xs = 1;
-      } else {
-        xs = 1.0L;
-      }
+      long double xs = true_slope_xi(&df, x, sx);
       pt[axes[0]] = (double)xs;
       pt[axes[1]] = 0.0;
       double v0 = bbc_poly_eval(&v, pt);
@@ -1478,17 +1480,7 @@ TEST(sqrt_centred_enclosure) {
       long double sx = sqrtl(x), slack = (sx + fabsl(x)) * 0x1p-56L;
       double pt[NAX] = {0};
       pt[ax.x] = t;
-      long double xs;
-      if (x >= df.clamp && x > 0) {
-        long double want = 0.5L / sx - df.a;
-        xs = df.slope_hi > df.slope_lo
-                 ? (want - df.slope_lo) / ((long double)df.slope_hi - df.slope_lo)
-                 : 0.5L;
-        if (xs < 0) xs = 0;
-        if (xs > 1) xs = 1;
-      } else {
-        xs = 1.0L;
-      }
+      long double xs = true_slope_xi(&df, x, sx);
       pt[xi] = (double)xs;
       double v0 = bbc_poly_eval(&v, pt);
       long double tol = v.err + radius + 16 * DBL_EPSILON * mv + slack +
