@@ -130,7 +130,7 @@ BBC_API bbc_result bbc_cache_check_resources(const bbc_scene *scene,
 typedef struct bbc_cache_write_options {
   bbc_message_fn error_fn; /* optional: details of a failure */
   void *user;
-  int compression_level;       /* zstd level 1..19; 0 means 9 */
+  int compression_level;       /* zstd level 1..19; 0 means 6 */
   uint32_t chunk_bytes;        /* target decoded chunk size; 0 means 256 KiB */
   int omit_info;               /* non-zero: no INFO section (writer name) */
   bbc_progress_fn progress_fn; /* optional; counts cells */

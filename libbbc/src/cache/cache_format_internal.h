@@ -63,7 +63,7 @@
 
 /* Writer defaults (Sec. 7.3). */
 #define BBC__DEFAULT_CHUNK_BYTES (256u * 1024u)
-#define BBC__DEFAULT_LEVEL 9
+#define BBC__DEFAULT_LEVEL 6
 
 /* Sec. 7.1: bound codes. 0xFF00 is +infinity. */
 #define BBC__CODE_INF 0xFF00u
