@@ -220,6 +220,30 @@ test_merge_keeps_an_existing_output_on_failure() {
   return 0
 }
 
+# A disk too small for the merged cache: refused before merging, with the estimate
+# (the shards' cell index alone is 12 bytes per cell: 49,152 bytes at 64 x 64), one line,
+# no output. The shim (tests/tools/full_disk_shim.c) makes statvfs report 1000 free bytes.
+test_merge_refuses_a_disk_too_small_up_front() {
+  mirror -o "$TMP/s0.bbc" --shard 0/2
+  mirror -o "$TMP/s1.bbc" --shard 1/2
+  expect_refusal 1 "m.bbc: the merged cache will take about .* and its file system has 1000 bytes free" \
+    env LD_PRELOAD="$BBC_BIN/tests/libfull_disk_shim.so" BBC_DISK_FREE=1000 \
+    ASAN_OPTIONS=verify_asan_link_order=0 "$INSPECT" merge "$TMP/m.bbc" "$TMP/s0.bbc" "$TMP/s1.bbc"
+  no_output "$TMP/m.bbc"
+  # The estimate is within a factor of two of the file a merge writes: refused with
+  # room for half of it, merged with room for twice it.
+  expect_status 0 "$INSPECT" merge "$TMP/m.bbc" "$TMP/s0.bbc" "$TMP/s1.bbc"
+  size=$(wc -c < "$TMP/m.bbc")
+  rm -f "$TMP/m.bbc"
+  expect_refusal 1 "m.bbc: the merged cache will take about" env \
+    LD_PRELOAD="$BBC_BIN/tests/libfull_disk_shim.so" BBC_DISK_FREE=$((size / 2)) \
+    ASAN_OPTIONS=verify_asan_link_order=0 "$INSPECT" merge "$TMP/m.bbc" "$TMP/s0.bbc" "$TMP/s1.bbc"
+  no_output "$TMP/m.bbc"
+  expect_status 0 env LD_PRELOAD="$BBC_BIN/tests/libfull_disk_shim.so" BBC_DISK_FREE=$((2 * size)) \
+    ASAN_OPTIONS=verify_asan_link_order=0 "$INSPECT" merge "$TMP/m.bbc" "$TMP/s0.bbc" "$TMP/s1.bbc"
+  [ -s "$TMP/m.bbc" ] || fail "control: no merged cache"
+}
+
 test_merge_bad_usage_exits_2() {
   two_of_three
   expect_refusal 2 "^bbc-inspect: merge needs OUT.bbc" "$INSPECT" merge

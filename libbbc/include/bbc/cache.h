@@ -359,6 +359,16 @@ typedef struct bbc_cache_merge_options {
 BBC_API bbc_result bbc_cache_merge(bbc_cache_builder **out, const bbc_cache *const *shards,
                                    size_t shard_count, const bbc_cache_merge_options *options);
 
+/* Refuses, before a merge (bbc_cache_merge) into `output`, shards whose merged cache
+ * cannot fit: the builder's memory per cell against the machine's physical memory, and
+ * the merged file's estimated size (the sections the shards share, once, plus their
+ * tuples, chunk records and compressed cell lists, summed) against the free space of the
+ * directory of `output` (skipped when output is NULL). One line with the estimates
+ * through error_fn; BBC_ERR_OUT_OF_MEMORY or BBC_ERR_IO. */
+BBC_API bbc_result bbc_cache_merge_check_resources(const bbc_cache *const *shards, size_t n,
+                                                   const char *output, bbc_message_fn error_fn,
+                                                   void *user);
+
 #ifdef __cplusplus
 }
 #endif

@@ -74,3 +74,49 @@ bbc_result bbc_cache_check_resources(const bbc_scene *scene, const bbc_precomput
                        output, cells, human(file, a), (int)BBC__CIDX_SIZE, human(available, b));
   return BBC_OK;
 }
+
+bbc_result bbc_cache_merge_check_resources(const bbc_cache *const *shards, size_t n,
+                                           const char *output, bbc_message_fn error_fn,
+                                           void *user) {
+  if (!shards || n == 0 || !shards[0]) return BBC_ERR_INVALID_ARGUMENT;
+  /* The merged file repeats what every shard holds once (its grids, cell index and
+   * geometry: the first shard's sections other than the lists, the tuples and SHRD)
+   * and joins what they hold apart (their tuples, chunk records and compressed lists,
+   * whose merged, recompressed size is about the sum). */
+  double file = 0, lists = 0;
+  for (size_t i = 0; i < n; i++) {
+    if (!shards[i]) return BBC_ERR_INVALID_ARGUMENT;
+    bbc_cache_info info;
+    bbc_cache_get_info(shards[i], &info);
+    for (uint32_t k = 0; k < info.section_count; k++) {
+      bbc_cache_section s;
+      bbc_cache_get_section(shards[i], k, &s);
+      const int joined = s.type == BBC__SEC_TUPL || s.type == BBC__SEC_CDAT ||
+                         s.type == BBC__SEC_CHNK;
+      if (joined) file += (double)s.size;
+      if (s.type == BBC__SEC_CDAT) lists += (double)s.size;
+      if (!joined && s.type != BBC__SEC_SHRD && i == 0) file += (double)s.size + 64;
+    }
+  }
+  bbc_cache_info first;
+  bbc_cache_get_info(shards[0], &first);
+  char a[32], b[32];
+  /* Memory: the builder's list head per cell and the writer's cell index, as for a
+   * precompute of the same grid. */
+  double memory = (double)first.cell_count * ((double)bbc__cache_builder_cell_bytes() + BBC__CIDX_SIZE);
+  long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+  double physical = pages > 0 && page > 0 ? (double)pages * (double)page : -1;
+  if (physical > 0 && memory > physical)
+    return bbc__report(error_fn, user, BBC_ERR_OUT_OF_MEMORY,
+                       "%s: merging %zu shards of %llu cells needs at least %s of memory; this "
+                       "machine has %s",
+                       output ? output : "(memory)", n, (unsigned long long)first.cell_count,
+                       human(memory, a), human(physical, b));
+  double available = output ? free_bytes_beside(output) : -1;
+  if (available >= 0 && file > available)
+    return bbc__report(error_fn, user, BBC_ERR_IO,
+                       "%s: the merged cache will take about %s (%s of them the shards' "
+                       "compressed cell lists) and its file system has %s free",
+                       output, human(file, a), human(lists, b), human(available, (char[32]){0}));
+  return BBC_OK;
+}
