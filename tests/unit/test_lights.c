@@ -297,44 +297,59 @@ TEST(bounds_hold_for_suns_and_spots_tt) {
 
 /* ---- several lights in one cache ----------------------------------------------------- */
 
-/* A cache, its bytes, and the caustic image it gives (enumeration, 2 spp). */
-static bbc_image *cache_and_render(const bbc_scene *scene, const bbc_accel *accel,
-                                   uint32_t *tuples) {
+/* A cache (of the emitters too when area_lights is set), and the caustic images it
+ * gives (enumeration, spp samples per pixel) for seeds 5, 6, ...: images[0..count). */
+static int cache_and_render_seeds(const bbc_scene *scene, const bbc_accel *accel, int area_lights,
+                                  uint32_t spp, int count, bbc_image **images, uint32_t *tuples) {
   bbc_precompute_options o;
   memset(&o, 0, sizeof o);
   bbc_precompute_params_default(&o.params);
   o.params.chains = BBC_CHAIN_BIT(BBC_CHAIN_R);
   o.params.max_level = 5;
   o.params.grid_resolution = 64;
+  o.params.area_lights = area_lights ? 1 : 0;
   bbc_cache_builder *b = NULL;
   void *bytes = NULL;
   size_t size = 0;
   bbc_cache *cache = NULL;
-  if (bbc_precompute(&b, scene, &o, NULL) != BBC_OK) return NULL;
+  if (bbc_precompute(&b, scene, &o, NULL) != BBC_OK) return 0;
   bbc_result r = bbc_cache_builder_write_memory(b, &bytes, &size, NULL);
   bbc_cache_builder_free(b);
   if (r != BBC_OK || bbc_cache_open_memory(&cache, bytes, size, NULL) != BBC_OK) {
     free(bytes);
-    return NULL;
+    return 0;
   }
   bbc_cache_info info;
   bbc_cache_get_info(cache, &info);
   *tuples = info.tuple_count;
-  bbc_image *image = NULL;
-  bbc_render_options ro;
-  memset(&ro, 0, sizeof ro);
-  ro.method = BBC_METHOD_ENUMERATE;
-  ro.cache = cache;
-  ro.spp = 2;
-  ro.seed = 5;
-  ro.components = BBC_COMPONENT_CAUSTICS;
-  if (bbc_image_create(&image, 40, 30) != BBC_OK ||
-      bbc_render(scene, accel, &ro, image, NULL) != BBC_OK) {
-    bbc_image_free(image);
-    image = NULL;
+  int ok = 1;
+  for (int k = 0; k < count; k++) {
+    bbc_render_options ro;
+    memset(&ro, 0, sizeof ro);
+    ro.method = BBC_METHOD_ENUMERATE;
+    ro.cache = cache;
+    ro.spp = spp;
+    ro.seed = 5 + (uint64_t)k;
+    ro.components = BBC_COMPONENT_CAUSTICS;
+    images[k] = NULL;
+    if (bbc_image_create(&images[k], 40, 30) != BBC_OK ||
+        bbc_render(scene, accel, &ro, images[k], NULL) != BBC_OK)
+      ok = 0;
   }
   bbc_cache_close(cache);
   free(bytes);
+  return ok;
+}
+
+/* The caustic image of a cache of the scene's point, spot and sun lights (enumeration, 2
+ * spp, seed 5). */
+static bbc_image *cache_and_render(const bbc_scene *scene, const bbc_accel *accel,
+                                   uint32_t *tuples) {
+  bbc_image *image = NULL;
+  if (!cache_and_render_seeds(scene, accel, 0, 2, 1, &image, tuples)) {
+    bbc_image_free(image);
+    return NULL;
+  }
   return image;
 }
 
@@ -398,3 +413,104 @@ TEST(several_lights_in_one_cache) {
   bbc_accel_free(accel);
   bbc_scene_free(scene);
 }
+
+/* A sun, a spot and two area lights (the two emissive triangles of the square lamp, each
+ * a light of the cache) in one cache: its tuples are the union of the single-light
+ * caches' and its caustic image the sum of the four single-light images. The lights are
+ * set on the loaded area-light flat mirror's scene in memory; a single area light is the
+ * scene with only that emitter. Area lights are estimated from random emitter points,
+ * whose streams follow the tuple ids, so the images agree in expectation only: the sums
+ * over each quarter of the image and over the whole are compared, by their means over
+ * SEEDS seeds and the standard errors of those means. Dropping either area light from
+ * the sum must fail. */
+#define SEEDS 12
+TEST(sun_spot_and_two_area_lights_in_one_cache) {
+  bbc_scene *scene = NULL;
+  REQUIRE(bbc_scene_load(&scene, TEST_SCENE("flat-mirror-area.gltf"), NULL) == BBC_OK);
+  REQUIRE(scene->emitter_count == 2);
+  bbc_accel *accel = NULL;
+  REQUIRE(bbc_accel_create(&accel, scene, NULL, NULL) == BBC_OK);
+  bbc_point_light lights[2];
+  memset(lights, 0, sizeof lights);
+  lights[0].model.kind = BBC_LIGHT_DIRECTIONAL;
+  lights[0].model.direction = v3_normalize(v3(-1, -1.5, 0.2));
+  lights[1].model.kind = BBC_LIGHT_SPOT;
+  lights[1].position = v3(1.2, 1.0, 0.5);
+  lights[1].model.direction = v3_normalize(v3(-1.2, -0.6, -0.5));
+  lights[1].model.cos_outer = cos(0.6);
+  lights[1].model.cone_scale = 1.0 / (cos(0.3) - cos(0.6));
+  const float power[2][3] = {{2, 2, 2}, {8, 4, 2}};
+  for (int i = 0; i < 2; i++) memcpy(lights[i].intensity, power[i], sizeof power[i]);
+  bbc_point_light *own = scene->point_lights;
+  const uint32_t own_count = scene->point_light_count;
+  uint32_t *own_emitters = scene->emitters;
+  double *own_cdf = scene->emitter_cdf;
+  double one = 1.0;
+
+  /* sums[j][k][q]: image j (0 all lights, 1..4 one light each), seed k, region q (the
+   * four quarters, then the whole image). */
+  static double sums[5][SEEDS][5];
+  uint32_t tuples[5] = {0};
+  for (int j = 0; j < 5; j++) {
+    const int i = j - 1; /* the single light, when j > 0 */
+    scene->point_lights = j == 0 ? lights : i < 2 ? &lights[i] : NULL;
+    scene->point_light_count = j == 0 ? 2 : i < 2 ? 1 : 0;
+    scene->emitters = j == 0 ? own_emitters : i < 2 ? NULL : &own_emitters[i - 2];
+    scene->emitter_count = j == 0 ? 2 : i < 2 ? 0 : 1;
+    scene->emitter_cdf = j == 0 ? own_cdf : i < 2 ? NULL : &one;
+    bbc_image *images[SEEDS] = {NULL};
+    int ok = cache_and_render_seeds(scene, accel, j == 0 || i >= 2, 8, SEEDS, images, &tuples[j]);
+    for (int k = 0; k < SEEDS; k++) {
+      for (int q = 0; q < 5; q++) sums[j][k][q] = 0;
+      for (uint32_t y = 0; ok && y < 30; y++)
+        for (uint32_t x = 0; x < 40; x++) {
+          const float *p = images[k]->rgb + 3 * ((size_t)y * 40 + x);
+          double v = (double)p[0] + p[1] + p[2];
+          sums[j][k][(y >= 15) * 2 + (x >= 20)] += v;
+          sums[j][k][4] += v;
+        }
+      bbc_image_free(images[k]);
+    }
+    REQUIRE(ok);
+    CHECK(tuples[j] > 0);
+  }
+  scene->point_lights = own;
+  scene->point_light_count = own_count;
+  scene->emitters = own_emitters;
+  scene->emitter_count = 2;
+  scene->emitter_cdf = own_cdf;
+  CHECK_INT(tuples[0], tuples[1] + tuples[2] + tuples[3] + tuples[4]);
+
+  /* z of (all - the sum of the parts but `drop`, 0 for none) in region q. */
+  double worst = 0, dropped[2] = {1e30, 1e30};
+  for (int drop = 0; drop <= 4; drop += (drop == 0 ? 3 : 1)) {
+    for (int q = 0; q < 5; q++) {
+      double diff = 0, var = 0;
+      for (int j = 0; j < 5; j++) {
+        if (j == drop && j > 0) continue;
+        double mean = 0, m2 = 0;
+        for (int k = 0; k < SEEDS; k++) mean += sums[j][k][q] / SEEDS;
+        for (int k = 0; k < SEEDS; k++) m2 += (sums[j][k][q] - mean) * (sums[j][k][q] - mean);
+        diff += j == 0 ? mean : -mean;
+        var += m2 / (SEEDS - 1) / SEEDS;
+      }
+      double z = fabs(diff) / sqrt(var > 0 ? var : 1e-300);
+      if (drop == 0) worst = fmax(worst, z);
+      if (drop > 0 && q == 4) dropped[drop - 3] = z;
+    }
+  }
+  double total[5] = {0};
+  for (int j = 0; j < 5; j++)
+    for (int k = 0; k < SEEDS; k++) total[j] += sums[j][k][4] / SEEDS;
+  fprintf(stderr,
+          "%u tuples; image sums: all %.4g, sun %.4g, spot %.4g, area lights %.4g %.4g; worst |z| "
+          "%.2f; dropping area light 1 / 2: |z| %.1f / %.1f\n",
+          tuples[0], total[0], total[1], total[2], total[3], total[4], worst, dropped[0],
+          dropped[1]);
+  for (int j = 1; j < 5; j++) CHECK(total[j] > 0); /* every light has a caustic */
+  CHECK(worst < 5);
+  CHECK(dropped[0] > 10 && dropped[1] > 10); /* the controls */
+  bbc_accel_free(accel);
+  bbc_scene_free(scene);
+}
+#undef SEEDS
