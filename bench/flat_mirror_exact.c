@@ -222,7 +222,8 @@ static double sun_pixel(const sun_geometry *s, double xa, double xb, double za, 
   double l1 = sqrt(b1[0] * b1[0] + b1[1] * b1[1]);
   if (l1 < 1e-9) b1[0] = 1, b1[1] = 0, l1 = 1;
   for (int k = 0; k < 3; k++) b1[k] /= l1;
-  double b2[3] = {a[1] * b1[2] - a[2] * b1[1], a[2] * b1[0] - a[0] * b1[2], a[0] * b1[1] - a[1] * b1[0]};
+  double b2[3] = {a[1] * b1[2] - a[2] * b1[1], a[2] * b1[0] - a[0] * b1[2],
+                  a[0] * b1[1] - a[1] * b1[0]};
   const int delta = !(s->half > 0);
   const double one_minus_cos = delta ? 0 : 2 * sin(0.5 * s->half) * sin(0.5 * s->half);
   const double radiance = delta ? 0 : s->e / (PI * sin(s->half) * sin(s->half));
@@ -402,9 +403,15 @@ int main(int argc, char **argv) {
     /* The sun must shine on the mirror's front from above, and the camera see the floor
      * unhidden by the mirror (it stands at x = 0, the floor at x >= 0). */
     const bbc_point_light *l = &scene->point_lights[0];
-    sun_geometry sg = {g.floor_x1, g.z0, g.z1, my1, mz0, mz1,
+    sun_geometry sg = {g.floor_x1,
+                       g.z0,
+                       g.z1,
+                       my1,
+                       mz0,
+                       mz1,
                        {-l->model.direction.x, -l->model.direction.y, -l->model.direction.z},
-                       0.5 * l->model.angular_diameter, 1.0};
+                       0.5 * l->model.angular_diameter,
+                       1.0};
     double half = sg.half;
     if (!(sg.axis[0] * cos(half) - sin(half) > 0 && sg.axis[1] * cos(half) - sin(half) > 0))
       return fail("the sun's whole disk must be in front of the mirror and above the floor");
@@ -420,22 +427,33 @@ int main(int argc, char **argv) {
         double xa, za, xb, zb;
         floor_point(cam, sw, sh, x, y, &xa, &za);
         floor_point(cam, sw, sh, x + 1.0, y + 1.0, &xb, &zb);
-        if (xa > xb) { double t = xa; xa = xb; xb = t; }
-        if (za > zb) { double t = za; za = zb; zb = t; }
+        if (xa > xb) {
+          double t = xa;
+          xa = xb;
+          xb = t;
+        }
+        if (za > zb) {
+          double t = za;
+          za = zb;
+          zb = t;
+        }
         double v = sun_pixel(&sg, xa, xb, za, zb, 16, gx16, gw16, 64);
         double v2 = sg.half > 0 ? sun_pixel(&sg, xa, xb, za, zb, 32, gx32, gw32, 128) : v;
         worst = fmax(worst, fabs(v - v2));
         largest = fmax(largest, v2);
-        for (int c = 0; c < 3; c++) image->rgb[3 * ((size_t)y * sw + x) + c] = (float)(v2 * g.scale[c]);
+        for (int c = 0; c < 3; c++)
+          image->rgb[3 * ((size_t)y * sw + x) + c] = (float)(v2 * g.scale[c]);
       }
     }
     if (!(largest > 0)) return fail("the sun's caustic misses the floor");
     if (worst > 1e-3 * largest) {
-      fprintf(stderr, "flat_mirror_exact: the cone quadrature differs by %.2g of the largest value\n",
+      fprintf(stderr,
+              "flat_mirror_exact: the cone quadrature differs by %.2g of the largest value\n",
               worst / largest);
       return fail("the quadrature over the sun's cone has not converged");
     }
-    if (bbc_image_write_exr(image, out, NULL, NULL) != BBC_OK) return fail("cannot write the image");
+    if (bbc_image_write_exr(image, out, NULL, NULL) != BBC_OK)
+      return fail("cannot write the image");
     fprintf(stderr,
             "flat_mirror_exact: sun's caustic (box filter), angular diameter %g deg, %ux%u, "
             "cone quadrature 16x64 vs 32x128 nodes: %.2g of the largest value\n",

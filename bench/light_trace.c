@@ -364,7 +364,8 @@ int main(int argc, char **argv) {
       sun_one_minus_cos = 2 * sin(0.5 * sun_half) * sin(0.5 * sun_half);
       sun_omega = 2 * PI * sun_one_minus_cos;
       sun_scale = sun_half > 0 ? 1 / (PI * sin(sun_half) * sin(sun_half)) : 0;
-      sun_b1 = unit(cross(fabs(sun_axis.x) > 0.5 ? (bbc_vec3){0, 1, 0} : (bbc_vec3){1, 0, 0}, sun_axis));
+      sun_b1 =
+          unit(cross(fabs(sun_axis.x) > 0.5 ? (bbc_vec3){0, 1, 0} : (bbc_vec3){1, 0, 0}, sun_axis));
       sun_b2 = cross(sun_axis, sun_b1);
       sun_centre = add(centre, scale(sun_axis, sun_distance));
       /* A ray of the cone that meets the casters' sphere crosses the disk's plane within

@@ -120,11 +120,13 @@ static int usage_error(const char *fmt, ...) {
   fprintf(stderr, TOOL ": ");
   vfprintf(stderr, fmt, ap);
   va_end(ap);
-  fprintf(stderr, "\nusage: " TOOL
-                  " KIND -o OUT.gltf [--size N] [--width W] [--height H]"
-                  " [--area-light SIDE | --sun E [--sun-angle DEG] | --spot OUTER] [--orbit N] [--checker N]"
-                  " [--roughness R] [--metallic M] [--glb]\n"
-                  "Try '" TOOL " --help' for the kinds and options.\n");
+  fprintf(
+      stderr,
+      "\nusage: " TOOL
+      " KIND -o OUT.gltf [--size N] [--width W] [--height H]"
+      " [--area-light SIDE | --sun E [--sun-angle DEG] | --spot OUTER] [--orbit N] [--checker N]"
+      " [--roughness R] [--metallic M] [--glb]\n"
+      "Try '" TOOL " --help' for the kinds and options.\n");
   return 2;
 }
 
@@ -191,8 +193,9 @@ static int parse_args(int argc, char **argv, options *o) {
                 strcmp(name, "--size") == 0 || strcmp(name, "--width") == 0 ||
                 strcmp(name, "--height") == 0 || strcmp(name, "--area-light") == 0 ||
                 strcmp(name, "--sun") == 0 || strcmp(name, "--spot") == 0 ||
-                strcmp(name, "--sun-angle") == 0 || strcmp(name, "--orbit") == 0 || strcmp(name, "--checker") == 0 ||
-                strcmp(name, "--roughness") == 0 || strcmp(name, "--metallic") == 0;
+                strcmp(name, "--sun-angle") == 0 || strcmp(name, "--orbit") == 0 ||
+                strcmp(name, "--checker") == 0 || strcmp(name, "--roughness") == 0 ||
+                strcmp(name, "--metallic") == 0;
     if (!known) return usage_error("unknown option '%s'", arg);
     if (!value) {
       if (i + 1 >= argc) return usage_error("option %s needs a value", name);

@@ -129,7 +129,8 @@ static double *expected_image(const fixture *f, const sun_disk *s, uint32_t w, u
             usable = 0;
             break;
           }
-          double e = (direct ? irradiance(s, p, 0, m) : 0) + (mirrored ? irradiance(s, p, 1, m) : 0);
+          double e =
+              (direct ? irradiance(s, p, 0, m) : 0) + (mirrored ? irradiance(s, p, 1, m) : 0);
           sum += s->l.albedo / PI * e / (n * n);
         }
       out[(size_t)py * w + px] = usable ? sum : -1;
@@ -278,7 +279,8 @@ TEST(disk_sun_split_with_the_cache) {
 TEST(disk_sun_zero_diameter_is_the_delta_sun) {
   fixture f, g;
   REQUIRE(fixture_setup(&f, TEST_SCENE("flat-mirror-sun.gltf"), BBC_CHAIN_BIT(BBC_CHAIN_R), 6, 0));
-  REQUIRE(fixture_setup(&g, TEST_SCENE("flat-mirror-sun-zero.gltf"), BBC_CHAIN_BIT(BBC_CHAIN_R), 6, 0));
+  REQUIRE(
+      fixture_setup(&g, TEST_SCENE("flat-mirror-sun-zero.gltf"), BBC_CHAIN_BIT(BBC_CHAIN_R), 6, 0));
   CHECK(g.scene->point_lights[0].model.angular_diameter == 0);
   CHECK(memcmp(&f.scene->point_lights[0].model, &g.scene->point_lights[0].model,
                sizeof(bbc_light_model)) == 0);

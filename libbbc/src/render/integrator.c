@@ -80,13 +80,14 @@ static void sample_n(const path_sampler *ps, int depth, int which, int n, double
 }
 
 /* The 2D sample for the disk of punctual light `light` at vertex `depth`: slots far above
- * the vertices' (1 + depth x VERTEX_SLOTS + which, with depth < 1024), so that scenes
- * without a disk sun keep every sample they had. Lights beyond SUN_SLOTS_PER_VERTEX share
- * slots: correlated, still unbiased. */
+ * the vertices' (1 + depth x VERTEX_SLOTS + which stays below 2^30 for any depth under
+ * 10^8), so that scenes without a disk sun keep every sample they had. Lights beyond
+ * SUN_SLOTS_PER_VERTEX share slots: correlated, still unbiased. */
 #define SUN_SLOT_BASE 0x40000000u
 #define SUN_SLOTS_PER_VERTEX 64u
 static void sample_sun(const path_sampler *ps, int depth, uint32_t light, double out[2]) {
-  uint32_t slot = SUN_SLOT_BASE + (uint32_t)depth * SUN_SLOTS_PER_VERTEX + light % SUN_SLOTS_PER_VERTEX;
+  uint32_t slot =
+      SUN_SLOT_BASE + (uint32_t)depth * SUN_SLOTS_PER_VERTEX + light % SUN_SLOTS_PER_VERTEX;
   if (ps->sobol) {
     bbc_sobol_get(&ps->points, slot, 2, out);
     return;
@@ -366,7 +367,8 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       /* Escaped: a sun's disk counts after a camera or specular vertex (after a diffuse
        * one, next-event estimation has counted it). */
       if (count_emission && (ctx->components & lit_component) && ctx->disk_suns)
-        radiance = v3_add(radiance, v3_mul(throughput, escaped_sun_radiance(ctx, dir, diffuse_triangle, &run)));
+        radiance = v3_add(
+            radiance, v3_mul(throughput, escaped_sun_radiance(ctx, dir, diffuse_triangle, &run)));
       break;
     }
     surface s = surface_at(scene, &hit);
