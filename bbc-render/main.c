@@ -571,6 +571,16 @@ int main(int argc, char **argv) {
       goto done;
     }
     options.cache = cache;
+    /* The cache bounds a delta sun: its caustics keep the sun's centre direction, while
+     * the path tracer lights the rest with the disk (docs/lights.md). Said once. */
+    for (uint32_t i = 0; i < scene->point_light_count; i++) {
+      const bbc_light_model *m = &scene->point_lights[i].model;
+      if (m->kind == BBC_LIGHT_DIRECTIONAL && m->angular_diameter > 0)
+        fprintf(stderr,
+                "bbc-render: note: cached caustics of sun %u use its centre direction (its "
+                "angular diameter of %g degrees is ignored there)\n",
+                i, m->angular_diameter * (180.0 / 3.14159265358979323846));
+    }
   }
   if (bbc_accel_create(&accel, scene, cli_print_message, NULL) != BBC_OK) {
     fprintf(stderr, "bbc-render: %s: cannot build the ray-tracing structure\n", scene_path);

@@ -26,9 +26,17 @@
  * where the irradiance (and so every estimator that samples points of the pixel) has an
  * integrable singularity.
  *
+ * From a sun (a directional light of irradiance E travelling along D) N photons start
+ * uniformly on a disk perpendicular to D, beyond every vertex of the scene against D,
+ * whose radius covers the casters' bounding sphere from every direction of the sun's cone.
+ * A delta sun (angular diameter 0) sends them along D, each with flux E A / N (A the
+ * disk's area); a sun of angular diameter delta sends each along a direction w drawn
+ * uniformly over the cone of half-angle h = delta / 2 around -D (solid angle Omega), with
+ * flux L cos(w, -D) A Omega / N, L = E / (pi sin^2 h) the disk's radiance.
+ *
  * Deterministic: photons are split into batches with their own random streams, summed
  * into 64 lanes in a fixed order, whatever the thread count. Untextured Lambertian
- * receivers; point and spot lights in air and area lights (a sun is refused). */
+ * receivers; point, spot and directional lights in air and area lights. */
 #define _POSIX_C_SOURCE 200809L /* strtok_r */
 #include <math.h>
 #include <omp.h>
@@ -300,6 +308,14 @@ int main(int argc, char **argv) {
   }
   bbc_vec3 centre = scale(add(lo, hi), 0.5);
   double radius = 0.5 * sqrt(dot(sub(hi, lo), sub(hi, lo))) * (1 + 1e-6);
+  /* A sun's photons start beyond the farthest vertex of the scene from the casters'
+   * centre, so that nothing lies between their disk and the scene. */
+  double farthest = 0;
+  for (uint32_t v = 0; v < scene->vertex_count; v++) {
+    bbc_vec3 d = sub(load(scene->positions + 3 * (size_t)v), centre);
+    farthest = fmax(farthest, sqrt(dot(d, d)));
+  }
+  const double sun_distance = 2 * farthest + 1;
 
   const bbc_camera *camera = &scene->camera;
   uint32_t height = (uint32_t)(width / camera->aspect + 0.5);
@@ -314,9 +330,8 @@ int main(int argc, char **argv) {
   if (threads > 0) omp_set_num_threads((int)threads);
   for (uint32_t l = 0; l < scene->point_light_count; l++) {
     const bbc_point_light *light = &scene->point_lights[l];
-    if ((light->model.kind != BBC_LIGHT_POINT && light->model.kind != BBC_LIGHT_SPOT) ||
-        light->medium != 0) {
-      fprintf(stderr, "light_trace: light %u is not a point or spot light in air\n", l);
+    if (light->medium != 0) {
+      fprintf(stderr, "light_trace: light %u is not in air\n", l);
       return 1;
     }
   }
@@ -336,8 +351,27 @@ int main(int argc, char **argv) {
       front = unit(model.emitter_normal);
     }
     /* A point light's cone is the same for every photon; an emitter's depends on y. */
-    const cone fixed = area ? (cone){{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0, 0}
-                            : cone_toward(light->position, centre, radius);
+    const int sun = !area && light->model.kind == BBC_LIGHT_DIRECTIONAL;
+    const cone fixed = area || sun ? (cone){{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0, 0}
+                                   : cone_toward(light->position, centre, radius);
+    /* A sun: its disk of starting points (centre, axes, radius) and its cone of
+     * directions (half-angle, 1 - cos of it, solid angle, radiance per unit irradiance). */
+    bbc_vec3 sun_axis = {0, 0, 0}, sun_b1 = {0, 0, 0}, sun_b2 = {0, 0, 0}, sun_centre = {0, 0, 0};
+    double sun_radius = 0, sun_half = 0, sun_one_minus_cos = 0, sun_omega = 0, sun_scale = 0;
+    if (sun) {
+      sun_axis = scale(unit(light->model.direction), -1); /* toward the sun */
+      sun_half = 0.5 * light->model.angular_diameter;
+      sun_one_minus_cos = 2 * sin(0.5 * sun_half) * sin(0.5 * sun_half);
+      sun_omega = 2 * PI * sun_one_minus_cos;
+      sun_scale = sun_half > 0 ? 1 / (PI * sin(sun_half) * sin(sun_half)) : 0;
+      sun_b1 =
+          unit(cross(fabs(sun_axis.x) > 0.5 ? (bbc_vec3){0, 1, 0} : (bbc_vec3){1, 0, 0}, sun_axis));
+      sun_b2 = cross(sun_axis, sun_b1);
+      sun_centre = add(centre, scale(sun_axis, sun_distance));
+      /* A ray of the cone that meets the casters' sphere crosses the disk's plane within
+       * (radius + distance tan h) / cos h of its centre. */
+      sun_radius = (radius + sun_distance * tan(sun_half)) / cos(sun_half) * (1 + 1e-6);
+    }
 #pragma omp parallel for schedule(dynamic, 1)
     for (int lane = 0; lane < LANES; lane++) {
       double *image = lanes + (size_t)lane * pixels * 3;
@@ -347,6 +381,22 @@ int main(int argc, char **argv) {
         uint64_t count = b + 1 < batches ? BATCH : per_light - b * BATCH;
         for (uint64_t i = 0; i < count; i++) {
           bbc_vec3 origin;
+          if (sun) {
+            /* A point uniform on the disk, then a direction uniform over the cone. */
+            double r = sun_radius * sqrt(uniform(&state)), phi = 2 * PI * uniform(&state);
+            origin = add(sun_centre, add(scale(sun_b1, r * cos(phi)), scale(sun_b2, r * sin(phi))));
+            double one_minus = uniform(&state) * sun_one_minus_cos, psi = 2 * PI * uniform(&state);
+            double cz = 1 - one_minus, sz = sqrt(fmax(0, one_minus * (2 - one_minus)));
+            bbc_vec3 d = scale(add(scale(sun_axis, cz),
+                                   add(scale(sun_b1, sz * cos(psi)), scale(sun_b2, sz * sin(psi)))),
+                               -1);
+            double flux[3], disk = PI * sun_radius * sun_radius;
+            for (int k = 0; k < 3; k++)
+              flux[k] = light->intensity[k] * disk *
+                        (sun_half > 0 ? sun_scale * cz * sun_omega : 1.0) / (double)per_light;
+            follow(&tr, origin, UINT32_MAX, d, flux, 0, 0, image);
+            continue;
+          }
           if (area) {
             /* A point uniform by area: q0 + a (q1 - q0) + a b (q2 - q1), a = sqrt(r1). */
             double a = sqrt(uniform(&state)), bb = uniform(&state);

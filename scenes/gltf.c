@@ -408,6 +408,11 @@ static void build_gltf(const scene *s, const char *uri, bytes *json, bytes *bin)
       bytes_double(json, o->spot);
       bytes_printf(json, "}");
     }
+    if (o->sun > 0 && o->sun_angle > 0) {
+      bytes_printf(json, ",\"extras\":{\"bbc\":{\"angular_diameter\":");
+      bytes_double(json, o->sun_angle);
+      bytes_printf(json, "}}");
+    }
     bytes_printf(json, "}]}}");
   }
 

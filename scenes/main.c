@@ -87,6 +87,8 @@ static void print_help(FILE *f) {
           "  --sun E               instead of the point light, a directional light of\n"
           "                        irradiance E (W/m^2) travelling from the light's\n"
           "                        position toward the origin\n"
+          "  --sun-angle DEG       with --sun, the sun's angular diameter in degrees\n"
+          "                        (extras.bbc.angular_diameter; 0.53 for the real sun)\n"
           "  --spot OUTER          instead of the point light, a spot of the same intensity\n"
           "                        aimed at the origin, cone angles OUTER/2 and OUTER (rad)\n"
           "\n"
@@ -118,11 +120,13 @@ static int usage_error(const char *fmt, ...) {
   fprintf(stderr, TOOL ": ");
   vfprintf(stderr, fmt, ap);
   va_end(ap);
-  fprintf(stderr, "\nusage: " TOOL
-                  " KIND -o OUT.gltf [--size N] [--width W] [--height H]"
-                  " [--area-light SIDE | --sun E | --spot OUTER] [--orbit N] [--checker N]"
-                  " [--roughness R] [--metallic M] [--glb]\n"
-                  "Try '" TOOL " --help' for the kinds and options.\n");
+  fprintf(
+      stderr,
+      "\nusage: " TOOL
+      " KIND -o OUT.gltf [--size N] [--width W] [--height H]"
+      " [--area-light SIDE | --sun E [--sun-angle DEG] | --spot OUTER] [--orbit N] [--checker N]"
+      " [--roughness R] [--metallic M] [--glb]\n"
+      "Try '" TOOL " --help' for the kinds and options.\n");
   return 2;
 }
 
@@ -189,8 +193,9 @@ static int parse_args(int argc, char **argv, options *o) {
                 strcmp(name, "--size") == 0 || strcmp(name, "--width") == 0 ||
                 strcmp(name, "--height") == 0 || strcmp(name, "--area-light") == 0 ||
                 strcmp(name, "--sun") == 0 || strcmp(name, "--spot") == 0 ||
-                strcmp(name, "--orbit") == 0 || strcmp(name, "--checker") == 0 ||
-                strcmp(name, "--roughness") == 0 || strcmp(name, "--metallic") == 0;
+                strcmp(name, "--sun-angle") == 0 || strcmp(name, "--orbit") == 0 ||
+                strcmp(name, "--checker") == 0 || strcmp(name, "--roughness") == 0 ||
+                strcmp(name, "--metallic") == 0;
     if (!known) return usage_error("unknown option '%s'", arg);
     if (!value) {
       if (i + 1 >= argc) return usage_error("option %s needs a value", name);
@@ -211,6 +216,9 @@ static int parse_args(int argc, char **argv, options *o) {
     } else if (strcmp(name, "--sun") == 0) {
       if (parse_length(value, 1e9, &o->sun))
         return usage_error("--sun wants an irradiance above 0, not '%s'", value);
+    } else if (strcmp(name, "--sun-angle") == 0) {
+      if (parse_length(value, 20, &o->sun_angle))
+        return usage_error("--sun-angle wants degrees above 0 and at most 20, not '%s'", value);
     } else if (strcmp(name, "--spot") == 0) {
       if (parse_length(value, 1.5707963267948966, &o->spot))
         return usage_error("--spot wants an outer cone angle in (0, pi/2], not '%s'", value);
@@ -239,6 +247,7 @@ static int parse_args(int argc, char **argv, options *o) {
   if (o->kind == KIND_COUNT) return usage_error("no scene kind given");
   if ((o->area_side > 0) + (o->sun > 0) + (o->spot > 0) > 1)
     return usage_error("--area-light, --sun and --spot each replace the point light: give one");
+  if (o->sun_angle > 0 && !(o->sun > 0)) return usage_error("--sun-angle needs --sun");
   if (!o->output) return usage_error("no output file given (-o OUT.gltf)");
   /* Loaders pick the parser by extension, so a name that says the other format would
    * make a file nothing can read back. */

@@ -110,6 +110,7 @@ typedef struct options {
   unsigned long width, height;
   double area_side;           /* 0: a point light */
   double sun;                 /* > 0: a directional light of this irradiance (W/m^2) instead */
+  double sun_angle;           /* with sun: its angular diameter in degrees (0: a delta sun) */
   double spot;                /* > 0: a spot of this outer cone angle (radians) instead */
   unsigned long orbit;        /* 0, or the keyframes of the camera's orbit animation */
   unsigned long checker;      /* 0, or the receiver's base colour texture: a checker of N x N */

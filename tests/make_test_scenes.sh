@@ -45,6 +45,15 @@ scene flat-mirror --size 8 --roughness 0.3 --metallic 0.5 --area-light 1 \
 # aimed at the mirror's foot whose cone edge crosses the caustic.
 scene flat-mirror --size 8 --sun 3 -o "$out/flat-mirror-sun.gltf"
 scene flat-mirror --size 8 --spot 0.5 -o "$out/flat-mirror-spot.gltf"
+# The same sun with an angular diameter of 16 degrees (a disk the path tracer can hit),
+# and with an angular diameter of 0 written out (which must change nothing).
+scene flat-mirror --size 8 --sun 3 --sun-angle 16 -o "$out/flat-mirror-disk-sun.gltf"
+sed 's/"type":"directional",/"type":"directional","extras":{"bbc":{"angular_diameter":0}},/' \
+  "$out/flat-mirror-sun.gltf" > "$out/flat-mirror-sun-zero.gltf"
+grep -q '"angular_diameter":0' "$out/flat-mirror-sun-zero.gltf" || {
+  echo "make_test_scenes.sh: cannot write flat-mirror-sun-zero.gltf" >&2
+  exit 1
+}
 scene wavy-mirror --size 200 --sun 2 -o "$out/wavy-mirror-sun.gltf"
 scene wavy-mirror --size 200 --spot 0.6 -o "$out/wavy-mirror-spot.gltf"
 # Two cameras, the first animated over five frames (--camera, --all-cameras, --frames).

@@ -132,7 +132,26 @@ typedef struct bbc_light_model {
    * for uniform r1, r2 is uniform by area). */
   bbc_vec3 emitter[3];
   bbc_vec3 emitter_normal;
+  /* Directional only: the sun's angular diameter delta in radians, from the glTF light's
+   * extras.bbc.angular_diameter (degrees, 0 to BBC_SUN_MAX_ANGULAR_DIAMETER). 0, the
+   * default, is a delta sun: parallel light along `direction`. With delta > 0 the sun is
+   * a disk at infinity: every direction within delta / 2 of -direction brings the same
+   * radiance L = E / (pi sin^2(delta / 2)), E the light's intensity, so that E stays the
+   * irradiance on a surface facing the sun (bbc_light_sun_radiance_scale). The cache's
+   * bounds and the caustic estimator use the centre direction alone; the path tracer
+   * samples and hits the disk (docs/lights.md). */
+  double angular_diameter;
 } bbc_light_model;
+
+/* The largest angular diameter the loader accepts for a sun, in degrees (the real sun's
+ * is 0.53). A light source wider than this is no sun: make it an emissive mesh. */
+#define BBC_SUN_MAX_ANGULAR_DIAMETER 20.0
+
+/* L / E for a sun of angular diameter `delta` (radians, > 0): the radiance of its disk
+ * per unit of irradiance on a surface facing it, 1 / (pi sin^2(delta / 2)); the integral
+ * of cos(theta) over the cone of half-angle delta / 2 is pi sin^2(delta / 2). 0 for
+ * delta <= 0 (a delta sun has no radiance). */
+BBC_API double bbc_light_sun_radiance_scale(double delta);
 
 /* A light of KHR_lights_punctual (the array keeps the historical name point_lights).
  * Point and spot lights: intensity is the radiant intensity (W/sr) per RGB channel,

@@ -221,6 +221,55 @@ int bbc__caustics_area_covers(const bbc__caustics *c, uint32_t receiver, uint32_
   return 1;
 }
 
+int bbc__caustics_sun_covers(const bbc__caustics *c, uint32_t light, uint32_t receiver, int count,
+                             const uint32_t triangle[2], const int letter[2], const bbc_vec3 x[2],
+                             const bbc_vec3 n[2], bbc_vec3 w) {
+  if (!c || count < 1 || count > 2) return 0;
+  const bbc_scene *scene = c->scene;
+  if (light >= scene->point_light_count) return 0;
+  const bbc_light_model *model = &scene->point_lights[light].model;
+  if (model->kind != BBC_LIGHT_DIRECTIONAL) return 0;
+  /* Light order: vertex k of the chain is the camera path's vertex count - 1 - k. */
+  uint32_t tri[2];
+  int let[2];
+  bbc_vec3 pos[2], nrm[2];
+  for (int k = 0; k < count; k++) {
+    const int i = count - 1 - k;
+    if (letter[i] < 0) return 0;
+    tri[k] = triangle[i], let[k] = letter[i], pos[k] = x[i], nrm[k] = n[i];
+  }
+  const bbc_chain chain = count == 1 ? (bbc_chain)let[0] : (bbc_chain)(2 + (let[0] << 1) + let[1]);
+  if (!(c->chains & c->cache_chains & (1u << chain))) return 0;
+  if (scene->meshes[scene->triangle_mesh[receiver]].role != BBC_ROLE_RECEIVER) return 0;
+  uint32_t medium = scene->point_lights[light].medium;
+  for (int k = 0; k < count; k++) {
+    const bbc_mesh *mesh = &scene->meshes[scene->triangle_mesh[tri[k]]];
+    const bbc_material *m = &scene->materials[mesh->material];
+    if (mesh->role != BBC_ROLE_CASTER ||
+        m->type != (let[k] ? BBC_MATERIAL_DIELECTRIC : BBC_MATERIAL_MIRROR))
+      return 0;
+    if (!let[k]) continue;
+    /* The estimator's rules for a refraction (solution_value): the side the bounds assume
+     * the light comes from (the sun's centre direction for T1, T1's centroid for T2) must
+     * be the side the shading normal says it arrives from, and the medium rule must let
+     * it through. */
+    bbc_vec3 from = k == 0 ? v3_add(pos[0], w) : pos[0];
+    bbc_vec3 source = bbc__light_source(v3(0, 0, 0), model, pos[0]);
+    if (k == 1) {
+      const uint32_t *idx = scene->indices + 3 * (size_t)tri[0];
+      source = v3_scale(v3_add(v3_load(scene->positions + 3 * (size_t)idx[0]),
+                               v3_add(v3_load(scene->positions + 3 * (size_t)idx[1]),
+                                      v3_load(scene->positions + 3 * (size_t)idx[2]))),
+                        1.0 / 3.0);
+    }
+    double dn = v3_dot(v3_normalize(v3_sub(pos[k], from)), nrm[k]);
+    if ((dn < 0) != in_front_of(scene, tri[k], source)) return 0;
+    if (!bbc__media_refract(scene, medium, tri[k], bbc__media_side(scene, tri[k], from), &medium))
+      return 0;
+  }
+  return 1;
+}
+
 bbc_vec3 bbc__caustics_solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
                                       const bbc_path_geometry *g, const bbc_solution *s, bbc_vec3 p,
                                       bbc_vec3 ng) {

@@ -31,6 +31,7 @@ typedef struct bbc__caustics {
   bbc_solver_method solver;   /* double scattering: deterministic or stochastic Newton */
   uint32_t newton_max_trials; /* cap on K (newton-stoch); 0 = BBC_NEWTON_MAX_TRIALS_DEFAULT */
   int area_lights;            /* the cache holds the emitters' tuples (R, T) */
+  uint32_t cache_chains;      /* BBC_CHAIN_BIT mask of the chain types the cache holds */
 } bbc__caustics;
 
 /* A glossy receiver's reflectance at the shading point: each solution's value is
@@ -105,6 +106,20 @@ bbc_vec3 bbc__caustics_tuple(const bbc__caustics *c, bbc__caustics_thread *t,
  * medium rule lets it refract. */
 int bbc__caustics_area_covers(const bbc__caustics *c, uint32_t receiver, uint32_t t1, int letter,
                               uint32_t emitter, bbc_vec3 y, bbc_vec3 x1, bbc_vec3 n1);
+
+/* The same split for a sun with an angular size (docs/lights.md): 1 when the path
+ * tracer's path from receiver triangle `receiver` through `count` (1 or 2) specular
+ * vertices that escapes toward punctual light `light`, a sun whose disk the escape
+ * direction w (unit, toward the sky) lies in, is one the estimator counts with the sun's
+ * centre direction, so that path tracing must not. The specular vertices are given in
+ * the order the camera path met them: triangle[i], letter[i] (0 a mirror reflection, 1 a
+ * refraction, -1 anything else), point x[i] and unit shading normal n[i] as loaded. 1
+ * when the chain type (in light order: the last vertex met is T1) is rendered and in the
+ * cache, every vertex lies on a caster of its letter's kind, the receiver is one, and
+ * each refraction passes the side and medium rules the estimator applies. */
+int bbc__caustics_sun_covers(const bbc__caustics *c, uint32_t light, uint32_t receiver, int count,
+                             const uint32_t triangle[2], const int letter[2], const bbc_vec3 x[2],
+                             const bbc_vec3 n[2], bbc_vec3 w);
 
 bbc_vec3 bbc__caustics_solution_value(const bbc__caustics *c, const bbc_tuple *tuple,
                                       const bbc_path_geometry *g, const bbc_solution *s, bbc_vec3 p,

@@ -10,7 +10,12 @@
  *   lights, the paths the caustic estimator counts (bbc__caustics_area_covers: one
  *   specular vertex from a receiver, docs/lights.md). From point lights such caustic paths
  *   cannot be found by path tracing at all: that is the caustic estimator's job, and
- *   shade_diffuse_vertex is where it plugs in. */
+ *   shade_diffuse_vertex is where it plugs in.
+ * A sun with an angular size (docs/lights.md) is an area light at infinity: next-event
+ * estimation samples its disk, and a path that escapes the scene right after a camera or
+ * specular vertex within the disk picks up its radiance, the same split as for emissive
+ * triangles; with a cache, escapes the estimator counts with the sun's centre direction
+ * are skipped (bbc__caustics_sun_covers). A delta sun (angular diameter 0) cannot be hit. */
 #include "bbc/bsdf.h"
 #include "bbc/render.h"
 
@@ -36,6 +41,7 @@ typedef struct render_ctx {
   int no_fresnel;
   uint32_t components;           /* BBC_COMPONENT_* to accumulate */
   const bbc__caustics *caustics; /* NULL: plain path tracing */
+  int disk_suns;                 /* some sun has an angular size */
 } render_ctx;
 
 /* The random decisions of one path. Each has a slot: the film position, then per path
@@ -71,6 +77,23 @@ static void sample_n(const path_sampler *ps, int depth, int which, int n, double
   }
   bbc_rng r = {ps->key, 2 * (uint64_t)slot};
   for (int c = 0; c < n; c++) out[c] = bbc_rng_next(&r);
+}
+
+/* The 2D sample for the disk of punctual light `light` at vertex `depth`: slots far above
+ * the vertices' (1 + depth x VERTEX_SLOTS + which stays below 2^30 for any depth under
+ * 10^8), so that scenes without a disk sun keep every sample they had. Lights beyond
+ * SUN_SLOTS_PER_VERTEX share slots: correlated, still unbiased. */
+#define SUN_SLOT_BASE 0x40000000u
+#define SUN_SLOTS_PER_VERTEX 64u
+static void sample_sun(const path_sampler *ps, int depth, uint32_t light, double out[2]) {
+  uint32_t slot =
+      SUN_SLOT_BASE + (uint32_t)depth * SUN_SLOTS_PER_VERTEX + light % SUN_SLOTS_PER_VERTEX;
+  if (ps->sobol) {
+    bbc_sobol_get(&ps->points, slot, 2, out);
+    return;
+  }
+  bbc_rng r = {ps->key, 2 * (uint64_t)slot};
+  for (int c = 0; c < 2; c++) out[c] = bbc_rng_next(&r);
 }
 
 static double sample(const path_sampler *ps, int depth, int which) {
@@ -189,7 +212,15 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
     /* A sun: irradiance E cos from the direction against its travel, unoccluded to
      * infinity; point and spot lights: I cos / r^2, a spot times its falloff. */
     const int sun = light->model.kind == BBC_LIGHT_DIRECTIONAL;
+    const int disk = sun && bbc__sun_is_disk(&light->model);
     bbc_vec3 to_light = sun ? v3_neg(light->model.direction) : v3_sub(light->position, s->p);
+    if (disk) {
+      /* A direction uniform over the disk's cone (density 1 / Omega): the irradiance
+       * estimate L cos Omega, L = E scale. */
+      double u[2];
+      sample_sun(ps, depth, i, u);
+      to_light = bbc__sun_sample(&light->model, u);
+    }
     double dist2 = v3_dot(to_light, to_light);
     double cos_s = v3_dot(s->ns, to_light);
     if (!(cos_s > 0) || v3_dot(s->ng, to_light) <= 0) continue;
@@ -202,7 +233,10 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
             : bbc_accel_occluded(ctx->accel, origin, v3_sub(light->position, origin), 0.0,
                                  1.0 - 1e-6))
       continue;
-    double g = sun ? cos_s : falloff * cos_s / dist2;
+    double g = disk ? cos_s * bbc__sun_solid_angle(&light->model) *
+                          bbc_light_sun_radiance_scale(light->model.angular_diameter)
+               : sun ? cos_s
+                     : falloff * cos_s / dist2;
     bbc_vec3 e = v3(light->intensity[0] * g, light->intensity[1] * g, light->intensity[2] * g);
     sum = v3_add(sum, bsdf->glossy ? glossy_weight(bsdf, s, wo, to_light, e) : e);
   }
@@ -265,6 +299,49 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
   return out;
 }
 
+/* The specular vertices a camera path met since its last diffuse vertex (at most the
+ * first two are kept): what the clean splits with the caustic estimator look at. */
+typedef struct specular_run {
+  int count;
+  uint32_t triangle[2];
+  int letter[2]; /* 0 mirror reflection, 1 refraction, -1 other (a Fresnel reflection) */
+  bbc_vec3 point[2], normal[2];
+} specular_run;
+
+/* Records specular vertex s (of kind `letter`) in the run; vertices after the second are
+ * counted only. */
+static void note_specular(specular_run *run, const surface *s, int letter) {
+  if (run->count < 2) {
+    run->triangle[run->count] = s->triangle;
+    run->letter[run->count] = letter;
+    run->point[run->count] = s->p;
+    run->normal[run->count] = s->ns;
+  }
+  run->count++;
+}
+
+/* The radiance of the suns' disks that a ray escaping the scene along unit dir sees, for a
+ * path whose last diffuse vertex lay on `diffuse_triangle` (UINT32_MAX: none) followed by
+ * the specular vertices `run`: every disk holding dir, but those whose light the caustic
+ * estimator counts. */
+static bbc_vec3 escaped_sun_radiance(const render_ctx *ctx, bbc_vec3 dir, uint32_t diffuse_triangle,
+                                     const specular_run *run) {
+  const bbc_scene *scene = ctx->scene;
+  bbc_vec3 sum = v3(0, 0, 0);
+  for (uint32_t i = 0; i < scene->point_light_count; i++) {
+    const bbc_point_light *light = &scene->point_lights[i];
+    if (!bbc__sun_is_disk(&light->model) || !bbc__sun_contains(&light->model, dir)) continue;
+    if (ctx->caustics && diffuse_triangle != UINT32_MAX &&
+        bbc__caustics_sun_covers(ctx->caustics, i, diffuse_triangle, run->count, run->triangle,
+                                 run->letter, run->point, run->normal, dir))
+      continue;
+    double scale = bbc_light_sun_radiance_scale(light->model.angular_diameter);
+    sum = v3_add(sum, v3(light->intensity[0] * scale, light->intensity[1] * scale,
+                         light->intensity[2] * scale));
+  }
+  return sum;
+}
+
 /* The radiance arriving at the camera along one path started in direction dir. */
 static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_vec3 origin,
                            bbc_vec3 dir, const path_sampler *ps, uint64_t *rays) {
@@ -278,12 +355,22 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
   uint32_t diffuse_triangle = UINT32_MAX, spec_triangle = 0;
   int spec_count = 0, spec_letter = -1;
   bbc_vec3 spec_point = v3(0, 0, 0), spec_normal = v3(0, 0, 0);
+  /* The same for suns with an angular size: up to two specular vertices. */
+  specular_run run;
+  run.count = 0;
   /* Light found before the first diffuse bounce is "direct", after it "indirect". */
   uint32_t lit_component = BBC_COMPONENT_DIRECT;
   for (uint32_t depth = 0; depth < ctx->max_depth; depth++) {
     bbc_hit hit;
     (*rays)++;
-    if (!bbc_accel_intersect(ctx->accel, origin, dir, 0.0, DBL_MAX, &hit)) break;
+    if (!bbc_accel_intersect(ctx->accel, origin, dir, 0.0, DBL_MAX, &hit)) {
+      /* Escaped: a sun's disk counts after a camera or specular vertex (after a diffuse
+       * one, next-event estimation has counted it). */
+      if (count_emission && (ctx->components & lit_component) && ctx->disk_suns)
+        radiance = v3_add(
+            radiance, v3_mul(throughput, escaped_sun_radiance(ctx, dir, diffuse_triangle, &run)));
+      break;
+    }
     surface s = surface_at(scene, &hit);
     const bbc_material *m = s.material;
     int front = v3_dot(dir, s.ng) < 0;
@@ -320,6 +407,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       lit_component = BBC_COMPONENT_INDIRECT;
       diffuse_triangle = s.triangle;
       spec_count = 0;
+      run.count = 0;
       double u[2];
       sample_n(ps, (int)depth, SLOT_DIRECTION, 2, u);
       count_emission = 0;
@@ -345,6 +433,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       if (spec_count++ == 0) {
         spec_triangle = s.triangle, spec_letter = 0, spec_point = s.p, spec_normal = s.ns;
       }
+      note_specular(&run, &s, 0);
       bbc_vec3 n = front ? s.ns : v3_neg(s.ns);
       bbc_vec3 ng = front ? s.ng : v3_neg(s.ng);
       dir = reflect(dir, n);
@@ -372,6 +461,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         spec_triangle = s.triangle, spec_letter = reflect_it ? -1 : 1, spec_point = s.p,
         spec_normal = s.ns;
       }
+      note_specular(&run, &s, reflect_it ? -1 : 1);
       if (reflect_it) {
         dir = reflect(dir, n);
         if (v3_dot(dir, ng) <= 0) break;
@@ -415,7 +505,10 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
                     opts.components
                         ? opts.components
                         : BBC_COMPONENT_CAUSTICS | BBC_COMPONENT_DIRECT | BBC_COMPONENT_INDIRECT,
-                    NULL};
+                    NULL,
+                    0};
+  for (uint32_t i = 0; i < scene->point_light_count; i++)
+    ctx.disk_suns |= bbc__sun_is_disk(&scene->point_lights[i].model);
   int threads = opts.threads > 0 ? opts.threads : omp_get_max_threads();
   const uint32_t width = image->width, height = image->height;
   const size_t pixels = (size_t)width * height;
@@ -451,6 +544,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
       bbc_cache_info info;
       bbc_cache_get_info(opts.cache, &info);
       caustics.area_lights = info.params.area_lights && info.scene_emitter_count > 0;
+      caustics.cache_chains = info.params.chains;
     }
     static const bbc__sampling_method methods[] = {BBC__SAMPLE_BOUND, BBC__SAMPLE_BOUND,
                                                    BBC__SAMPLE_ENUMERATE, BBC__SAMPLE_UNIFORM,

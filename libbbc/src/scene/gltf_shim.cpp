@@ -270,6 +270,13 @@ class reader {
                    no_keys);
     for (size_t i = 0; i < model_.meshes.size(); i++)
       check_extras(model_.meshes[i].extras, label("mesh", i, model_.meshes[i].name), no_keys);
+    // A sun's angular diameter is a property of the light (every node placing it shares
+    // it, as they share its cone angles), read from the KHR light's own extras, where
+    // Blender writes the light data's custom properties.
+    static const char *const sun_keys[] = {"angular_diameter", nullptr};
+    for (size_t i = 0; i < model_.lights.size(); i++)
+      check_extras(model_.lights[i].extras, label("light", i, model_.lights[i].name),
+                   model_.lights[i].type == "directional" ? sun_keys : no_keys);
     static const char *const camera_keys[] = {"width", "height", nullptr};
     for (size_t i = 0; i < model_.cameras.size(); i++)
       check_extras(model_.cameras[i].extras, label("camera", i, model_.cameras[i].name),
@@ -755,6 +762,18 @@ class reader {
         fail(BBC_ERR_GLTF, "light %d: color needs 3 numbers", light);
       }
       g.intensity = l.intensity;
+      const tinygltf::Value *light_bbc = bbc_extras(l.extras);
+      if (l.type == "directional" && light_bbc && light_bbc->Has("angular_diameter")) {
+        const tinygltf::Value &v = light_bbc->Get("angular_diameter");
+        if (v.IsNumber()) {
+          g.has_angular_diameter = 1;
+          g.angular_diameter = v.GetNumberAsDouble();
+        } else {
+          note(label("light", size_t(light), l.name) +
+               ": extras.bbc.angular_diameter is not a number and is ignored" +
+               (v.IsString() ? " (it is the string \"" + v.Get<std::string>() + "\")" : ""));
+        }
+      }
       out_.lights.push_back(g);
     }
   }

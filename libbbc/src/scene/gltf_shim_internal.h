@@ -99,6 +99,10 @@ typedef struct bbc__gltf_light {
   double intensity;   /* default 1 */
   double direction[3]; /* the node's world -Z axis (not normalised; spot and directional) */
   double inner_cone, outer_cone; /* spot.innerConeAngle, outerConeAngle (defaults 0, pi/4) */
+  /* The light's own extras.bbc.angular_diameter (degrees, as written; suns only): 1 and
+   * the number when present as a number, else 0 (a non-number is noted and ignored). */
+  int has_angular_diameter;
+  double angular_diameter;
 } bbc__gltf_light;
 
 /* One animated property of a node (glTF 2.0, section 3.11), checked: key times are

@@ -7,12 +7,55 @@
 #include "light_internal.h"
 #include "vec_internal.h"
 
+#define SUN_PI 3.14159265358979323846
+
 double bbc_light_falloff(const bbc_light_model *m, bbc_vec3 w) {
   if (m->kind != BBC_LIGHT_SPOT) return 1.0;
   double t = (v3_dot(w, m->direction) - m->cos_outer) * m->cone_scale;
   if (!(t > 0)) return 0.0; /* also NaN */
   if (t >= 1) return 1.0;
   return t * t;
+}
+
+double bbc_light_sun_radiance_scale(double delta) {
+  if (!(delta > 0)) return 0.0;
+  double s = sin(0.5 * delta);
+  return 1.0 / (SUN_PI * s * s);
+}
+
+int bbc__sun_is_disk(const bbc_light_model *m) {
+  return m->kind == BBC_LIGHT_DIRECTIONAL && m->angular_diameter > 0;
+}
+
+/* 1 - cos(h) for the half-angle h = delta / 2, as 2 sin^2(h / 2): exact to rounding for
+ * the tiny angles of real suns, where 1 - cos(h) would cancel (0.53 degrees: 1.07e-5). */
+static double one_minus_cos_half(const bbc_light_model *m) {
+  double s = sin(0.25 * m->angular_diameter);
+  return 2.0 * s * s;
+}
+
+double bbc__sun_solid_angle(const bbc_light_model *m) {
+  return 2.0 * SUN_PI * one_minus_cos_half(m);
+}
+
+bbc_vec3 bbc__sun_sample(const bbc_light_model *m, const double u[2]) {
+  const bbc_vec3 axis = v3_neg(m->direction);
+  /* Uniform in the cone: cos(theta) uniform on [cos h, 1]; 1 - cos(theta) = u0 (1 - cos h)
+   * keeps the small angles exact. */
+  double one_minus = u[0] * one_minus_cos_half(m);
+  double cos_t = 1.0 - one_minus;
+  double sin_t = sqrt(fmax(0.0, one_minus * (2.0 - one_minus)));
+  double phi = 2.0 * SUN_PI * u[1];
+  bbc_vec3 t, b;
+  v3_basis(axis, &t, &b);
+  return v3_normalize(v3_add(v3_scale(axis, cos_t),
+                             v3_add(v3_scale(t, sin_t * cos(phi)), v3_scale(b, sin_t * sin(phi)))));
+}
+
+int bbc__sun_contains(const bbc_light_model *m, bbc_vec3 w) {
+  /* 1 - cos(theta) = |w - axis|^2 / 2 for unit w and axis: no cancellation. */
+  bbc_vec3 d = v3_add(w, m->direction);
+  return 0.5 * v3_dot(d, d) <= one_minus_cos_half(m);
 }
 
 bbc_vec3 bbc__light_source(bbc_vec3 position, const bbc_light_model *m, bbc_vec3 near) {

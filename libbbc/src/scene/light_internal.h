@@ -23,6 +23,17 @@ bbc_vec3 bbc__light_d0(bbc_vec3 position, const bbc_light_model *model, bbc_vec3
 bbc_interval bbc__light_falloff_over_box(bbc_vec3 position, const bbc_light_model *model,
                                          const bbc_vec3 p[3], const double box[4]);
 
+/* Suns with an angular size (bbc_light_model.angular_diameter > 0): a disk of directions
+ * around -direction of half-angle h = delta / 2, radiance E x
+ * bbc_light_sun_radiance_scale(delta). bbc__sun_is_disk says whether a model is one;
+ * bbc__sun_solid_angle is the cone's 2 pi (1 - cos h); bbc__sun_sample maps u in [0, 1)^2
+ * to a unit direction toward the sun, uniform over the cone (density 1 / solid angle);
+ * bbc__sun_contains says whether unit direction w (toward the sky) lies in the cone. */
+int bbc__sun_is_disk(const bbc_light_model *model);
+double bbc__sun_solid_angle(const bbc_light_model *model);
+bbc_vec3 bbc__sun_sample(const bbc_light_model *model, const double u[2]);
+int bbc__sun_contains(const bbc_light_model *model, bbc_vec3 w);
+
 /* Area lights (kind BBC_LIGHT_AREA, scene.h): the emitter point of (a, b) in [0, 1]^2,
  * the centroid (which stands for the light in side tests, as a point light's position
  * does), and A_e cos(theta_e) for light leaving y toward x1: the factor that turns the

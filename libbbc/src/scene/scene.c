@@ -655,7 +655,7 @@ static bbc_result light_units(const loader *ld, const bbc__gltf_data *g, bbc_sce
 }
 
 /* The kind-specific part of a light (scene.h): the direction of spots and suns from the
- * node's -Z axis, the cone of spots. */
+ * node's -Z axis, the cone of spots, the angular diameter of suns. */
 static bbc_result light_model(const loader *ld, const bbc__gltf_light *l, bbc_light_model *m) {
   memset(m, 0, sizeof *m);
   m->kind = strcmp(l->type, "spot") == 0          ? BBC_LIGHT_SPOT
@@ -676,6 +676,14 @@ static bbc_result light_model(const loader *ld, const bbc__gltf_light *l, bbc_li
                   l->name, l->node_index, l->inner_cone, l->outer_cone);
     m->cos_outer = cos(l->outer_cone);
     m->cone_scale = 1.0 / fmax(0.001, cos(l->inner_cone) - m->cos_outer);
+  }
+  if (m->kind == BBC_LIGHT_DIRECTIONAL && l->has_angular_diameter) {
+    if (!(l->angular_diameter >= 0 && l->angular_diameter <= BBC_SUN_MAX_ANGULAR_DIAMETER))
+      return fail(ld, BBC_ERR_SCENE,
+                  "light \"%s\" (node %u): extras.bbc.angular_diameter must be from 0 to %g "
+                  "degrees (the sun's is 0.53), not %g",
+                  l->name, l->node_index, BBC_SUN_MAX_ANGULAR_DIAMETER, l->angular_diameter);
+    m->angular_diameter = l->angular_diameter * (PI / 180.0);
   }
   return BBC_OK;
 }
