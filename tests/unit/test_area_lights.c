@@ -273,3 +273,25 @@ TEST(area_without_area_lights_path_tracing_keeps_them) {
   bbc_accel_free(f.accel);
   bbc_scene_free(f.scene);
 }
+
+/* A cache of the emitters that holds no R chains (--chains T) leaves the mirror's
+ * area-light caustic to path tracing: the full image has the mirrored light once. The
+ * split must ask which chain types the cache holds, not only which are rendered. */
+TEST(area_cache_without_the_chain_path_tracing_keeps_it) {
+  fixture f;
+  REQUIRE(setup(&f, TEST_SCENE("flat-mirror-area.gltf"), BBC_CHAIN_BIT(BBC_CHAIN_T)));
+  layout l;
+  REQUIRE(measure(f.scene, &l));
+  const uint32_t all = BBC_COMPONENT_CAUSTICS | BBC_COMPONENT_DIRECT | BBC_COMPONENT_INDIRECT;
+  bbc_image *image = render(&f, BBC_METHOD_BBC, all, (uint32_t)harness_scale(512, 4096), 64, 48, 9);
+  REQUIRE(image);
+  double sigma;
+  expectation once = {1, 1, 0, 1.0}, never = {1, 0, 0, 1.0};
+  double z = z_score(&f, &l, image, once, &sigma);
+  double z0 = z_score(&f, &l, image, never, &sigma);
+  fprintf(stderr, "T-only cache: z = %.2f (relative std %.5f); never: %.2f\n", z, sigma, z0);
+  CHECK(fabs(z) < 4.5);
+  CHECK(z0 > 10);
+  bbc_image_free(image);
+  teardown(&f);
+}

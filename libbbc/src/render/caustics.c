@@ -190,7 +190,8 @@ int bbc__caustics_area_covers(const bbc__caustics *c, uint32_t receiver, uint32_
   if (!c || !c->area_lights || letter < 0) return 0;
   const bbc_scene *scene = c->scene;
   const bbc_chain chain = letter ? BBC_CHAIN_T : BBC_CHAIN_R;
-  if (!(c->chains & (1u << chain))) return 0;
+  /* Rendered and held by the cache: otherwise no tuple counts the path. */
+  if (!(c->chains & c->cache_chains & (1u << chain))) return 0;
   if (scene->meshes[scene->triangle_mesh[receiver]].role != BBC_ROLE_RECEIVER) return 0;
   const bbc_mesh *mesh = &scene->meshes[scene->triangle_mesh[t1]];
   const bbc_material *m = &scene->materials[mesh->material];
