@@ -85,7 +85,11 @@ int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cache_path
     /* The area lights' candidates follow the punctual lights' (bbc_precompute). */
     bbc_tuple *area = NULL;
     size_t area_count = 0;
-    if (bbc_tuples_find_area(scene, in.params.chains, &area, &area_count) != BBC_OK)
+    /* Before format 1.4 (PARM flags bit 2) the emitters had R and T tuples only. */
+    const uint32_t area_chains =
+        in.params.area_double ? in.params.chains
+                              : in.params.chains & (BBC_CHAIN_BIT(BBC_CHAIN_R) | BBC_CHAIN_BIT(BBC_CHAIN_T));
+    if (area_chains && bbc_tuples_find_area(scene, area_chains, &area, &area_count) != BBC_OK)
       cli_fail("%s: cannot list the candidate tuples (out of memory)", scene_path);
     bbc_tuple *all = realloc(cand, (count + area_count + 1) * sizeof *all);
     if (!all) cli_fail("out of memory");

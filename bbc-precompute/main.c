@@ -53,9 +53,9 @@ static const char help[] =
     "  --m M                 solutions assumed per tuple, Eq. 21 (default 1)\n"
     "  --resolution N        cells along the longer side of each receiver grid\n"
     "                        (default 512)\n"
-    "  --area-lights         cache the caustics of emissive triangles too (R and T; the\n"
-    "                        renderer then leaves them to the cache instead of path\n"
-    "                        tracing, docs/lights.md)\n"
+    "  --area-lights         cache the caustics of emissive triangles too (every chain\n"
+    "                        type of --chains; the renderer then leaves them to the\n"
+    "                        cache instead of path tracing, docs/lights.md)\n"
     "  --no-remainder        drop the remainder variables of refraction: faster, but the\n"
     "                        bounds are no longer conservative (the paper's Fig. 18)\n"
     "  --jacobian FORM       determinant (default) or quotient: the form of the\n"
@@ -201,11 +201,12 @@ int main(int argc, char **argv) {
       return 0;
     } else if (cli_flag(&a, "--version")) {
       /* Without GEOM the minor version is the smallest the file needs (R-HDR-3). */
-      printf("bbc-precompute %s (libbbc %s, writes .bbc format %d.%d; with --no-geometry "
-             "%d.0, %d.1 with --shard, %d.2 with --area-lights)\n",
+      printf("bbc-precompute %s (libbbc %s, writes .bbc format %d.3, %d.%d with --area-lights "
+             "and a double-scattering chain; with --no-geometry %d.0, %d.1 with --shard, %d.2 "
+             "with --area-lights)\n",
              bbc_version_string(), bbc_version_string(), BBC_FORMAT_VERSION_MAJOR,
-             BBC_FORMAT_VERSION_MINOR, BBC_FORMAT_VERSION_MAJOR, BBC_FORMAT_VERSION_MAJOR,
-             BBC_FORMAT_VERSION_MAJOR);
+             BBC_FORMAT_VERSION_MAJOR, BBC_FORMAT_VERSION_MINOR, BBC_FORMAT_VERSION_MAJOR,
+             BBC_FORMAT_VERSION_MAJOR, BBC_FORMAT_VERSION_MAJOR);
       return 0;
     } else if (cli_option(&a, "-o", &value) || cli_option(&a, "--output", &value)) {
       output = value;

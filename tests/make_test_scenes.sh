@@ -80,6 +80,12 @@ for kind in pool two-mirrors glass-slab; do
   scene $kind --size $size --sun 2 -o "$out/$kind-sun.gltf"
   scene $kind --size $size --spot 0.6 -o "$out/$kind-spot.gltf"
 done
+# Area lights through every chain type (emissive squares of side 0.25 instead of the
+# point light): RR (flat and curved), RT and TR, TT.
+scene two-mirrors --size 8 --area-light 0.25 -o "$out/two-mirrors-area.gltf"
+scene wavy-corner --size 200 --area-light 0.25 -o "$out/wavy-corner-area.gltf"
+scene mirror-pool --size 200 --area-light 0.25 -o "$out/mirror-pool-area.gltf"
+scene glass-sphere --size 80 --area-light 0.25 -o "$out/glass-sphere-area.gltf"
 # Finite double refraction: the closed glass box with flat parallel faces (12 triangles).
 scene glass-box -o "$out/glass-box.gltf"
 # The shared planes' set-up (the paper's Plane), small: its footprints cover many cells.

@@ -37,6 +37,7 @@ typedef struct scene_case {
    * ci_samples samples each; BBC_TEST_FULL=1: every full_stride-th candidate. */
   long ci_stride, ci_tuples, ci_samples;
   long full_stride, full_samples;
+  int area; /* the scene's emitters are the lights (bbc_tuples_find_area) */
 } scene_case;
 
 /* Validates the scene's candidate tuples of the chain types and returns the totals. */
@@ -49,7 +50,8 @@ static void validate_scene(const scene_case *c, const char *name, bbc_validation
   }
   bbc_tuple *tuples = NULL;
   size_t count = 0;
-  REQUIRE(bbc_tuples_find(scene, c->chains, &tuples, &count) == BBC_OK);
+  REQUIRE((c->area ? bbc_tuples_find_area : bbc_tuples_find)(scene, c->chains, &tuples, &count) ==
+          BBC_OK);
   bbc_bounder *b = NULL;
   REQUIRE(bbc_bounder_create(&b) == BBC_OK);
   bbc_bound_params p;
@@ -96,7 +98,7 @@ static void expect_valid(const bbc_validation *acc, uint64_t min_admissible) {
  * irradiance is that of the light's double mirror image, so the bounds must be finite
  * and tight. */
 TEST(two_mirrors_rr) {
-  const scene_case c = {TEST_SCENE("two-mirrors.gltf"), RR, 6, 1, 50, 4000, 1, 40000};
+  const scene_case c = {TEST_SCENE("two-mirrors.gltf"), RR, 6, 1, 50, 4000, 1, 40000, 0};
   bbc_validation acc;
   validate_scene(&c, "two-mirrors RR", &acc);
   expect_valid(&acc, 1000);
@@ -106,7 +108,7 @@ TEST(two_mirrors_rr) {
 
 /* The same corner with bumpy mirrors: double reflection with interpolated normals. */
 TEST(wavy_corner_rr) {
-  const scene_case c = {TEST_SCENE("wavy-corner.gltf"), RR, 5, 3, 30, 3000, 1, 20000};
+  const scene_case c = {TEST_SCENE("wavy-corner.gltf"), RR, 5, 3, 30, 3000, 1, 20000, 0};
   bbc_validation acc;
   validate_scene(&c, "wavy-corner RR", &acc);
   expect_valid(&acc, 1000);
@@ -115,7 +117,7 @@ TEST(wavy_corner_rr) {
 
 /* Glass ball with interpolated normals: double refraction (the paper's Ball). */
 TEST(glass_sphere_tt) {
-  const scene_case c = {TEST_SCENE("glass-sphere.gltf"), TT, 4, 7, 25, 3000, 9, 20000};
+  const scene_case c = {TEST_SCENE("glass-sphere.gltf"), TT, 4, 7, 25, 3000, 9, 20000, 0};
   bbc_validation acc;
   validate_scene(&c, "glass-sphere TT", &acc);
   expect_valid(&acc, 2000);
@@ -123,7 +125,7 @@ TEST(glass_sphere_tt) {
 }
 
 TEST(glass_slab_tt) {
-  const scene_case c = {TEST_SCENE("glass-slab.gltf"), TT, 4, 7, 25, 3000, 11, 20000};
+  const scene_case c = {TEST_SCENE("glass-slab.gltf"), TT, 4, 7, 25, 3000, 11, 20000, 0};
   bbc_validation acc;
   validate_scene(&c, "glass-slab TT", &acc);
   expect_valid(&acc, 1000);
@@ -134,7 +136,7 @@ TEST(glass_slab_tt) {
  * piece with a finite irradiance bound. (Control: with the slope of sqrt(beta) enclosed by
  * a constant interval, 44 of the 5,134 admissible paths here were in unbounded pieces.) */
 TEST(glass_box_tt_bounded) {
-  const scene_case c = {TEST_SCENE("glass-box.gltf"), TT, 3, 1, 100, 3000, 1, 30000};
+  const scene_case c = {TEST_SCENE("glass-box.gltf"), TT, 3, 1, 100, 3000, 1, 30000, 0};
   bbc_validation acc;
   validate_scene(&c, "glass-box TT", &acc);
   expect_valid(&acc, 1000);
@@ -143,7 +145,7 @@ TEST(glass_box_tt_bounded) {
 
 /* The shared scenes of the issue, in the paper's set-ups. */
 TEST(ball80_tt) {
-  const scene_case c = {SHARED_SCENE("ball80.gltf"), TT, 4, 1, 12, 3000, 1, 2000};
+  const scene_case c = {SHARED_SCENE("ball80.gltf"), TT, 4, 1, 12, 3000, 1, 2000, 0};
   bbc_validation acc;
   validate_scene(&c, "ball80 TT", &acc);
   expect_valid(&acc, 1000);
@@ -206,7 +208,7 @@ TEST(unbounded_pieces_one_level_deeper) {
 }
 
 TEST(ball320_tt) {
-  const scene_case c = {SHARED_SCENE("ball320.gltf"), TT, 3, 13, 10, 3000, 3, 8000};
+  const scene_case c = {SHARED_SCENE("ball320.gltf"), TT, 3, 13, 10, 3000, 3, 8000, 0};
   bbc_validation acc;
   validate_scene(&c, "ball320 TT", &acc);
   expect_valid(&acc, 500);
@@ -214,7 +216,7 @@ TEST(ball320_tt) {
 }
 
 TEST(slab10k_tt) {
-  const scene_case c = {SHARED_SCENE("slab10k.gltf"), TT, 2, 211, 10, 3000, 40, 6000};
+  const scene_case c = {SHARED_SCENE("slab10k.gltf"), TT, 2, 211, 10, 3000, 40, 6000, 0};
   bbc_validation acc;
   validate_scene(&c, "slab10k TT", &acc);
   expect_valid(&acc, 500);
@@ -222,7 +224,7 @@ TEST(slab10k_tt) {
 
 /* The diamond: flat normals, ior 2.42 (total internal reflection is common). */
 TEST(diamond_tt) {
-  const scene_case c = {SHARED_SCENE("diamond.gltf"), TT, 4, 13, 12, 3000, 2, 6000};
+  const scene_case c = {SHARED_SCENE("diamond.gltf"), TT, 4, 13, 12, 3000, 2, 6000, 0};
   bbc_validation acc;
   validate_scene(&c, "diamond TT", &acc);
   expect_valid(&acc, 300);
@@ -231,7 +233,7 @@ TEST(diamond_tt) {
 /* Mixed chains on the mirror pool: a flat mirror then the wavy water (interpolated
  * normals) for RT, the water then a flat mirror under it for TR. */
 TEST(mirror_pool_rt) {
-  const scene_case c = {TEST_SCENE("mirror-pool.gltf"), 1u << BBC_CHAIN_RT, 4, 3, 20, 3000, 1, 20000};
+  const scene_case c = {TEST_SCENE("mirror-pool.gltf"), 1u << BBC_CHAIN_RT, 4, 3, 20, 3000, 1, 20000, 0};
   bbc_validation acc;
   validate_scene(&c, "mirror-pool RT", &acc);
   expect_valid(&acc, 1000);
@@ -239,9 +241,40 @@ TEST(mirror_pool_rt) {
 }
 
 TEST(mirror_pool_tr) {
-  const scene_case c = {TEST_SCENE("mirror-pool.gltf"), 1u << BBC_CHAIN_TR, 4, 3, 20, 3000, 1, 20000};
+  const scene_case c = {TEST_SCENE("mirror-pool.gltf"), 1u << BBC_CHAIN_TR, 4, 3, 20, 3000, 1, 20000, 0};
   bbc_validation acc;
   validate_scene(&c, "mirror-pool TR", &acc);
   expect_valid(&acc, 1000);
   CHECK(acc.ratio_count > 0);
+}
+
+/* Area lights (docs/lights.md): the emitter point is two more variables of every form,
+ * and each sampled path starts at an emitter point drawn uniformly by area; its value is
+ * A_e cos(theta_e) times the point-light irradiance, which the piece holding both u1
+ * and the point must bound (validate.c). Emissive squares of side 0.25 replace the
+ * point lights of the generated scenes. */
+TEST(two_mirrors_area_rr) {
+  const scene_case c = {TEST_SCENE("two-mirrors-area.gltf"), RR, 5, 1, 32, 3000, 1, 100000, 1};
+  bbc_validation acc;
+  validate_scene(&c, "two-mirrors area RR", &acc);
+  expect_valid(&acc, 1000);
+  /* Flat mirrors: the double image of the emitter, finite everywhere it lands. */
+  CHECK(acc.ratio_count > acc.admissible / 2);
+}
+
+TEST(mirror_pool_area_rt_tr) {
+  const scene_case rt = {TEST_SCENE("mirror-pool-area.gltf"), 1u << BBC_CHAIN_RT, 3, 1, 4, 3000, 1, 20000, 1};
+  const scene_case tr = {TEST_SCENE("mirror-pool-area.gltf"), 1u << BBC_CHAIN_TR, 3, 1, 4, 3000, 1, 20000, 1};
+  bbc_validation acc;
+  validate_scene(&rt, "mirror-pool area RT", &acc);
+  expect_valid(&acc, 200);
+  validate_scene(&tr, "mirror-pool area TR", &acc);
+  expect_valid(&acc, 200);
+}
+
+TEST(glass_sphere_area_tt) {
+  const scene_case c = {TEST_SCENE("glass-sphere-area.gltf"), TT, 1, 7, 2, 3000, 7, 20000, 1};
+  bbc_validation acc;
+  validate_scene(&c, "glass-sphere area TT", &acc);
+  expect_valid(&acc, 300);
 }

@@ -20,6 +20,7 @@
 #include "bbc/bbc.h"
 #include "bbc/precompute.h"
 #include "harness.h"
+#include "light_internal.h"
 #include "media_internal.h"
 #include "orient_internal.h"
 #include "rng_internal.h"
@@ -51,6 +52,18 @@ typedef struct trace_totals {
   long wrong_medium;           /* stopped by the medium rule (for the record) */
 } trace_totals;
 
+/* An emitter's light path: its point y (the origin) and the centroid of the emitter,
+ * which stands for it in the medium rule of the tuple search (an emitter is in air;
+ * docs/lights.md), so that a refraction at T1 counts only where the centroid lies on the
+ * same side of T1 as y (the renderer's rule, bbc__caustics_area_covers). */
+typedef struct emitter_origin {
+  bbc_vec3 y, centroid;
+} emitter_origin;
+
+static void trace_path(const bbc_scene *s, const bbc_accel *accel, uint32_t light, bbc_vec3 o,
+                       bbc_vec3 d, uint32_t medium, const emitter_origin *area,
+                       const bbc_tuple *sorted, size_t count, trace_totals *out);
+
 /* Traces one light path aimed at point `aim`; adds it to the totals. */
 static void trace_one(const bbc_scene *s, const bbc_accel *accel, uint32_t light, bbc_vec3 aim,
                       const bbc_tuple *sorted, size_t count, trace_totals *out) {
@@ -63,7 +76,13 @@ static void trace_one(const bbc_scene *s, const bbc_accel *accel, uint32_t light
   } else if (l->model.kind == BBC_LIGHT_SPOT && !(bbc_light_falloff(&l->model, d) > 0)) {
     return; /* outside the spot's cone: no light */
   }
-  uint32_t medium = l->medium; /* 0 air, else 1 + the mesh */
+  trace_path(s, accel, light, o, d, l->medium, NULL, sorted, count, out);
+}
+
+static void trace_path(const bbc_scene *s, const bbc_accel *accel, uint32_t light, bbc_vec3 o,
+                       bbc_vec3 d, uint32_t medium, const emitter_origin *area,
+                       const bbc_tuple *sorted, size_t count, trace_totals *out) {
+  /* medium: 0 air, else 1 + the mesh */
   uint32_t specular[2] = {BBC_NO_TRIANGLE, BBC_NO_TRIANGLE};
   int letters[2] = {0, 0}, length = 0;
   for (;;) {
@@ -97,6 +116,11 @@ static void trace_one(const bbc_scene *s, const bbc_accel *accel, uint32_t light
     } else {
       const uint32_t here = s->triangle_mesh[h.triangle] + 1;
       const int from_front = cg < 0;
+      if (area && length == 0) {
+        /* The emitter's centroid must be on y's side of T1 (see emitter_origin). */
+        const int side = bbc__media_side(s, h.triangle, area->centroid);
+        if (side == 0 || (side > 0) != from_front) return;
+      }
       if (medium == 0 && from_front)
         medium = here;
       else if (medium == here && !from_front)
@@ -117,14 +141,18 @@ static void trace_one(const bbc_scene *s, const bbc_accel *accel, uint32_t light
 }
 
 /* Traces `rays` light paths aimed at uniform points of area-weighted casters (any aim
- * works: the claim is about every path) and checks each against the candidates. */
-static void check_loaded(bbc_scene *s, uint32_t chains, long rays, const long *min_paths) {
+ * works: the claim is about every path) and checks each against the candidates. With
+ * `area`, the lights are the scene's emitters (bbc_tuples_find_area): each path starts
+ * at a point drawn uniformly on an emitter and leaves its front. */
+static void check_lights(bbc_scene *s, uint32_t chains, long rays, const long *min_paths,
+                         int area) {
   const char *path = s->path;
   bbc_accel *accel = NULL;
   REQUIRE(bbc_accel_create(&accel, s, NULL, NULL) == BBC_OK);
   bbc_tuple *tuples = NULL;
   size_t count = 0;
-  REQUIRE(bbc_tuples_find(s, chains, &tuples, &count) == BBC_OK);
+  REQUIRE((area ? bbc_tuples_find_area : bbc_tuples_find)(s, chains, &tuples, &count) == BBC_OK);
+  REQUIRE(!area || s->emitter_count > 0);
   /* The candidate order of the spec (Sec. 5.10, R-CAN-1): strictly increasing in
    * (light, T1, T2 + 1 mod 2^32, receiver). */
   long out_of_order = 0;
@@ -165,7 +193,22 @@ static void check_loaded(bbc_scene *s, uint32_t chains, long rays, const long *m
     }
     bbc_vec3 aim = v3_add(vertex(s, lo, 0), v3_add(v3_scale(v3_sub(vertex(s, lo, 1), vertex(s, lo, 0)), a),
                                                 v3_scale(v3_sub(vertex(s, lo, 2), vertex(s, lo, 0)), b)));
-    trace_one(s, accel, (uint32_t)(i % s->point_light_count), aim, tuples, count, &totals);
+    if (!area) {
+      trace_one(s, accel, (uint32_t)(i % s->point_light_count), aim, tuples, count, &totals);
+      continue;
+    }
+    /* A point of emitter e, uniform by area (a = sqrt r1, b = r2), toward aim. */
+    const uint32_t e = (uint32_t)(i % s->emitter_count);
+    bbc_light_model model;
+    bbc_scene_area_light(s, e, &model, NULL);
+    const double ea = sqrt(bbc_rng_next(&rng)), eb = bbc_rng_next(&rng);
+    emitter_origin from;
+    from.y = bbc__area_point(&model, ea, eb);
+    from.centroid = bbc__area_centroid(&model);
+    const bbc_vec3 d = v3_normalize(v3_sub(aim, from.y));
+    if (!(v3_dot(d, model.emitter_normal) > 0)) continue; /* behind the emitter: no light */
+    const bbc_vec3 o = v3_offset_origin(from.y, v3_normalize(model.emitter_normal), d);
+    trace_path(s, accel, s->point_light_count + e, o, d, 0, &from, tuples, count, &totals);
   }
   fprintf(stderr, "%s: %zu candidates, %ld rays:", path, count, rays);
   for (int c = 0; c < BBC_CHAIN_COUNT; c++)
@@ -178,6 +221,21 @@ static void check_loaded(bbc_scene *s, uint32_t chains, long rays, const long *m
   free(cdf);
   free(tuples);
   bbc_accel_free(accel);
+}
+
+static void check_loaded(bbc_scene *s, uint32_t chains, long rays, const long *min_paths) {
+  check_lights(s, chains, rays, min_paths, 0);
+}
+
+static void check_scene_lights(const char *path, uint32_t chains, long rays,
+                               const long *min_paths, int area) {
+  bbc_scene *s = NULL;
+  if (bbc_scene_load(&s, path, NULL) != BBC_OK) {
+    harness_fail(__FILE__, __LINE__, "cannot load %s", path);
+    return;
+  }
+  check_lights(s, chains, rays, min_paths, area);
+  bbc_scene_free(s);
 }
 
 static void check_scene(const char *path, uint32_t chains, long rays, const long *min_paths) {
@@ -295,6 +353,22 @@ TEST(glass_slab_closed) {
   static const long min[BBC_CHAIN_COUNT] = {0, 0, 0, 0, 0, 10000};
   check_scene(TEST_SCENE("glass-slab.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
               min);
+}
+
+/* Area lights: paths from uniform points of the emitters, through every chain type the
+ * generated scenes form (the tuples of bbc_tuples_find_area, the T2 search included). */
+TEST(area_lights) {
+  static const char *const scenes[4] = {"two-mirrors-area", "mirror-pool-area",
+                                        "glass-sphere-area", "wavy-corner-area"};
+  static const long mins[4][BBC_CHAIN_COUNT] = {{1000, 0, 1000, 0, 0, 0},
+                                                {0, 1000, 0, 300, 300, 0},
+                                                {0, 0, 0, 0, 0, 3000},
+                                                {1000, 0, 1000, 0, 0, 0}};
+  for (int i = 0; i < 4; i++) {
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s.gltf", BBC_TEST_SCENES, scenes[i]);
+    check_scene_lights(path, BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000), mins[i], 1);
+  }
 }
 
 /* Suns (rays from outside the scene along the light's direction) and spots (rays

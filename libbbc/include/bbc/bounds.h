@@ -167,8 +167,9 @@ BBC_API bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_
                                    size_t *count);
 
 /* The candidate tuples of the scene's area lights (emissive triangles; their light
- * index is point_light_count + the emitter's index, scene.h) for the single-scattering
- * chain types of `chains` (R, T; the others are ignored), in the same order. */
+ * index is point_light_count + the emitter's index, scene.h) for the chain types of
+ * `chains`, single and double scattering, in the same order. (Caches of format 1.2 and
+ * 1.3 hold the R and T ones only: pass those alone to match them.) */
 BBC_API bbc_result bbc_tuples_find_area(const bbc_scene *scene, uint32_t chains,
                                         bbc_tuple **out, size_t *count);
 

@@ -31,9 +31,14 @@ typedef struct bbc_precompute_params {
   uint32_t grid_resolution; /* cells along a receiver grid's longer side, 1..65536 */
   uint32_t remainder;       /* 1 if remainder variables were used, else 0 */
   /* 1: the scene's emissive triangles are lights of the cache too (area lights, light
-   * index point_light_count + emitter; single scattering), else 0 (the default): their
-   * caustics are then left to path tracing. PARM flags bit 1. */
+   * index point_light_count + emitter), else 0 (the default): their caustics are then
+   * left to path tracing. PARM flags bit 1. */
   uint32_t area_lights;
+  /* 1: the area lights' tuples include the double-scattering chains of `chains` (RR, RT,
+   * TR, TT; format 1.4, PARM flags bit 2); 0: they are single scattering (R, T) only, as
+   * every cache of format 1.2 and 1.3. Not an input: the cache writer sets it exactly when
+   * area_lights is 1 and `chains` has a double-scattering chain type. */
+  uint32_t area_double;
 } bbc_precompute_params;
 
 /* The paper's defaults: all chains, level 10, sigma 1e-4, alpha 2 and 10, m 1, 512

@@ -24,6 +24,8 @@ typedef enum bbc_chain {
 /* Bit of chain type c in a mask of chain types (bbc_precompute_params.chains). */
 #define BBC_CHAIN_BIT(c) (1u << (c))
 #define BBC_CHAIN_MASK_ALL 0x3Fu
+/* The chain types with two specular vertices: RR, RT, TR, TT. */
+#define BBC_CHAIN_MASK_DOUBLE 0x3Cu
 
 /* Marks an unused specular slot (single-scattering chains). */
 #define BBC_NO_TRIANGLE UINT32_MAX

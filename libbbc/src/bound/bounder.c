@@ -109,7 +109,7 @@ bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene
   if (tuple->chain >= BBC_CHAIN_COUNT) return BBC_ERR_INVALID_ARGUMENT;
   const int length = bbc_chain_length((bbc_chain)tuple->chain);
   const int64_t emitter = bbc_scene_light_emitter(scene, tuple->light);
-  if ((tuple->light >= scene->point_light_count && (emitter < 0 || length != 1)) ||
+  if ((tuple->light >= scene->point_light_count && emitter < 0) ||
       tuple->specular[0] >= scene->triangle_count ||
       tuple->receiver >= scene->triangle_count ||
       (length == 2 && (tuple->specular[1] >= scene->triangle_count ||
@@ -663,7 +663,11 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
     const bbc_poly *in[9] = {q, p, r, &f->kappa_s, &f->kappa_t, &f->up_s, &f->up_t, &f->vp_s,
                              &f->vp_t};
     bbc_poly *flat[9] = {&qq, &pp, &rr, &qs, &qt, &ps, &pt, &rs, &rt};
-    for (int i = 0; i < 9; i++) TRY(bbc__flatten(arena, space, flat[i], in[i], REDUCED_DEGREE));
+    /* An area light's axes (a, b) at CHAIN_LIGHT_DEGREE at most (chain_internal.h). */
+    const int *light_axes = f->light_axis_count ? f->light_axes : NULL;
+    for (int i = 0; i < 9; i++)
+      TRY(bbc__flatten_light(arena, space, flat[i], in[i], REDUCED_DEGREE, light_axes,
+                             CHAIN_LIGHT_DEGREE));
     q = &qq, p = &pp, r = &rr;
     /* (p, r) -> (p - u0 q, r - v0 q) with constants u0, v0 (the hit at the piece's
      * centre): the same Jacobian exactly, as a determinant is unchanged by adding a
@@ -1235,7 +1239,18 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     }
 
     int light_split = split && split_light(g, &piece, max_level);
-    if (split && g->light_model.kind == BBC_LIGHT_AREA) {
+    if (split && g->light_model.kind == BBC_LIGHT_AREA && g->length == 2 &&
+        !(piece.e_hi < INFINITY)) {
+      /* Two bounces, unbounded: the +inf comes from u1 (rays grazing T2's plane, a fold
+       * of the caustic) far more than from the emitter part, so u1 is split first, as for
+       * a point light (down to UNBOUNDED_LEVELS below the limit), and the light box only
+       * then. The rule of the spent boxes below would stop at once: a split of such a
+       * piece rarely halves its position bound, and +inf never halves. */
+      const int u1_ok = max_level > 0 && piece.level < max_level + UNBOUNDED_LEVELS;
+      const int light_ok = piece.light_level < light_max_level(max_level);
+      light_split = !u1_ok;
+      if (!u1_ok && !light_ok) split = 0;
+    } else if (split && g->light_model.kind == BBC_LIGHT_AREA) {
       /* Whether the split that made the piece paid (the parent's bounds are inherited). */
       const int last = piece.split_state & (SPLIT_LAST_U1 | SPLIT_LAST_LIGHT);
       double parent_area = (inherited.uk_hi - inherited.uk_lo) * (inherited.vk_hi - inherited.vk_lo);

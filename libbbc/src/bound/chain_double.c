@@ -30,6 +30,7 @@
 #include <string.h>
 
 #include "bbc/interval.h"
+#include "bernstein_internal.h"
 #include "chain_internal.h"
 #include "vec_internal.h"
 
@@ -54,15 +55,29 @@ typedef struct dvec {
 typedef struct dual_ctx {
   bbc_arena *arena;
   bbc_space *space;
-  int derivatives; /* 0: values only (position bounds) */
+  int derivatives;       /* 0: values only (position bounds) */
+  const int *light_axes; /* an area light's (a, b) axes (chain_forms.light_axes), or NULL */
+  int light_degree;      /* the degree flattening leaves on them */
 } dual_ctx;
 
 bbc_result bbc__flatten(bbc_arena *arena, const bbc_space *space, bbc_poly *out,
                         const bbc_poly *p, int max_degree) {
+  return bbc__flatten_light(arena, space, out, p, max_degree, NULL, 0);
+}
+
+bbc_result bbc__flatten_light(bbc_arena *arena, const bbc_space *space, bbc_poly *out,
+                              const bbc_poly *p, int max_degree, const int *light_axes,
+                              int light_degree) {
+  unsigned char cap[BBC_POLY_MAX_AXES];
+  for (int j = 0; j < BBC_POLY_MAX_AXES; j++)
+    cap[j] = (unsigned char)(max_degree < BBC_POLY_MAX_DEGREE ? max_degree : BBC_POLY_MAX_DEGREE);
+  for (int k = 0; light_axes && k < 2; k++)
+    if (light_axes[k] >= 0 && light_axes[k] < BBC_POLY_MAX_AXES && cap[light_axes[k]] > light_degree)
+      cap[light_axes[k]] = (unsigned char)light_degree;
   int plain = 1;
   for (int j = 0; j < BBC_POLY_MAX_AXES; j++) {
     if (p->deg[j] == 0) continue;
-    if (space->kind[j] != BBC_AXIS_GEOMETRIC || p->deg[j] > max_degree) plain = 0;
+    if (space->kind[j] != BBC_AXIS_GEOMETRIC || p->deg[j] > cap[j]) plain = 0;
   }
   if (plain) {
     *out = *p;
@@ -70,7 +85,7 @@ bbc_result bbc__flatten(bbc_arena *arena, const bbc_space *space, bbc_poly *out,
   }
   bbc_poly fit;
   bbc_interval e;
-  TRY(bbc_poly_reduce_split(arena, space, &fit, &e, p, max_degree));
+  TRY(bbc__poly_reduce_split_to(arena, space, &fit, &e, p, cap));
   if (!(e.lo <= e.hi) || !isfinite(e.lo) || !isfinite(e.hi)) {
     TRY(bbc_poly_copy(arena, out, &fit));
     out->err = INFINITY;
@@ -90,11 +105,17 @@ static bbc_result zero(bbc_arena *arena, bbc_poly *out) {
   return bbc_poly_constant(arena, out, 0.0);
 }
 
+/* bbc__flatten in the context's space, an area light's axes capped (chain_internal.h). */
+static bbc_result flat(const dual_ctx *c, bbc_poly *out, const bbc_poly *p, int max_degree) {
+  return bbc__flatten_light(c->arena, c->space, out, p, max_degree, c->light_axes,
+                            c->light_degree);
+}
+
 static bbc_result ds_flatten(const dual_ctx *c, dscal *a, int max_degree) {
-  TRY(bbc__flatten(c->arena, c->space, &a->v, &a->v, max_degree));
+  TRY(flat(c, &a->v, &a->v, max_degree));
   if (!c->derivatives) return BBC_OK;
-  TRY(bbc__flatten(c->arena, c->space, &a->s, &a->s, max_degree));
-  return bbc__flatten(c->arena, c->space, &a->t, &a->t, max_degree);
+  TRY(flat(c, &a->s, &a->s, max_degree));
+  return flat(c, &a->t, &a->t, max_degree);
 }
 
 static bbc_result dv_flatten(const dual_ctx *c, dvec *a, int max_degree) {
@@ -301,7 +322,7 @@ static bbc_result sqrt_newton(const dual_ctx *c, dscal *out, const dscal *beta, 
   TRY(bbc_poly_add_scalar(c->arena, &y, &y, fl - A * l));
   bbc_interval rho = bbc_interval_entire();
   for (int step = 0;; step++) {
-    TRY(bbc__flatten(c->arena, c->space, &y, &y, FLATTEN_DEGREE));
+    TRY(flat(c, &y, &y, FLATTEN_DEGREE));
     y.err = 0; /* an approximant: exact by choice */
     TRY(bbc_poly_mul(c->arena, &y2, &y, &y));
     TRY(bbc_poly_mul(c->arena, &by2, &beta->v, &y2));
@@ -329,7 +350,7 @@ static bbc_result sqrt_newton(const dual_ctx *c, dscal *out, const dscal *beta, 
     bbc_interval m = bbc_poly_bound(parts[k]);
     bbc_poly_widen(parts[k], fmax(fabs(m.lo), fabs(m.hi)) * G * (1 + 4 * DBL_EPSILON) + DBL_MIN);
   }
-  TRY(bbc__flatten(c->arena, c->space, &out->v, &out->v, FLATTEN_DEGREE));
+  TRY(flat(c, &out->v, &out->v, FLATTEN_DEGREE));
   *ok = 1;
   return BBC_OK;
 }
@@ -365,7 +386,7 @@ static bbc_result ds_sqrt_linear(const dual_ctx *c, dscal *out, const dscal *bet
   bbc_poly root;
   int axis = -1;
   TRY(bbc_poly_sqrt_primal(c->arena, c->space, &root, &beta->v, NULL, NULL, &axis));
-  bbc_result r = bbc__flatten(c->arena, c->space, &out->v, &root, FLATTEN_DEGREE);
+  bbc_result r = flat(c, &out->v, &root, FLATTEN_DEGREE);
   if (axis >= 0) bbc_space_release_axis(c->space, axis);
   if (r != BBC_OK || !c->derivatives) return r;
   bbc_interval range = bbc_poly_bound(&beta->v);
@@ -482,6 +503,8 @@ static int flat_normals(const bbc_vec3 n[3]) {
 
 /* The working state between the two steps (kept in the forms' scratch). */
 typedef struct double_state {
+  int light_axes[2]; /* an area light's (a, b) axes */
+  int area;          /* whether light_axes are set */
   dvec x1, d1;
   dscal up2, vp2, kappa2, tnum2;
   dvec n2, x2; /* N2 and X2, set by the rest */
@@ -490,10 +513,20 @@ typedef struct double_state {
 bbc_result bbc__chain_double_prefix(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
                                     const double box[4], int s_axis, int t_axis,
                                     int derivatives, chain_forms *out) {
-  dual_ctx c = {arena, space, derivatives};
+  dual_ctx c = {arena, space, derivatives, NULL, CHAIN_LIGHT_DEGREE};
   double_state *st = bbc_arena_alloc(arena, sizeof *st);
   if (!st) return BBC_ERR_OUT_OF_MEMORY;
   out->scratch = st;
+  st->area = g->light_model.kind == BBC_LIGHT_AREA;
+  st->light_axes[0] = st->light_axes[1] = -1;
+  if (st->area) {
+    /* An area light: (a, b) on the two axes single scattering uses (chain.c), capped at
+     * CHAIN_LIGHT_DEGREE wherever a form is flattened. */
+    TRY(bbc__chain_area_axes(space, s_axis, t_axis, st->light_axes));
+    out->light_axes[0] = st->light_axes[0], out->light_axes[1] = st->light_axes[1];
+    out->light_axis_count = 2;
+    c.light_axes = st->light_axes;
+  }
   dvec n1, light, d0;
   TRY(dv_affine(&c, &st->x1, g->p[0], v3_sub(g->p[1], g->p[0]), v3_sub(g->p[2], g->p[0]), box,
                 s_axis, t_axis));
@@ -503,6 +536,20 @@ bbc_result bbc__chain_double_prefix(bbc_arena *arena, bbc_space *space, const bb
   if (sun) {
     /* A sun: the constant direction d0 (exact input), dist2 = 1 (chain.c). */
     TRY(dv_constant(&c, &d0, g->light_model.direction, 0));
+  } else if (st->area) {
+    /* x0 = q0 + a e1 + a b f over the piece's light box (the map of single scattering,
+     * bbc__chain_area_light), constant in s and t: the Jacobian is taken at a fixed
+     * emitter point. */
+    bbc_poly3 x0;
+    TRY(bbc__chain_area_light(arena, space, g, s_axis, t_axis, &x0));
+    const bbc_poly *xc[3] = {&x0.x, &x0.y, &x0.z};
+    for (int i = 0; i < 3; i++) {
+      dscal *o = dv_at(&light, i);
+      o->v = *xc[i];
+      TRY(zero(arena, &o->s));
+      TRY(zero(arena, &o->t));
+    }
+    TRY(dv_add(&c, &d0, &st->x1, &light, -1));
   } else {
     TRY(dv_constant(&c, &light, g->light, 0));
     TRY(dv_add(&c, &d0, &st->x1, &light, -1));
@@ -516,6 +563,11 @@ bbc_result bbc__chain_double_prefix(bbc_arena *arena, bbc_space *space, const bb
     TRY(bbc_poly_constant(arena, &out->dist2, 1.0));
   else
     TRY(bbc_poly3_dot(arena, &out->dist2, &d0v, &d0v));
+  /* Area lights: d0 . n_e, positive where the emitter point lights x1 (chain_internal.h). */
+  if (st->area)
+    TRY(bbc_poly3_dot_vec(arena, &out->emit, &d0v, g->light_model.emitter_normal));
+  else
+    TRY(bbc_poly_constant(arena, &out->emit, 1.0));
   TRY(dv_scatter(&c, &st->d1, &d0, &n1, g->refract, g->eta, &out->beta, &out->slope_enclosed));
   out->d1.x = st->d1.x.v, out->d1.y = st->d1.y.v, out->d1.z = st->d1.z.v;
   TRY(dv_hit(&c, &st->x1, NULL, &st->d1, g->p2, &st->up2, &st->vp2, &st->kappa2, &st->tnum2));
@@ -525,8 +577,8 @@ bbc_result bbc__chain_double_prefix(bbc_arena *arena, bbc_space *space, const bb
 
 bbc_result bbc__chain_double_rest(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
                                   int derivatives, chain_forms *out) {
-  dual_ctx c = {arena, space, derivatives};
   double_state *st = out->scratch;
+  dual_ctx c = {arena, space, derivatives, st->area ? st->light_axes : NULL, CHAIN_LIGHT_DEGREE};
   /* n2 = N2 / kappa2 with N2 = kappa2 n20 + up2 (n21 - n20) + vp2 (n22 - n20); the normal
    * used is kappa2 N2 = kappa2^2 n2, which points where n2 does whatever the sign of
    * kappa2 (Eq. 10-11 take any positive multiple of the normal). x2 = X2 / kappa2 with
@@ -605,7 +657,7 @@ bbc_result bbc__chain_double_implicit_prepare(bbc_arena *arena, const bbc_space 
   int a_axis, b_axis;
   TRY(bbc_space_add_axis(&im->space, BBC_AXIS_GEOMETRIC, &a_axis));
   TRY(bbc_space_add_axis(&im->space, BBC_AXIS_GEOMETRIC, &b_axis));
-  dual_ctx c = {arena, &im->space, 1};
+  dual_ctx c = {arena, &im->space, 1, st->area ? st->light_axes : NULL, CHAIN_LIGHT_DEGREE_IMPLICIT};
   const double wa = uk_box[1] - uk_box[0], wb = uk_box[3] - uk_box[2];
   const bbc_vec3 e1 = v3_sub(g->r[1], g->r[0]), e2 = v3_sub(g->r[2], g->r[0]);
   bbc_poly3 xk;
@@ -648,7 +700,7 @@ bbc_result bbc__chain_double_implicit_prepare(bbc_arena *arena, const bbc_space 
   for (int k = 0; k < 2; k++) {
     TRY(bbc_poly3_dot(arena, &im->g_ab[k], &m_v, dirs[k]));
     TRY(bbc_poly3_dot(arena, &im->d2_dir[k], &d2_v, dirs[k]));
-    TRY(bbc__flatten(arena, &im->space, &im->g_ab[k], &im->g_ab[k], FLATTEN_DEGREE));
+    TRY(flat(&c, &im->g_ab[k], &im->g_ab[k], FLATTEN_DEGREE));
   }
   *out = im;
   return BBC_OK;
@@ -660,7 +712,7 @@ bbc_result bbc__chain_double_implicit(bbc_arena *arena, const chain_implicit *im
   const double_state *st = f->scratch;
   if (!st || !im || !f->has_derivatives) return BBC_ERR_INVALID_ARGUMENT;
   bbc_space space = im->space;
-  dual_ctx c = {arena, &space, 1};
+  dual_ctx c = {arena, &space, 1, st->area ? st->light_axes : NULL, CHAIN_LIGHT_DEGREE_IMPLICIT};
 
   /* Eq. 17 with eta' = n_in / n_out: F = eta'^2 |d2|^2 c1^2 - |d1|^2 c2^2 with
    * c1 = (d1 x n2) . b and c2 = (d2 x n2) . b = d2 . (n2 x b); G = (d1 x n2) . d2. */
@@ -704,7 +756,7 @@ bbc_result bbc__chain_double_implicit(bbc_arena *arena, const chain_implicit *im
     TRY(bbc_poly_mul(arena, &u, &r, &im->l1.v));
     TRY(bbc_poly_scale(arena, &u, &u, 2.0));
     TRY(bbc_poly_sub(arena, &f_ab[k], &q, &u));
-    TRY(bbc__flatten(arena, &space, &f_ab[k], &f_ab[k], FLATTEN_DEGREE));
+    TRY(flat(&c, &f_ab[k], &f_ab[k], FLATTEN_DEGREE));
   }
   /* Eq. 19: |det d(s,t)/d(alpha,beta)| = |F_a G_b - F_b G_a| / |F_s G_t - F_t G_s|. */
   bbc_poly x, y;

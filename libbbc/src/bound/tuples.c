@@ -666,8 +666,6 @@ static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int 
     result = scratch_init(&scratch[i], scene, (chains & doubles) != 0);
   if (result != BBC_OK || receivers.node_count == 0) goto done;
 
-  /* Area lights: single scattering only (docs/lights.md). */
-  if (area) chains &= BBC_CHAIN_BIT(BBC_CHAIN_R) | BBC_CHAIN_BIT(BBC_CHAIN_T);
   const uint32_t light_first = area ? scene->point_light_count : 0;
   const uint32_t light_end = area ? scene->point_light_count + scene->emitter_count
                                   : scene->point_light_count;

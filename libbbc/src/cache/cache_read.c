@@ -317,10 +317,11 @@ static bbc_result check_params_and_fingerprint(bbc_cache *c) {
   uint32_t flags = bbc__ld32(p + 44);
   q->remainder = flags & 1u;
   q->area_lights = (flags >> 1) & 1u;
+  q->area_double = (flags >> 2) & 1u;
   if ((q->chains & ~BBC_CHAIN_MASK_ALL) != 0)
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "reserved chain bits 0x%x not zero (R-FILE-2)",
                 q->chains & ~BBC_CHAIN_MASK_ALL);
-  if ((flags & ~3u) != 0 || !all_zero(p + 48, 16))
+  if ((flags & ~7u) != 0 || !all_zero(p + 48, 16))
     return fail(c, BBC_ERR_CORRUPT, "PARM", at + 44, "reserved bits not zero (R-FILE-2)");
   if (!bbc__params_valid(q))
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "parameter out of its range (R-PAR-1)");
@@ -474,7 +475,8 @@ static bbc_result check_tuples(bbc_cache *c) {
     const bbc_tuple *u = &t[i];
     int ok = u->chain < BBC_CHAIN_COUNT && (c->params.chains & BBC_CHAIN_BIT(u->chain)) &&
              u->light < all_lights &&
-             (u->light < lights || u->chain == BBC_CHAIN_R || u->chain == BBC_CHAIN_T) &&
+             (u->light < lights || u->chain == BBC_CHAIN_R || u->chain == BBC_CHAIN_T ||
+              c->params.area_double) &&
              u->specular[0] < triangles &&
              (bbc_chain_length((bbc_chain)(u->chain < BBC_CHAIN_COUNT ? u->chain : 0)) == 1
                   ? u->specular[1] == BBC_NO_TRIANGLE
@@ -870,6 +872,9 @@ bbc_result bbc_cache_check_params(const bbc_cache *c, const bbc_precompute_param
     snprintf(diff, sizeof diff, "remainder %u, expected %u", q->remainder, p->remainder);
   else if (q->area_lights != (p->area_lights ? 1u : 0u))
     snprintf(diff, sizeof diff, "area_lights %u, expected %u", q->area_lights, p->area_lights);
+  else if (q->area_double != (p->area_lights && (p->chains & BBC_CHAIN_MASK_DOUBLE) ? 1u : 0u))
+    snprintf(diff, sizeof diff, "area_double %u (format %u.%u), expected %u", q->area_double,
+             c->version_major, c->version_minor, q->area_double ? 0u : 1u);
   if (!diff[0]) return BBC_OK;
   return bbc__report(c->options.error_fn, c->options.user, BBC_ERR_SCENE_MISMATCH,
                      "%s: computed with other parameters: %s", c->path, diff);

@@ -107,13 +107,15 @@ bbc_result bbc_cache_builder_create(bbc_cache_builder **out, const bbc_scene *sc
   }
   b->params = *params;
   b->params.remainder = params->remainder ? 1 : 0;
+  b->params.area_lights = params->area_lights ? 1 : 0;
+  /* The area lights' double-scattering tuples (format 1.4, PARM flags bit 2). */
+  b->params.area_double = b->params.area_lights && (params->chains & BBC_CHAIN_MASK_DOUBLE);
   bbc_fingerprint_compute(scene, &b->params, &b->fingerprint);
   b->scene_counts[0] = scene->vertex_count;
   b->scene_counts[1] = scene->triangle_count;
   b->scene_counts[2] = scene->mesh_count;
   b->scene_counts[3] = scene->material_count;
   b->scene_counts[4] = scene->point_light_count;
-  b->params.area_lights = params->area_lights ? 1 : 0;
   b->scene_counts[5] = b->params.area_lights ? scene->emitter_count : 0;
   if (bbc__geometry_encode(scene, &b->geometry, &b->geometry_size) != BBC_OK) {
     bbc_grid_free(b->grid);
@@ -193,7 +195,8 @@ bbc_result bbc_cache_builder_add_tuple(bbc_cache_builder *b, const bbc_tuple *t,
   uint32_t triangles = b->scene_counts[1];
   if (t->chain >= BBC_CHAIN_COUNT || !(b->params.chains & BBC_CHAIN_BIT(t->chain)) ||
       t->light >= b->scene_counts[4] + b->scene_counts[5] ||
-      (t->light >= b->scene_counts[4] && bbc_chain_length((bbc_chain)t->chain) != 1) ||
+      (t->light >= b->scene_counts[4] && bbc_chain_length((bbc_chain)t->chain) != 1 &&
+       !b->params.area_double) ||
       t->specular[0] >= triangles ||
       bbc_grid_receiver_of(b->grid, t->receiver) < 0)
     return BBC_ERR_INVALID_ARGUMENT;
@@ -1066,7 +1069,8 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   memcpy(header, BBC__MAGIC, 8);
   bbc__st16(header + 8, BBC_FORMAT_VERSION_MAJOR);
   /* The smallest minor version whose features the file uses (R-HDR-3). */
-  bbc__st16(header + 10, geom                    ? BBC__MINOR_GEOMETRY
+  bbc__st16(header + 10, b->params.area_double  ? BBC__MINOR_AREA_DOUBLE
+                         : geom                    ? BBC__MINOR_GEOMETRY
                          : b->params.area_lights ? BBC__MINOR_AREA
                          : b->shard_count   ? BBC__MINOR_SHARD
                                             : BBC__MINOR_COMPLETE);

@@ -23,7 +23,8 @@ int bbc__params_valid(const bbc_precompute_params *p) {
          p->max_level <= BBC__MAX_LEVEL && isfinite(p->sigma) && p->sigma >= 0 &&
          isfinite(p->alpha_single) && p->alpha_single >= 1 && isfinite(p->alpha_double) &&
          p->alpha_double >= 1 && isfinite(p->m) && p->m > 0 && p->grid_resolution >= 1 &&
-         p->grid_resolution <= BBC__MAX_RESOLUTION && p->remainder <= 1 && p->area_lights <= 1;
+         p->grid_resolution <= BBC__MAX_RESOLUTION && p->remainder <= 1 && p->area_lights <= 1 &&
+         p->area_double <= 1 && (!p->area_double || (p->area_lights && (p->chains & BBC_CHAIN_MASK_DOUBLE)));
 }
 
 void bbc__params_encode(const bbc_precompute_params *p, uint8_t out[BBC__PARM_SIZE]) {
@@ -35,5 +36,6 @@ void bbc__params_encode(const bbc_precompute_params *p, uint8_t out[BBC__PARM_SI
   bbc__stf64(out + 24, p->alpha_double);
   bbc__stf64(out + 32, p->m);
   bbc__st32(out + 40, p->grid_resolution);
-  bbc__st32(out + 44, (p->remainder ? 1u : 0u) | (p->area_lights ? 2u : 0u));
+  bbc__st32(out + 44, (p->remainder ? 1u : 0u) | (p->area_lights ? 2u : 0u) |
+                          (p->area_double ? 4u : 0u));
 }

@@ -36,4 +36,11 @@ bbc_result bbc__elevate_into(bbc_arena *arena, const bbc_poly *p,
 bbc_result bbc__lincomb_into(bbc_arena *arena, int n, const double *alpha, const bbc_poly *const *p,
                              const unsigned char deg[BBC_POLY_MAX_AXES], double *dst, double *err);
 
+/* bbc_poly_reduce_split with a degree limit per axis (max_degree[j] for geometric axis
+ * j): the same fit and enclosure, axis by axis. bbc_poly_reduce_split is this with one
+ * limit for every axis. */
+bbc_result bbc__poly_reduce_split_to(bbc_arena *arena, const bbc_space *space, bbc_poly *fit,
+                                     bbc_interval *error, const bbc_poly *p,
+                                     const unsigned char max_degree[BBC_POLY_MAX_AXES]);
+
 #endif

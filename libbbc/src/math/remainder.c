@@ -239,15 +239,23 @@ static bbc_result cached_fit_matrix(bbc_arena *arena, int n, int d, const double
 
 bbc_result bbc_poly_reduce_split(bbc_arena *arena, const bbc_space *space, bbc_poly *fit_out,
                                  bbc_interval *error, const bbc_poly *p, int max_degree) {
-  if (!space || !fit_out || !error || !poly_ok(p) || max_degree < 0)
-    return BBC_ERR_INVALID_ARGUMENT;
+  if (max_degree < 0) return BBC_ERR_INVALID_ARGUMENT;
+  unsigned char cap[NAX];
+  for (int j = 0; j < NAX; j++) cap[j] = (unsigned char)(max_degree < MAXD ? max_degree : MAXD);
+  return bbc__poly_reduce_split_to(arena, space, fit_out, error, p, cap);
+}
+
+bbc_result bbc__poly_reduce_split_to(bbc_arena *arena, const bbc_space *space, bbc_poly *fit_out,
+                                     bbc_interval *error, const bbc_poly *p,
+                                     const unsigned char max_degree[BBC_POLY_MAX_AXES]) {
+  if (!space || !fit_out || !error || !poly_ok(p) || !max_degree) return BBC_ERR_INVALID_ARGUMENT;
   unsigned char target[NAX];
   for (int j = 0; j < NAX; j++) {
     int n = p->deg[j];
     if (n == 0) {
       target[j] = 0;
     } else if (space->kind[j] == BBC_AXIS_GEOMETRIC) {
-      target[j] = (unsigned char)(n < max_degree ? n : max_degree);
+      target[j] = (unsigned char)(n < max_degree[j] ? n : max_degree[j]);
     } else if (space->kind[j] == BBC_AXIS_REMAINDER) {
       target[j] = 0; /* old remainders are averaged out of the fit and end in the new one */
     } else {

@@ -185,19 +185,30 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
   return 1;
 }
 
-int bbc__caustics_area_covers(const bbc__caustics *c, uint32_t receiver, uint32_t t1, int letter,
-                              uint32_t emitter, bbc_vec3 y, bbc_vec3 x1, bbc_vec3 n1) {
-  if (!c || !c->area_lights || letter < 0) return 0;
+int bbc__caustics_area_covers(const bbc__caustics *c, uint32_t receiver, int length,
+                              const uint32_t tri[2], const int letter[2], uint32_t emitter,
+                              bbc_vec3 y, const bbc_vec3 x[2], const bbc_vec3 n[2]) {
+  if (!c || !c->area_lights || length < 1 || length > 2 || (length == 2 && !c->area_double))
+    return 0;
   const bbc_scene *scene = c->scene;
-  const bbc_chain chain = letter ? BBC_CHAIN_T : BBC_CHAIN_R;
-  /* Rendered and held by the cache: otherwise no tuple counts the path. */
+  for (int i = 0; i < length; i++) {
+    if (letter[i] < 0) return 0;
+    const bbc_mesh *mesh = &scene->meshes[scene->triangle_mesh[tri[i]]];
+    const bbc_material *m = &scene->materials[mesh->material];
+    if (mesh->role != BBC_ROLE_CASTER ||
+        m->type != (letter[i] ? BBC_MATERIAL_DIELECTRIC : BBC_MATERIAL_MIRROR))
+      return 0;
+  }
+  if (length == 2 && tri[0] == tri[1]) return 0; /* no tuple has T1 = T2 */
+  const bbc_chain chain = length == 1 ? (letter[0] ? BBC_CHAIN_T : BBC_CHAIN_R)
+                          : letter[0] ? (letter[1] ? BBC_CHAIN_TT : BBC_CHAIN_TR)
+                                      : (letter[1] ? BBC_CHAIN_RT : BBC_CHAIN_RR);
+  /* Rendered, and computed for the cache (a chain type the cache lacks stays with path
+   * tracing). */
   if (!(c->chains & c->cache_chains & (1u << chain))) return 0;
   if (scene->meshes[scene->triangle_mesh[receiver]].role != BBC_ROLE_RECEIVER) return 0;
-  const bbc_mesh *mesh = &scene->meshes[scene->triangle_mesh[t1]];
-  const bbc_material *m = &scene->materials[mesh->material];
-  if (mesh->role != BBC_ROLE_CASTER ||
-      m->type != (letter ? BBC_MATERIAL_DIELECTRIC : BBC_MATERIAL_MIRROR))
-    return 0;
+  const uint32_t t1 = tri[0];
+  const bbc_vec3 x1 = x[0], n1 = n[0];
   /* The emitter's index (scene->emitters is in increasing triangle order). */
   uint32_t lo = 0, hi = scene->emitter_count;
   while (lo < hi) {
@@ -213,10 +224,25 @@ int bbc__caustics_area_covers(const bbc__caustics *c, uint32_t receiver, uint32_
   const bbc_vec3 centroid = bbc__area_centroid(&model);
   const int toward = in_front_of(scene, t1, centroid) ? 1 : -1;
   if (toward * v3_dot(v3_sub(x1, y), n1) >= 0) return 0;
-  if (letter) {
+  uint32_t medium = 0; /* an emitter is in air (docs/lights.md) */
+  if (letter[0]) {
+    if (!bbc__media_refract(scene, 0, t1, bbc__media_side(scene, t1, centroid), &medium) ||
+        !bbc__media_refract(scene, 0, t1, bbc__media_side(scene, t1, y), &medium))
+      return 0;
+  }
+  if (length == 2) {
+    /* T2: its normals turned toward T1's centroid (bounds.h), the light arriving against
+     * them, and the medium rule from x1 (solution_value's tests of the same path). */
+    const uint32_t t2 = tri[1];
+    const uint32_t *v = scene->indices + 3 * (size_t)t1;
+    bbc_vec3 p[3];
+    for (int j = 0; j < 3; j++) p[j] = v3_load(scene->positions + 3 * (size_t)v[j]);
+    /* The same expression as solution_value's, so that both decide alike. */
+    const bbc_vec3 c1 = v3_scale(v3_add(p[0], v3_add(p[1], p[2])), 1.0 / 3.0);
+    const int toward2 = in_front_of(scene, t2, c1) ? 1 : -1;
+    if (toward2 * v3_dot(v3_sub(x[1], x1), n[1]) >= 0) return 0;
     uint32_t after;
-    if (!bbc__media_refract(scene, 0, t1, bbc__media_side(scene, t1, centroid), &after) ||
-        !bbc__media_refract(scene, 0, t1, bbc__media_side(scene, t1, y), &after))
+    if (letter[1] && !bbc__media_refract(scene, medium, t2, bbc__media_side(scene, t2, x1), &after))
       return 0;
   }
   return 1;
@@ -339,15 +365,19 @@ bbc_vec3 bbc__caustics_tuple(const bbc__caustics *c, bbc__caustics_thread *t,
   bbc_vec3 sum = v3(0, 0, 0);
   bbc_path_geometry g;
   if (bbc_path_geometry_init(&g, c->scene, tuple) != BBC_OK) return sum;
-  if (g.length == 2) return double_contribution(c, t, tuple, &g, p, ng, key);
   if (g.light_model.kind == BBC_LIGHT_AREA) {
     /* One emitter point, uniform by area (scene.h's map with a = sqrt r1, b = r2), from
      * the tuple's own stream: the bound sampled the tuple for A_e times the most any
-     * point gives, so the estimate is the point's value over its density 1 / A_e. */
+     * point gives, so the estimate is the point's value over its density 1 / A_e. The
+     * stream is not the one of double scattering's Newton starts (keyed by `key`
+     * itself), so the point and the starts are independent; the starts' estimate is
+     * then unbiased for the sum over the solutions from this point, and the point's
+     * average is the integral over the emitter. */
     bbc_rng rng = {bbc__mix64(key ^ 0x5A4E3C2B1A09F8E7ull), 0};
     double r1 = bbc_rng_next(&rng), r2 = bbc_rng_next(&rng);
     g.light = bbc__area_point(&g.light_model, sqrt(r1), r2);
   }
+  if (g.length == 2) return double_contribution(c, t, tuple, &g, p, ng, key);
   /* The solver runs the pre-test (bbc_solver_single_possible) first; its count of the
    * tuples it excluded is the stats'. */
   bbc_solver_stats stats;

@@ -31,6 +31,7 @@ typedef struct bbc__caustics {
   bbc_solver_method solver;   /* double scattering: deterministic or stochastic Newton */
   uint32_t newton_max_trials; /* cap on K (newton-stoch); 0 = BBC_NEWTON_MAX_TRIALS_DEFAULT */
   int area_lights;            /* the cache holds the emitters' tuples (R, T) */
+  int area_double;            /* ... and their double-scattering ones (PARM flags bit 2) */
   uint32_t cache_chains;      /* BBC_CHAIN_BIT mask of the chain types the cache holds */
 } bbc__caustics;
 
@@ -98,14 +99,19 @@ bbc_vec3 bbc__caustics_tuple(const bbc__caustics *c, bbc__caustics_thread *t,
  * Exposed for the tests. */
 /* The clean split between the estimator and path tracing for area lights
  * (docs/lights.md): 1 when the path tracer's path p (on receiver triangle `receiver`)
- * -> x1 (on triangle t1, with unit shading normal n1 as loaded; `letter` 0 for a mirror
- * reflection, 1 for a refraction, -1 for anything else) -> the front of emitter
- * triangle `emitter` at y is one the estimator counts, so that path tracing must not:
- * the cache holds the emitter's tuples, the chain type is rendered, t1 is a caster of
- * that type, and the light arrives on the side of t1 the bounds orient it to, where the
- * medium rule lets it refract. */
-int bbc__caustics_area_covers(const bbc__caustics *c, uint32_t receiver, uint32_t t1, int letter,
-                              uint32_t emitter, bbc_vec3 y, bbc_vec3 x1, bbc_vec3 n1);
+ * -> its `length` (1 or 2) specular vertices -> the front of emitter triangle `emitter`
+ * at y is one the estimator counts, so that path tracing must not. The specular vertices
+ * are given in the light's order: x[i] on triangle tri[i] with unit shading normal n[i]
+ * as loaded, letter[i] 0 for a mirror reflection, 1 for a refraction, -1 for anything
+ * else (a Fresnel reflection off glass). Counted by the estimator: the cache holds the
+ * emitter's tuples of this chain type (double scattering only with c->area_double), the
+ * chain type is rendered, each tri[i] is a caster of its letter, the light arrives on
+ * the side of T1 the bounds orient it to (toward the emitter's centroid) and on the side
+ * of T2 they orient it to (toward T1's centroid), and the medium rule lets it refract
+ * where it does. */
+int bbc__caustics_area_covers(const bbc__caustics *c, uint32_t receiver, int length,
+                              const uint32_t tri[2], const int letter[2], uint32_t emitter,
+                              bbc_vec3 y, const bbc_vec3 x[2], const bbc_vec3 n[2]);
 
 /* The same split for a sun with an angular size (docs/lights.md): 1 when the path
  * tracer's path from receiver triangle `receiver` through `count` (1 or 2) specular

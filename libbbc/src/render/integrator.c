@@ -8,7 +8,8 @@
  * - light arriving at a diffuse vertex through specular vertices from an area light
  *   (found by the specular bounces that follow), except, with a cache holding area
  *   lights, the paths the caustic estimator counts (bbc__caustics_area_covers: one
- *   specular vertex from a receiver, docs/lights.md). From point lights such caustic paths
+ *   specular vertex, or two with the emitters' double scattering cached, from a
+ *   receiver, docs/lights.md). From point lights such caustic paths
  *   cannot be found by path tracing at all: that is the caustic estimator's job, and
  *   shade_diffuse_vertex is where it plugs in.
  * A sun with an angular size (docs/lights.md) is an area light at infinity: next-event
@@ -350,12 +351,9 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
   bbc_vec3 throughput = v3(1, 1, 1);
   int count_emission = 1; /* camera ray or specular bounce: an emitter hit counts */
   /* Since the last diffuse vertex (area lights' split, docs/lights.md): its triangle,
-   * the specular vertices met (their number, the first one's triangle, point, shading
-   * normal and kind: 0 mirror reflection, 1 refraction, -1 other). */
-  uint32_t diffuse_triangle = UINT32_MAX, spec_triangle = 0;
-  int spec_count = 0, spec_letter = -1;
-  bbc_vec3 spec_point = v3(0, 0, 0), spec_normal = v3(0, 0, 0);
-  /* The same for suns with an angular size: up to two specular vertices. */
+   * the specular vertices met since (specular_run: the first two, in the order met), which
+   * the splits with the caustic estimator for area lights and suns look at. */
+  uint32_t diffuse_triangle = UINT32_MAX;
   specular_run run;
   run.count = 0;
   /* Light found before the first diffuse bounce is "direct", after it "indirect". */
@@ -375,15 +373,21 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
     const bbc_material *m = s.material;
     int front = v3_dot(dir, s.ng) < 0;
 
-    /* A caustic path the estimator counts (receiver -> one specular vertex -> the
-     * emitter of an area light of the cache) is not counted here as well. */
-    const int covered = count_emission && front && ctx->caustics &&
-                        ctx->caustics->area_lights && diffuse_triangle != UINT32_MAX &&
-                        spec_count == 1 &&
-                        (m->emission[0] > 0 || m->emission[1] > 0 || m->emission[2] > 0) &&
-                        bbc__caustics_area_covers(ctx->caustics, diffuse_triangle, spec_triangle,
-                                                  spec_letter, hit.triangle, s.p, spec_point,
-                                                  spec_normal);
+    /* A caustic path the estimator counts (receiver -> one or two specular vertices ->
+     * the emitter of an area light of the cache) is not counted here as well. The
+     * vertices go to the test in the light's order (the reverse of the order met). */
+    int covered = 0;
+    if (count_emission && front && ctx->caustics && ctx->caustics->area_lights &&
+        diffuse_triangle != UINT32_MAX && (run.count == 1 || run.count == 2) &&
+        (m->emission[0] > 0 || m->emission[1] > 0 || m->emission[2] > 0)) {
+      const int last = run.count - 1;
+      const uint32_t tri[2] = {run.triangle[last], run.triangle[0]};
+      const int letter[2] = {run.letter[last], run.letter[0]};
+      const bbc_vec3 xs[2] = {run.point[last], run.point[0]};
+      const bbc_vec3 ns[2] = {run.normal[last], run.normal[0]};
+      covered = bbc__caustics_area_covers(ctx->caustics, diffuse_triangle, run.count, tri, letter,
+                                          hit.triangle, s.p, xs, ns);
+    }
     if (count_emission && front && !covered && (ctx->components & lit_component)) {
       radiance = v3_add(radiance, v3(throughput.x * m->emission[0], throughput.y * m->emission[1],
                                      throughput.z * m->emission[2]));
@@ -406,7 +410,6 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         radiance = v3_add(radiance, v3_mul(throughput, light.caustic));
       lit_component = BBC_COMPONENT_INDIRECT;
       diffuse_triangle = s.triangle;
-      spec_count = 0;
       run.count = 0;
       double u[2];
       sample_n(ps, (int)depth, SLOT_DIRECTION, 2, u);
@@ -430,9 +433,6 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         throughput = v3_mul(throughput, v3(bsdf.base[0], bsdf.base[1], bsdf.base[2]));
       }
     } else if (m->type == BBC_MATERIAL_MIRROR) {
-      if (spec_count++ == 0) {
-        spec_triangle = s.triangle, spec_letter = 0, spec_point = s.p, spec_normal = s.ns;
-      }
       note_specular(&run, &s, 0);
       bbc_vec3 n = front ? s.ns : v3_neg(s.ns);
       bbc_vec3 ng = front ? s.ng : v3_neg(s.ng);
@@ -456,10 +456,6 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         cos_t = sqrt(1.0 - sin2_t);
         double f = ctx->no_fresnel ? 0.0 : fresnel_dielectric(cos_i, cos_t, eta);
         reflect_it = sample(ps, (int)depth, SLOT_FRESNEL) < f;
-      }
-      if (spec_count++ == 0) {
-        spec_triangle = s.triangle, spec_letter = reflect_it ? -1 : 1, spec_point = s.p,
-        spec_normal = s.ns;
       }
       note_specular(&run, &s, reflect_it ? -1 : 1);
       if (reflect_it) {
@@ -544,6 +540,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
       bbc_cache_info info;
       bbc_cache_get_info(opts.cache, &info);
       caustics.area_lights = info.params.area_lights && info.scene_emitter_count > 0;
+      caustics.area_double = caustics.area_lights && info.params.area_double;
       caustics.cache_chains = info.params.chains;
     }
     static const bbc__sampling_method methods[] = {BBC__SAMPLE_BOUND, BBC__SAMPLE_BOUND,
