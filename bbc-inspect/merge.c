@@ -47,8 +47,12 @@ int cmd_merge(cli_args *a) {
   if (!shards) cli_fail("out of memory");
   for (size_t i = 0; i < n; i++) shards[i] = inspect_open_cache(paths[i]); /* exits 1 on failure */
   if (bbc_cache_merge_check_resources((const bbc_cache *const *)shards, n, out,
-                                      cli_print_message, NULL) != BBC_OK)
+                                      cli_print_message, NULL) != BBC_OK) {
+    for (size_t i = 0; i < n; i++) bbc_cache_close(shards[i]);
+    free(shards);
+    free(paths);
     return 1; /* the one line is printed; nothing was written */
+  }
   cli_progress bar;
   cli_progress_begin(&bar, "merging", progress);
   options.error_fn = cli_print_message;
