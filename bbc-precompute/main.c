@@ -53,9 +53,11 @@ static const char help[] =
     "  --m M                 solutions assumed per tuple, Eq. 21 (default 1)\n"
     "  --resolution N        cells along the longer side of each receiver grid\n"
     "                        (default 512)\n"
-    "  --area-lights         cache the caustics of emissive triangles too (every chain\n"
-    "                        type of --chains; the renderer then leaves them to the\n"
-    "                        cache instead of path tracing, docs/lights.md)\n"
+    "  --area-lights         cache the single-scattering caustics (R, T of --chains) of\n"
+    "                        emissive triangles too; the renderer then leaves them to\n"
+    "                        the cache instead of path tracing (docs/lights.md)\n"
+    "  --area-double         with --area-lights, their double-scattering chain types of\n"
+    "                        --chains (RR, RT, TR, TT) too: far costlier to bound\n"
     "  --no-remainder        drop the remainder variables of refraction: faster, but the\n"
     "                        bounds are no longer conservative (the paper's Fig. 18)\n"
     "  --jacobian FORM       determinant (default) or quotient: the form of the\n"
@@ -201,8 +203,8 @@ int main(int argc, char **argv) {
       return 0;
     } else if (cli_flag(&a, "--version")) {
       /* Without GEOM the minor version is the smallest the file needs (R-HDR-3). */
-      printf("bbc-precompute %s (libbbc %s, writes .bbc format %d.3, %d.%d with --area-lights "
-             "and a double-scattering chain; with --no-geometry %d.0, %d.1 with --shard, %d.2 "
+      printf("bbc-precompute %s (libbbc %s, writes .bbc format %d.3, %d.%d with --area-double; "
+             "with --no-geometry %d.0, %d.1 with --shard, %d.2 "
              "with --area-lights)\n",
              bbc_version_string(), bbc_version_string(), BBC_FORMAT_VERSION_MAJOR,
              BBC_FORMAT_VERSION_MAJOR, BBC_FORMAT_VERSION_MINOR, BBC_FORMAT_VERSION_MAJOR,
@@ -234,6 +236,8 @@ int main(int argc, char **argv) {
       options.params.remainder = 0;
     } else if (cli_flag(&a, "--area-lights")) {
       options.params.area_lights = 1;
+    } else if (cli_flag(&a, "--area-double")) {
+      options.params.area_double = 1;
     } else if (cli_option(&a, "--jacobian", &value)) {
       if (strcmp(value, "determinant") == 0)
         options.jacobian = BBC_JACOBIAN_DETERMINANT;
@@ -267,6 +271,10 @@ int main(int argc, char **argv) {
   }
   if (!scene_path) cli_usage_error(usage, "no scene given");
   if (!output) cli_usage_error(usage, "no output given (-o OUT.bbc)");
+  if (options.params.area_double && !options.params.area_lights)
+    cli_usage_error(usage, "--area-double needs --area-lights");
+  if (options.params.area_double && !(options.params.chains & BBC_CHAIN_MASK_DOUBLE))
+    cli_usage_error(usage, "--area-double needs a double-scattering chain type in --chains");
 
   cli_catch_interrupts();
 

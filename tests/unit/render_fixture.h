@@ -29,6 +29,7 @@ static int fixture_setup(fixture *f, const char *path, uint32_t chains, uint32_t
   o.params.max_level = max_level;
   o.params.grid_resolution = 128;
   o.params.area_lights = area_lights;
+  o.params.area_double = area_lights && (chains & BBC_CHAIN_MASK_DOUBLE);
   bbc_cache_builder *b = NULL;
   if (bbc_precompute(&b, f->scene, &o, NULL) != BBC_OK) return 0;
   size_t size = 0;

@@ -35,9 +35,11 @@ typedef struct bbc_precompute_params {
    * left to path tracing. PARM flags bit 1. */
   uint32_t area_lights;
   /* 1: the area lights' tuples include the double-scattering chains of `chains` (RR, RT,
-   * TR, TT; format 1.4, PARM flags bit 2); 0: they are single scattering (R, T) only, as
-   * every cache of format 1.2 and 1.3. Not an input: the cache writer sets it exactly when
-   * area_lights is 1 and `chains` has a double-scattering chain type. */
+   * TR, TT; format 1.4, PARM flags bit 2; bbc-precompute --area-double); 0 (the default):
+   * they are single scattering (R, T) only, as every cache of format 1.2 and 1.3, and
+   * the emitters' double-scattering caustics are left to path tracing. Needs area_lights
+   * and a double-scattering chain type in `chains`. Bounding them costs far more than
+   * single scattering (docs/lights.md), hence opt-in. */
   uint32_t area_double;
 } bbc_precompute_params;
 

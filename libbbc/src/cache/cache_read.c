@@ -872,7 +872,8 @@ bbc_result bbc_cache_check_params(const bbc_cache *c, const bbc_precompute_param
     snprintf(diff, sizeof diff, "remainder %u, expected %u", q->remainder, p->remainder);
   else if (q->area_lights != (p->area_lights ? 1u : 0u))
     snprintf(diff, sizeof diff, "area_lights %u, expected %u", q->area_lights, p->area_lights);
-  else if (q->area_double != (p->area_lights && (p->chains & BBC_CHAIN_MASK_DOUBLE) ? 1u : 0u))
+  else if (q->area_double !=
+           (p->area_lights && p->area_double && (p->chains & BBC_CHAIN_MASK_DOUBLE) ? 1u : 0u))
     snprintf(diff, sizeof diff, "area_double %u (format %u.%u), expected %u", q->area_double,
              c->version_major, c->version_minor, q->area_double ? 0u : 1u);
   if (!diff[0]) return BBC_OK;

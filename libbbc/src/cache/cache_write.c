@@ -109,7 +109,8 @@ bbc_result bbc_cache_builder_create(bbc_cache_builder **out, const bbc_scene *sc
   b->params.remainder = params->remainder ? 1 : 0;
   b->params.area_lights = params->area_lights ? 1 : 0;
   /* The area lights' double-scattering tuples (format 1.4, PARM flags bit 2). */
-  b->params.area_double = b->params.area_lights && (params->chains & BBC_CHAIN_MASK_DOUBLE);
+  b->params.area_double =
+      b->params.area_lights && params->area_double && (params->chains & BBC_CHAIN_MASK_DOUBLE);
   bbc_fingerprint_compute(scene, &b->params, &b->fingerprint);
   b->scene_counts[0] = scene->vertex_count;
   b->scene_counts[1] = scene->triangle_count;

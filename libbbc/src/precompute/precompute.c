@@ -482,7 +482,10 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     /* Area lights come after the punctual ones (their light indices are higher). */
     bbc_tuple *area = NULL;
     size_t area_count = 0;
-    result = bbc_tuples_find_area(scene, params->chains, &area, &area_count);
+    /* Their double-scattering chain types only when asked for (area_double). */
+    const uint32_t area_chains =
+        params->area_double ? params->chains : params->chains & ~BBC_CHAIN_MASK_DOUBLE;
+    if (area_chains) result = bbc_tuples_find_area(scene, area_chains, &area, &area_count);
     if (result == BBC_OK && area_count) {
       bbc_tuple *all = realloc(tuples, (tuple_count + area_count) * sizeof *all);
       if (!all) {
