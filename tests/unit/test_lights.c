@@ -353,6 +353,18 @@ static bbc_image *cache_and_render(const bbc_scene *scene, const bbc_accel *acce
   return image;
 }
 
+/* lights[0] a sun and lights[1] a spot (intensities left to the caller), both lighting
+ * the flat mirror, the spot's cone edge across its caustic. */
+static void sun_and_spot(bbc_point_light lights[2]) {
+  lights[0].model.kind = BBC_LIGHT_DIRECTIONAL;
+  lights[0].model.direction = v3_normalize(v3(-1, -1.5, 0.2));
+  lights[1].model.kind = BBC_LIGHT_SPOT;
+  lights[1].position = v3(1.2, 1.0, 0.5);
+  lights[1].model.direction = v3_normalize(v3(-1.2, -0.6, -0.5));
+  lights[1].model.cos_outer = cos(0.6);
+  lights[1].model.cone_scale = 1.0 / (cos(0.3) - cos(0.6));
+}
+
 /* A sun, a spot and two point lights in one cache: it stores each light's tuples (the
  * union of the single-light caches) and its caustic image is the sum of the four
  * single-light images, pixel for pixel. The lights are set on the loaded flat mirror's
@@ -364,13 +376,7 @@ TEST(several_lights_in_one_cache) {
   REQUIRE(bbc_accel_create(&accel, scene, NULL, NULL) == BBC_OK);
   bbc_point_light lights[4];
   memset(lights, 0, sizeof lights);
-  lights[0].model.kind = BBC_LIGHT_DIRECTIONAL;
-  lights[0].model.direction = v3_normalize(v3(-1, -1.5, 0.2));
-  lights[1].model.kind = BBC_LIGHT_SPOT;
-  lights[1].position = v3(1.2, 1.0, 0.5);
-  lights[1].model.direction = v3_normalize(v3(-1.2, -0.6, -0.5));
-  lights[1].model.cos_outer = cos(0.6);
-  lights[1].model.cone_scale = 1.0 / (cos(0.3) - cos(0.6));
+  sun_and_spot(lights);
   lights[2].position = v3(1, 1, 0);
   lights[3].position = v3(1.5, 0.7, -0.6);
   const float power[4][3] = {{2, 2, 2}, {8, 4, 2}, {5, 5, 5}, {1, 3, 2}};
@@ -432,13 +438,7 @@ TEST(sun_spot_and_two_area_lights_in_one_cache) {
   REQUIRE(bbc_accel_create(&accel, scene, NULL, NULL) == BBC_OK);
   bbc_point_light lights[2];
   memset(lights, 0, sizeof lights);
-  lights[0].model.kind = BBC_LIGHT_DIRECTIONAL;
-  lights[0].model.direction = v3_normalize(v3(-1, -1.5, 0.2));
-  lights[1].model.kind = BBC_LIGHT_SPOT;
-  lights[1].position = v3(1.2, 1.0, 0.5);
-  lights[1].model.direction = v3_normalize(v3(-1.2, -0.6, -0.5));
-  lights[1].model.cos_outer = cos(0.6);
-  lights[1].model.cone_scale = 1.0 / (cos(0.3) - cos(0.6));
+  sun_and_spot(lights);
   const float power[2][3] = {{2, 2, 2}, {8, 4, 2}};
   for (int i = 0; i < 2; i++) memcpy(lights[i].intensity, power[i], sizeof power[i]);
   bbc_point_light *own = scene->point_lights;
