@@ -66,10 +66,8 @@ done
 nseeds=$(echo $seeds | wc -w)
 [ "$nseeds" -gt 0 ] || { echo "area-plane.sh: --seeds is empty" >&2; exit 1; }
 command -v /usr/bin/time > /dev/null || { echo "area-plane.sh: /usr/bin/time is missing" >&2; exit 1; }
-if [ ! -f "$root/build/CMakeCache.txt" ]; then
-  cmake -S "$root" -B "$root/build" -DCMAKE_BUILD_TYPE=Release > /dev/null
-fi
-cmake --build "$root/build" -j 2 > /dev/null
+. "$root/bench/lib.sh"
+build_release "$root"
 bin=$root/build
 gen=$bin/scenes/bbc-scenegen
 pre=$bin/bbc-precompute/bbc-precompute
@@ -80,7 +78,6 @@ refs=$root/bench/work/refs
 out=$root/bench/results
 mkdir -p "$work" "$refs" "$out"
 tool=area-plane.sh
-. "$root/bench/lib.sh"
 commit=${BBC_COMMIT:-$(git -C "$root" rev-parse --short HEAD 2> /dev/null || echo unknown)}
 dirty=$(git -C "$root" status --porcelain --untracked-files=no -- libbbc bbc-render bbc-precompute \
   scenes bench/light_trace.c 2> /dev/null | head -1)

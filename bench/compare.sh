@@ -59,10 +59,8 @@ sh "$root/scripts/install-deps.sh" --bench
 for t in gnuplot povray /usr/bin/time; do
   command -v "$t" > /dev/null || { echo "compare.sh: $t is missing" >&2; exit 1; }
 done
-if [ ! -f "$root/build/CMakeCache.txt" ]; then
-  cmake -S "$root" -B "$root/build" -DCMAKE_BUILD_TYPE=Release > /dev/null
-fi
-cmake --build "$root/build" -j "$(nproc)" > /dev/null
+. "$root/bench/lib.sh"
+build_release "$root"
 bin=$root/build
 gen=$bin/scenes/bbc-scenegen
 pre=$bin/bbc-precompute/bbc-precompute
@@ -71,7 +69,6 @@ work=$root/bench/work
 out=$root/bench/results
 mkdir -p "$work/flat" "$work/scenes" "$work/refs" "$out"
 tool=compare.sh
-. "$root/bench/lib.sh"
 # BBC_COMMIT names the commit measured when root is not a git checkout.
 commit=${BBC_COMMIT:-$(git -C "$root" rev-parse --short HEAD 2> /dev/null || echo unknown)}
 dirty=$(git -C "$root" status --porcelain --untracked-files=no -- libbbc bbc-render bbc-precompute \

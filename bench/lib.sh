@@ -1,4 +1,4 @@
-# Shell helpers shared by the benchmark scripts (bench/compare.sh, bench/area-plane.sh).
+# Shell helpers shared by the benchmark scripts (bench/compare.sh, bench/area-plane.sh, bench/sun-pool.sh).
 # The caller sets $work (a scratch folder), $scale and $tool (its name, for messages).
 
 # n K: the budget K times the scale, at least 1, rounded.
@@ -38,4 +38,13 @@ interpolate() {
 slope() {
   awk '{ x = log($1); y = log($2); n++; sx += x; sy += y; sxx += x * x; sxy += x * y }
     END { d = n * sxx - sx * sx; if (n > 1 && d > 0) printf "%.2f", (n * sxy - sx * sy) / d; else printf "?" }' "$1"
+}
+
+# build_release ROOT: configures ROOT/build as a Release build when it has no cache yet,
+# then builds it (quietly); the benchmarks use the binaries there.
+build_release() {
+  if [ ! -f "$1/build/CMakeCache.txt" ]; then
+    cmake -S "$1" -B "$1/build" -DCMAKE_BUILD_TYPE=Release > /dev/null
+  fi
+  cmake --build "$1/build" -j "$(nproc)" > /dev/null
 }

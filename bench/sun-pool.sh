@@ -43,10 +43,8 @@ while [ $# -gt 0 ]; do
 done
 scenes=${scenes:-$root/../shared/scenes}
 command -v /usr/bin/time > /dev/null || { echo "sun-pool.sh: /usr/bin/time is missing" >&2; exit 1; }
-if [ ! -f "$root/build/CMakeCache.txt" ]; then
-  cmake -S "$root" -B "$root/build" -DCMAKE_BUILD_TYPE=Release > /dev/null
-fi
-cmake --build "$root/build" -j 2 > /dev/null
+. "$root/bench/lib.sh"
+build_release "$root"
 bin=$root/build
 gen=$bin/scenes/bbc-scenegen
 ren=$bin/bbc-render/bbc-render
@@ -57,7 +55,6 @@ out=$root/bench/results
 mkdir -p "$work" "$refs" "$out"
 scale=1
 tool=sun-pool.sh
-. "$root/bench/lib.sh"
 commit=$(git -C "$root" rev-parse --short HEAD 2> /dev/null || echo unknown)
 dirty=$(git -C "$root" status --porcelain --untracked-files=no -- libbbc bbc-render bbc-precompute \
   scenes bench/light_trace.c bench/flat_mirror_exact.c 2> /dev/null | head -1)
