@@ -26,7 +26,7 @@
 #define POSITION_TOLERANCE 1.0
 
 /* Single reflection from a point, spot or directional light: a piece's forms are those
- * of its parent halved (polys_quadrant) instead of being computed again. The forms a
+ * of its parent halved (polys_quadrants) instead of being computed again. The forms a
  * piece needs for its position and irradiance bounds (Eq. 4-5, 16): */
 #define PIECE_FORMS 6 /* up, vp, kappa, tnum, facing, dist2 */
 /* Room for their coefficients, one after the other: with interpolated normals up and vp
@@ -46,15 +46,14 @@ struct bbc_bounder {
   void *memory;
   bbc_piece *queue; /* breadth-first queue of pieces to examine */
   size_t queue_capacity;
-  /* With split_forms, a queued piece's forms are a quadrant of its parent's: origin[i]
-   * is 8 (parent_base + k) + q for parents[k] and the quadrant q (0-3, the order of
-   * polys_quadrant; 4: the parent's forms whole, for the root). Parents are a FIFO
-   * too, since children are queued and examined in their parents' order. */
+  /* With split_forms, queued piece i's forms are forms[origin[i] - forms_base], the
+   * quadrants of its parent's made when the parent was split (polys_quadrants). The
+   * forms are a FIFO too, since pieces are queued and examined in the same order. */
   int split_forms;
   uint64_t *origin;
-  piece_polys *parents;
-  size_t parent_capacity, parent_head, parent_count;
-  uint64_t parent_base;
+  piece_polys *forms;
+  size_t forms_capacity, forms_head, forms_count;
+  uint64_t forms_base;
 };
 
 bbc_result bbc_bounder_create(bbc_bounder **out) {
@@ -65,9 +64,9 @@ bbc_result bbc_bounder_create(bbc_bounder **out) {
   b->queue_capacity = 1024;
   b->queue = malloc(b->queue_capacity * sizeof *b->queue);
   b->origin = malloc(b->queue_capacity * sizeof *b->origin);
-  b->parent_capacity = 256;
-  b->parents = malloc(b->parent_capacity * sizeof *b->parents);
-  if (!b->memory || !b->queue || !b->origin || !b->parents) {
+  b->forms_capacity = 1024;
+  b->forms = malloc(b->forms_capacity * sizeof *b->forms);
+  if (!b->memory || !b->queue || !b->origin || !b->forms) {
     bbc_bounder_free(b);
     return BBC_ERR_OUT_OF_MEMORY;
   }
@@ -81,7 +80,7 @@ void bbc_bounder_free(bbc_bounder *b) {
   free(b->memory);
   free(b->queue);
   free(b->origin);
-  free(b->parents);
+  free(b->forms);
   free(b);
 }
 
@@ -316,7 +315,7 @@ static bbc_result ray_lands(bbc_arena *arena, const bbc_poly *up, const bbc_poly
   return BBC_OK;
 }
 
-/* Whether a tuple's pieces take their forms from their parents' (polys_quadrant): single
+/* Whether a tuple's pieces take their forms from their parents' (polys_quadrants): single
  * reflection from a point, spot or directional light, whose forms are polynomials in
  * T1's barycentrics (no remainder variables, no light box), so the root's forms hold
  * those of every piece exactly, but for rounding. (A remainder variable's
@@ -364,28 +363,31 @@ static void polys_view(const piece_polys *polys, chain_forms *f) {
   }
 }
 
-/* The forms of quadrant q of a piece (u half q & 1, v half q >> 1, the order in which
- * the subdivision queues them) from the piece's: each form halved along s, then along
- * t, by de Casteljau subdivisions at 1/2, exact re-parameterisations whose rounding
- * bbc_poly_split adds to the radius. A quadrant's forms thus hold its paths as the
- * forms computed on its own box would, up to rounding. */
-static bbc_result polys_quadrant(bbc_arena *arena, const piece_polys *parent, int q, int s_axis,
-                                 int t_axis, piece_polys *out) {
+/* The forms of the four quadrants of a piece (out[q]: u half q & 1, v half q >> 1, the
+ * order in which the subdivision queues them) from the piece's: each form halved along s,
+ * then each half along t, by de Casteljau subdivisions at 1/2 (one pass gives both
+ * halves), exact re-parameterisations whose rounding bbc_poly_split adds to the radius.
+ * A quadrant's forms thus hold its paths as the forms computed on its own box would, up
+ * to rounding. */
+static bbc_result polys_quadrants(bbc_arena *arena, const piece_polys *parent, int s_axis,
+                                  int t_axis, piece_polys out[4]) {
   size_t mark = bbc_arena_mark(arena), at = 0;
   chain_forms f;
   polys_view(parent, &f);
   bbc_result r = BBC_OK;
   for (int k = 0; k < PIECE_FORMS && r == BBC_OK; k++) {
-    bbc_poly half, quarter;
-    r = bbc_poly_split(arena, form_of(&f, k), s_axis, q & 1 ? NULL : &half, q & 1 ? &half : NULL);
-    if (r == BBC_OK)
-      r = bbc_poly_split(arena, &half, t_axis, q >> 1 ? NULL : &quarter, q >> 1 ? &quarter : NULL);
+    bbc_poly half[2], quarter[4];
+    r = bbc_poly_split(arena, form_of(&f, k), s_axis, &half[0], &half[1]);
+    for (int i = 0; i < 2 && r == BBC_OK; i++)
+      r = bbc_poly_split(arena, &half[i], t_axis, &quarter[i], &quarter[2 + i]);
     if (r != BBC_OK) break;
     /* Halving keeps the degrees, so the layout stays the parent's. */
-    const size_t n = bbc_poly_size(&quarter);
-    memcpy(out->deg[k], quarter.deg, sizeof out->deg[k]);
-    out->err[k] = quarter.err;
-    memcpy(out->coef + at, quarter.coef, n * sizeof *quarter.coef);
+    const size_t n = bbc_poly_size(&quarter[0]);
+    for (int q = 0; q < 4; q++) {
+      memcpy(out[q].deg[k], quarter[q].deg, sizeof out[q].deg[k]);
+      out[q].err[k] = quarter[q].err;
+      memcpy(out[q].coef + at, quarter[q].coef, n * sizeof *quarter[q].coef);
+    }
     at += n;
   }
   bbc_arena_reset(arena, mark);
@@ -848,40 +850,34 @@ static bbc_result push(bbc_bounder *b, size_t *count, const bbc_piece *piece, ui
   return BBC_OK;
 }
 
-/* Adds a parent's forms; *origin receives the first of its quadrants' origins. */
-static bbc_result push_parent(bbc_bounder *b, const piece_polys *polys, uint64_t *origin) {
-  if (b->parent_count == b->parent_capacity) {
-    size_t capacity = b->parent_capacity * 2;
-    piece_polys *p = realloc(b->parents, capacity * sizeof *p);
+/* Adds the forms of n pieces about to be queued; *origin receives the first's. */
+static bbc_result push_forms(bbc_bounder *b, const piece_polys *polys, size_t n, uint64_t *origin) {
+  while (b->forms_count + n > b->forms_capacity) {
+    size_t capacity = b->forms_capacity * 2;
+    piece_polys *p = realloc(b->forms, capacity * sizeof *p);
     if (!p) return BBC_ERR_OUT_OF_MEMORY;
-    b->parents = p;
-    b->parent_capacity = capacity;
+    b->forms = p;
+    b->forms_capacity = capacity;
   }
-  *origin = 8 * (b->parent_base + b->parent_count);
-  b->parents[b->parent_count++] = *polys;
+  *origin = b->forms_base + b->forms_count;
+  memcpy(b->forms + b->forms_count, polys, n * sizeof *polys);
+  b->forms_count += n;
   return BBC_OK;
 }
 
-/* The forms of the piece of this origin. Parents before its own have no more children
- * waiting (the FIFO order), so they are given back once they are half the array. */
-static bbc_result origin_polys(bbc_bounder *b, uint64_t origin, int s_axis, int t_axis,
-                               piece_polys *out) {
-  const size_t k = (size_t)(origin / 8 - b->parent_base);
-  const int q = (int)(origin % 8);
-  bbc_result r = BBC_OK;
-  if (q == 4)
-    *out = b->parents[k];
-  else
-    r = polys_quadrant(&b->arena, &b->parents[k], q, s_axis, t_axis, out);
-  b->parent_head = k;
-  if (b->parent_head >= 256 && 2 * b->parent_head >= b->parent_count) {
-    memmove(b->parents, b->parents + b->parent_head,
-            (b->parent_count - b->parent_head) * sizeof *b->parents);
-    b->parent_count -= b->parent_head;
-    b->parent_base += b->parent_head;
-    b->parent_head = 0;
+/* The forms of the piece of this origin. Those before it belong to pieces examined
+ * already (the FIFO order), so they are given back once they are half the array. */
+static void origin_polys(bbc_bounder *b, uint64_t origin, piece_polys *out) {
+  const size_t k = (size_t)(origin - b->forms_base);
+  *out = b->forms[k];
+  b->forms_head = k;
+  if (b->forms_head >= 1024 && 2 * b->forms_head >= b->forms_count) {
+    memmove(b->forms, b->forms + b->forms_head,
+            (b->forms_count - b->forms_head) * sizeof *b->forms);
+    b->forms_count -= b->forms_head;
+    b->forms_base += b->forms_head;
+    b->forms_head = 0;
   }
-  return r;
 }
 
 /* The forms of a piece in a fresh arena and variable space, and its position check. */
@@ -984,18 +980,28 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
   double lo_u = 1, lo_v = 1, hi_u = 0, hi_v = 0;
   double t0 = clock_seconds();
   bbc_piece stack[4 * DOMAIN_INIT_LEVELS + 1];
+  /* Where the forms can be carried (carries_forms), a piece's are a quadrant of its
+   * parent's, as in the subdivision: only T1's whole box computes them. */
+  piece_polys stack_polys[4 * DOMAIN_INIT_LEVELS + 1];
+  unsigned char carried[4 * DOMAIN_INIT_LEVELS + 1];
+  const int carry = carries_forms(g);
   int top = 0;
   memset(&stack[0], 0, sizeof stack[0]);
   stack[0].u_hi = stack[0].v_hi = 1;
   whole_light(&stack[0]);
+  carried[0] = 0;
   top = 1;
   bbc_result result = BBC_OK;
   while (top > 0 && result == BBC_OK) {
-    bbc_piece piece = stack[--top];
+    --top;
+    bbc_piece piece = stack[top];
+    piece_polys own;
+    const int has_own = carried[top];
+    if (has_own) own = stack_polys[top];
     piece_forms pf;
     verdict v = VERDICT_PARTIAL;
     int contained = 0;
-    result = examine_position(b, g, mode, &piece, NULL, &pf, &v, &contained);
+    result = examine_position(b, g, mode, &piece, has_own ? &own : NULL, &pf, &v, &contained);
     local->position_pieces++;
     if (result != BBC_OK) break;
     if (v == VERDICT_DISCARD) {
@@ -1008,7 +1014,10 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
       /* Depth first, so the stack holds at most 3 siblings per level plus one. */
       double um = 0.5 * (piece.u_lo + piece.u_hi), vm = 0.5 * (piece.v_lo + piece.v_hi);
       const double us[3] = {piece.u_lo, um, piece.u_hi}, vs[3] = {piece.v_lo, vm, piece.v_hi};
-      for (int q = 0; q < 4; q++) {
+      const int split = carry && (has_own || polys_store(&pf.forms, pf.s_axis, pf.t_axis, &own));
+      piece_polys quadrants[4];
+      if (split) result = polys_quadrants(&b->arena, &own, pf.s_axis, pf.t_axis, quadrants);
+      for (int q = 0; q < 4 && result == BBC_OK; q++) {
         bbc_piece child;
         memset(&child, 0, sizeof child);
         whole_light(&child);
@@ -1016,6 +1025,8 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
         child.u_lo = us[q & 1], child.u_hi = us[(q & 1) + 1];
         child.v_lo = vs[q >> 1], child.v_hi = vs[(q >> 1) + 1];
         if (child.u_lo + child.v_lo >= 1.0) continue; /* outside T1 but for a corner */
+        carried[top] = (unsigned char)split;
+        if (split) stack_polys[top] = quadrants[q];
         stack[top++] = child;
       }
       continue;
@@ -1078,14 +1089,14 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
 
   bbc_piece root;
   b->split_forms = 0;
-  b->parent_head = b->parent_count = 0;
-  b->parent_base = 0;
+  b->forms_head = b->forms_count = 0;
+  b->forms_base = 0;
   uint64_t root_origin = 0;
   bbc_result result = domain_init(b, g, position_mode, fn, user, &root, &local);
   if (result != BBC_OK || root.status == BBC_PIECE_DISCARDED) goto done;
   piece_polys root_polys;
   if (carries_forms(g)) {
-    /* The root's forms; every piece's follow from its parent's (polys_quadrant). */
+    /* The root's forms; every piece's follow from its parent's (polys_quadrants). */
     double t0 = clock_seconds();
     piece_forms pf;
     bbc_arena_reset(&b->arena, 0);
@@ -1098,10 +1109,8 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     local.position_seconds += clock_seconds() - t0;
     if (result != BBC_OK) goto done;
     b->split_forms = polys_store(&pf.forms, pf.s_axis, pf.t_axis, &root_polys);
-    if (b->split_forms) {
-      if ((result = push_parent(b, &root_polys, &root_origin)) != BBC_OK) goto done;
-      root_origin += 4; /* the root's forms whole */
-    }
+    if (b->split_forms && (result = push_forms(b, &root_polys, 1, &root_origin)) != BBC_OK)
+      goto done;
   }
 
   /* Breadth-first: a FIFO over the queue array, compacted when it drains or is half
@@ -1136,12 +1145,8 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     piece_forms pf;
     verdict v = VERDICT_PARTIAL;
     /* The forms from the parent's (the axes are those examine_position claims). */
-    if (b->split_forms) {
-      bbc_arena_reset(&b->arena, 0);
-      result = origin_polys(b, origin, BBC_POLY_MAX_AXES - 1, BBC_POLY_MAX_AXES - 2, &own);
-    }
-    if (result == BBC_OK)
-      result = examine_position(b, g, position_mode, &piece, b->split_forms ? &own : NULL, &pf,
+    if (b->split_forms) origin_polys(b, origin, &own);
+    result = examine_position(b, g, position_mode, &piece, b->split_forms ? &own : NULL, &pf,
                                 &v, NULL);
     const double *box = pf.box;
     const bbc_tuple_geometry *gp = &pf.g; /* with the piece's light box */
@@ -1288,7 +1293,14 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       continue;
     }
     uint64_t first_child = 0;
-    if (split && b->split_forms && (result = push_parent(b, &own, &first_child)) != BBC_OK) break;
+    if (split && b->split_forms) {
+      /* The axes are those examine_position claims. */
+      piece_polys quadrants[4];
+      bbc_arena_reset(&b->arena, 0);
+      result = polys_quadrants(&b->arena, &own, pf.s_axis, pf.t_axis, quadrants);
+      if (result == BBC_OK) result = push_forms(b, quadrants, 4, &first_child);
+      if (result != BBC_OK) break;
+    }
     if (split) {
       double um = 0.5 * (piece.u_lo + piece.u_hi), vm = 0.5 * (piece.v_lo + piece.v_hi);
       bbc_piece child = piece; /* inherits the position and irradiance bounds */
