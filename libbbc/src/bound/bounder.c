@@ -183,11 +183,13 @@ static int clip_unit(const bbc_range *r, double *lo, double *hi, int *wide) {
 typedef enum verdict { VERDICT_DISCARD, VERDICT_PARTIAL, VERDICT_FULL } verdict;
 
 /* p at x, a corner of the axes s and t (x[s], x[t] in {0, 1}): when p depends on no
- * other axis, its coefficients are finite and the corner's is not zero, that corner
+ * other axis, its coefficients are finite (`finite`, coefficients_finite) and the
+ * corner's is not zero, that corner
  * coefficient, which is exactly what de Casteljau's evaluation (bbc_poly_eval) returns
  * there (each step adds a product by 0, a finite zero, to the corner's value); otherwise
  * bbc_poly_eval (whose zeros' signs and NaNs this does not reproduce). */
-static double corner_value(const bbc_poly *p, int s_axis, int t_axis, const double *x) {
+static double corner_value(const bbc_poly *p, int finite, int s_axis, int t_axis,
+                           const double *x) {
   size_t stride_s = 1, stride_t = 1;
   for (int j = BBC_POLY_MAX_AXES - 1; j >= 0; j--) {
     if (j == s_axis || j == t_axis || p->deg[j] == 0) continue;
@@ -198,11 +200,16 @@ static double corner_value(const bbc_poly *p, int s_axis, int t_axis, const doub
   for (int j = BBC_POLY_MAX_AXES - 1; j > t_axis; j--) stride_t *= (size_t)p->deg[j] + 1;
   const size_t at = (x[s_axis] != 0 ? p->deg[s_axis] * stride_s : 0) +
                     (x[t_axis] != 0 ? p->deg[t_axis] * stride_t : 0);
+  const double v = p->coef[at];
+  return finite && v != 0 ? v : bbc_poly_eval(p, x);
+}
+
+/* Whether every coefficient of p is finite (corner_value's condition). */
+static int coefficients_finite(const bbc_poly *p) {
   const size_t n = bbc_poly_size(p);
   int finite = 1;
   for (size_t i = 0; i < n; i++) finite &= isfinite(p->coef[i]);
-  const double v = p->coef[at];
-  return finite && v != 0 ? v : bbc_poly_eval(p, x);
+  return finite;
 }
 
 /* The cuts of a position bound (bbc_piece.cut) across the two sides of the image of the
@@ -215,10 +222,12 @@ static bbc_result side_cuts(bbc_arena *arena, const bbc_poly *up, const bbc_poly
   memset(cut, 0, 2 * sizeof cut[0]);
   double x[BBC_POLY_MAX_AXES], c[4][2];
   for (int i = 0; i < BBC_POLY_MAX_AXES; i++) x[i] = 0.5;
+  const int fq = coefficients_finite(kappa), fu = coefficients_finite(up),
+            fv = coefficients_finite(vp);
   for (int k = 0; k < 4; k++) {
     x[s_axis] = k & 1, x[t_axis] = k >> 1;
-    double q = corner_value(kappa, s_axis, t_axis, x), pu = corner_value(up, s_axis, t_axis, x),
-           pv = corner_value(vp, s_axis, t_axis, x);
+    double q = corner_value(kappa, fq, s_axis, t_axis, x),
+           pu = corner_value(up, fu, s_axis, t_axis, x), pv = corner_value(vp, fv, s_axis, t_axis, x);
     c[k][0] = pu / q, c[k][1] = pv / q;
   }
   /* The sides along s and along t, each the mean of its two opposite edges. */
