@@ -29,15 +29,24 @@
  * of its parent halved (polys_quadrants) instead of being computed again. The forms a
  * piece needs for its position and irradiance bounds (Eq. 4-5, 16): */
 #define PIECE_FORMS 6 /* up, vp, kappa, tnum, facing, dist2 */
+/* Then the numerator and denominator of the explicit irradiance bound's rational
+ * (jacobian_rational), carried alike: halving re-parameterises them exactly too. */
+#define PIECE_POLYS (PIECE_FORMS + 2)
 /* Room for their coefficients, one after the other: with interpolated normals up and vp
  * have degree 4 on both axes, kappa 3, facing and dist2 2, tnum 1 (25 + 25 + 16 + 9 + 9 +
- * 4 = 88). */
-#define PIECE_FORM_COEFS 88
+ * 4 = 88); the Jacobian's numerator kappa^3 degree 9 (100) and denominator dist2 D
+ * degree 12 (169). */
+#define PIECE_FORM_COEFS 357
 
 /* A queued piece's forms, by value (degrees, radii, coefficients). */
 typedef struct piece_polys {
-  unsigned char deg[PIECE_FORMS][BBC_POLY_MAX_AXES];
-  double err[PIECE_FORMS];
+  int count; /* PIECE_FORMS, or PIECE_POLYS with the Jacobian's rational */
+  /* The area of the (u, v) box on whose (s, t) the Jacobian's derivatives were taken:
+   * a quadrant's derivatives are its parent's over 2 on each axis, which the carried
+   * polynomials keep, so the irradiance scale takes this area, not the piece's. */
+  double jacobian_area;
+  unsigned char deg[PIECE_POLYS][BBC_POLY_MAX_AXES];
+  double err[PIECE_POLYS];
   double coef[PIECE_FORM_COEFS];
 } piece_polys;
 
@@ -46,14 +55,18 @@ struct bbc_bounder {
   void *memory;
   bbc_piece *queue; /* breadth-first queue of pieces to examine */
   size_t queue_capacity;
-  /* With split_forms, queued piece i's forms are forms[origin[i] - forms_base], the
-   * quadrants of its parent's made when the parent was split (polys_quadrants). The
-   * forms are a FIFO too, since pieces are queued and examined in the same order. */
+  /* With split_forms, queued piece i's forms are quadrant origin[i] % 8 of parent
+   * forms[origin[i] / 8 - forms_base] (0-3, polys_quadrants' order; 4: the parent's
+   * whole, for the root). The parents are a FIFO too, since pieces are queued and
+   * examined in their parents' order. Siblings are examined one after the other, so the
+   * four quadrants of parent quadrants_of are made once, for the first of them. */
   int split_forms;
   uint64_t *origin;
   piece_polys *forms;
   size_t forms_capacity, forms_head, forms_count;
   uint64_t forms_base;
+  uint64_t quadrants_of; /* UINT64_MAX: none */
+  piece_polys quadrants[4];
 };
 
 bbc_result bbc_bounder_create(bbc_bounder **out) {
@@ -64,7 +77,7 @@ bbc_result bbc_bounder_create(bbc_bounder **out) {
   b->queue_capacity = 1024;
   b->queue = malloc(b->queue_capacity * sizeof *b->queue);
   b->origin = malloc(b->queue_capacity * sizeof *b->origin);
-  b->forms_capacity = 1024;
+  b->forms_capacity = 256;
   b->forms = malloc(b->forms_capacity * sizeof *b->forms);
   if (!b->memory || !b->queue || !b->origin || !b->forms) {
     bbc_bounder_free(b);
@@ -188,8 +201,7 @@ typedef enum verdict { VERDICT_DISCARD, VERDICT_PARTIAL, VERDICT_FULL } verdict;
  * coefficient, which is exactly what de Casteljau's evaluation (bbc_poly_eval) returns
  * there (each step adds a product by 0, a finite zero, to the corner's value); otherwise
  * bbc_poly_eval (whose zeros' signs and NaNs this does not reproduce). */
-static double corner_value(const bbc_poly *p, int finite, int s_axis, int t_axis,
-                           const double *x) {
+static double corner_value(const bbc_poly *p, int finite, int s_axis, int t_axis, const double *x) {
   size_t stride_s = 1, stride_t = 1;
   for (int j = BBC_POLY_MAX_AXES - 1; j >= 0; j--) {
     if (j == s_axis || j == t_axis || p->deg[j] == 0) continue;
@@ -227,7 +239,8 @@ static bbc_result side_cuts(bbc_arena *arena, const bbc_poly *up, const bbc_poly
   for (int k = 0; k < 4; k++) {
     x[s_axis] = k & 1, x[t_axis] = k >> 1;
     double q = corner_value(kappa, fq, s_axis, t_axis, x),
-           pu = corner_value(up, fu, s_axis, t_axis, x), pv = corner_value(vp, fv, s_axis, t_axis, x);
+           pu = corner_value(up, fu, s_axis, t_axis, x),
+           pv = corner_value(vp, fv, s_axis, t_axis, x);
     c[k][0] = pu / q, c[k][1] = pv / q;
   }
   /* The sides along s and along t, each the mean of its two opposite edges. */
@@ -333,17 +346,22 @@ static int carries_forms(const bbc_tuple_geometry *g) {
   return g->length == 1 && !g->refract && g->light_model.kind != BBC_LIGHT_AREA;
 }
 
-static bbc_poly *form_of(chain_forms *f, int k) {
+/* Polynomial k of a piece's carried ones: the forms, then jac[0] and jac[1]. */
+static bbc_poly *form_of(chain_forms *f, bbc_poly *jac, int k) {
   bbc_poly *polys[PIECE_FORMS] = {&f->up, &f->vp, &f->kappa, &f->tnum, &f->facing, &f->dist2};
-  return polys[k];
+  return k < PIECE_FORMS ? polys[k] : &jac[k - PIECE_FORMS];
 }
 
-/* The forms as a queued piece carries them; 0 when they need more than
- * PIECE_FORM_COEFS coefficients or one depends on an axis other than s and t. */
-static int polys_store(chain_forms *f, int s_axis, int t_axis, piece_polys *out) {
+/* The forms as a queued piece carries them, with the Jacobian's rational when jac is not
+ * NULL (taken on a box of that area); 0 when they need more than PIECE_FORM_COEFS
+ * coefficients or one depends on an axis other than s and t. */
+static int polys_store(chain_forms *f, bbc_poly *jac, double area, int s_axis, int t_axis,
+                       piece_polys *out) {
   size_t at = 0;
-  for (int k = 0; k < PIECE_FORMS; k++) {
-    const bbc_poly *p = form_of(f, k);
+  out->count = jac ? PIECE_POLYS : PIECE_FORMS;
+  out->jacobian_area = area;
+  for (int k = 0; k < out->count; k++) {
+    const bbc_poly *p = form_of(f, jac, k);
     for (int j = 0; j < BBC_POLY_MAX_AXES; j++)
       if (p->deg[j] != 0 && j != s_axis && j != t_axis) return 0;
     const size_t n = bbc_poly_size(p);
@@ -357,14 +375,15 @@ static int polys_store(chain_forms *f, int s_axis, int t_axis, piece_polys *out)
 }
 
 /* The carried forms as chain_forms of single reflection (the polynomials borrow polys'
- * coefficients; the other members are empty, as no bound of reflection uses them). */
-static void polys_view(const piece_polys *polys, chain_forms *f) {
+ * coefficients; the other members are empty, as no bound of reflection uses them), and
+ * in jac (when polys has them) the Jacobian's rational. */
+static void polys_view(const piece_polys *polys, chain_forms *f, bbc_poly jac[2]) {
   memset(f, 0, sizeof *f);
   f->length = 1;
   f->slope_enclosed = 1;
   size_t at = 0;
-  for (int k = 0; k < PIECE_FORMS; k++) {
-    bbc_poly *p = form_of(f, k);
+  for (int k = 0; k < (jac ? polys->count : PIECE_FORMS); k++) {
+    bbc_poly *p = form_of(f, jac, k);
     memcpy(p->deg, polys->deg[k], sizeof p->deg);
     p->err = polys->err[k];
     p->coef = (double *)polys->coef + at;
@@ -382,11 +401,14 @@ static bbc_result polys_quadrants(bbc_arena *arena, const piece_polys *parent, i
                                   int t_axis, piece_polys out[4]) {
   size_t mark = bbc_arena_mark(arena), at = 0;
   chain_forms f;
-  polys_view(parent, &f);
+  bbc_poly jac[2];
+  polys_view(parent, &f, jac);
   bbc_result r = BBC_OK;
-  for (int k = 0; k < PIECE_FORMS && r == BBC_OK; k++) {
+  for (int q = 0; q < 4; q++)
+    out[q].count = parent->count, out[q].jacobian_area = parent->jacobian_area;
+  for (int k = 0; k < parent->count && r == BBC_OK; k++) {
     bbc_poly half[2], quarter[4];
-    r = bbc_poly_split(arena, form_of(&f, k), s_axis, &half[0], &half[1]);
+    r = bbc_poly_split(arena, form_of(&f, jac, k), s_axis, &half[0], &half[1]);
     for (int i = 0; i < 2 && r == BBC_OK; i++)
       r = bbc_poly_split(arena, &half[i], t_axis, &quarter[i], &quarter[2 + i]);
     if (r != BBC_OK) break;
@@ -423,7 +445,7 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
   /* Carried forms come whole; computed ones in two steps. */
   bbc_result r = BBC_OK;
   if (polys)
-    polys_view(polys, f);
+    polys_view(polys, f, NULL);
   else
     r = bbc__chain_forms_prefix(arena, space, g, box, s_axis, t_axis, mode, f);
   if (r != BBC_OK) return r;
@@ -506,7 +528,7 @@ static void magnitude(const bbc_range *r, double *lo, double *hi) {
  * from the exact vertices: |e11 x e12| du dv / |ek1 x ek2| and cos(theta0) = h / |d0|,
  * with h the distance from the light to T1's plane and |d0| bounded through d0 . d0. */
 static bbc_interval irradiance_scale(const bbc_tuple_geometry *g, const chain_forms *f,
-                                     const double box[4]) {
+                                     double area) {
   bbc_ivec3 p0 = bbc_ivec3_point(g->p[0]);
   bbc_ivec3 c1 = bbc_ivec3_cross(bbc_ivec3_sub(bbc_ivec3_point(g->p[1]), p0),
                                  bbc_ivec3_sub(bbc_ivec3_point(g->p[2]), p0));
@@ -554,8 +576,7 @@ static bbc_interval irradiance_scale(const bbc_tuple_geometry *g, const chain_fo
     cos0 = bbc_interval_mul(cos0, w);
     if (!(cos0.lo >= 0)) cos0.lo = 0;
   }
-  bbc_interval k =
-      bbc_interval_div(bbc_interval_scale(a1, (box[1] - box[0]) * (box[3] - box[2])), ak);
+  bbc_interval k = bbc_interval_div(bbc_interval_scale(a1, area), ak);
   bbc_interval scale = bbc_interval_mul(k, cos0);
   if (!(scale.lo >= 0)) scale.lo = 0;
   return scale;
@@ -612,8 +633,9 @@ static bbc_result implicit_bound(bbc_arena *arena, const bbc_space *space,
 }
 
 static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const chain_forms *f,
-                                 int s_axis, int t_axis, bbc_jacobian_form form,
-                                 bbc_interval scale, double *e_lo, double *e_hi, int *fold);
+                                 const bbc_poly *carried, int s_axis, int t_axis,
+                                 bbc_jacobian_form form, bbc_interval scale, double *e_lo,
+                                 double *e_hi, int *fold);
 
 /* The irradiance bound of a piece per unit intensity (Eq. 14-16, Supp. 2.1):
  * E = cos(theta0) / |d0|^2 * |e11 x e12| * |du1/duk| / |ek1 x ek2|, with
@@ -627,13 +649,15 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
  * dFG/duk): on ball80 at level 4 it bounded 4 of 786 such pieces. */
 static bbc_result irradiance_bound(bbc_arena *arena, const bbc_space *space,
                                    const bbc_tuple_geometry *g, const chain_forms *f,
+                                   const bbc_poly *carried, double carried_area,
                                    const double box[4], const double uk_box[4], int s_axis,
                                    int t_axis, bbc_jacobian_form form, double alpha, double *e_lo,
                                    double *e_hi) {
   *e_lo = 0;
   *e_hi = INFINITY;
   if (!f->slope_enclosed) return BBC_OK;
-  bbc_interval scale = irradiance_scale(g, f, box);
+  bbc_interval scale =
+      irradiance_scale(g, f, carried ? carried_area : (box[1] - box[0]) * (box[3] - box[2]));
   bbc_result res;
   if (f->length == 2 && g->refract2 && f->has_derivatives) {
     /* Explicit, then where it is loose (near total internal reflection at T2, Fig. 7,
@@ -641,7 +665,7 @@ static bbc_result irradiance_bound(bbc_arena *arena, const bbc_space *space,
      * implicit bound. */
     if (f->slope_enclosed2) {
       int fold = 0;
-      if ((res = explicit_bound(arena, space, f, s_axis, t_axis, form, scale, e_lo, e_hi,
+      if ((res = explicit_bound(arena, space, f, NULL, s_axis, t_axis, form, scale, e_lo, e_hi,
                                 &fold)) != BBC_OK)
         return res;
       if (*e_hi <= alpha * *e_lo || fold) return BBC_OK;
@@ -653,14 +677,15 @@ static bbc_result irradiance_bound(bbc_arena *arena, const bbc_space *space,
     return BBC_OK;
   }
   if (f->length == 2 && !f->slope_enclosed2) return BBC_OK;
-  return explicit_bound(arena, space, f, s_axis, t_axis, form, scale, e_lo, e_hi, NULL);
+  return explicit_bound(arena, space, f, carried, s_axis, t_axis, form, scale, e_lo, e_hi, NULL);
 }
 
-/* The explicit bound (Eq. 16): the rational part by Bernstein bounds, times scale. With
- * fold non-NULL, also whether the determinant seems to change sign in the piece. */
-static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const chain_forms *f,
-                                 int s_axis, int t_axis, bbc_jacobian_form form,
-                                 bbc_interval scale, double *e_lo, double *e_hi, int *fold) {
+/* The explicit bound's rational (Eq. 16): *num = q^3 and *den = |d0|^2 D_st (or q^4 and
+ * |d0|^2 N in the quotient-rule form), D_st over the piece's s and t. With fold
+ * non-NULL, also whether the determinant seems to change sign in the piece. */
+static bbc_result jacobian_rational(bbc_arena *arena, const bbc_space *space, const chain_forms *f,
+                                    int s_axis, int t_axis, bbc_jacobian_form form, bbc_poly *num,
+                                    bbc_poly *den, int *fold) {
   const bbc_poly *q = &f->kappa, *p = &f->up, *r = &f->vp;
   bbc_poly qs, qt, ps, pt, rs, rt, qq, pp, rr;
   bbc_result res;
@@ -668,7 +693,7 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
   do {                                        \
     if ((res = (expr)) != BBC_OK) return res; \
   } while (0)
-  bbc_poly num, den, jac, q2, a, b, c;
+  bbc_poly jac, q2, a, b, c;
   if (f->has_derivatives) {
     /* Two bounces: the derivatives came along in forward mode (chain_double.c). */
     const bbc_poly *in[9] = {q, p, r, &f->kappa_s, &f->kappa_t, &f->up_s, &f->up_t, &f->vp_s,
@@ -786,7 +811,7 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
     TRY(bbc_poly_mul(arena, &t3, r, &c));
     TRY(bbc_poly_sub(arena, &jac, &t1, &t2));
     TRY(bbc_poly_add(arena, &jac, &jac, &t3));
-    TRY(bbc_poly_mul(arena, &num, &q2, q));
+    TRY(bbc_poly_mul(arena, num, &q2, q));
   } else {
     TRY(bbc_poly_mul(arena, &q2, q, q));
     /* N = (p_s q - p q_s)(r_t q - r q_t) - (p_t q - p q_t)(r_s q - r q_s). */
@@ -806,7 +831,7 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
     TRY(bbc_poly_mul(arena, &x, &us, &vt));
     TRY(bbc_poly_mul(arena, &y, &ut, &vs));
     TRY(bbc_poly_sub(arena, &jac, &x, &y));
-    TRY(bbc_poly_mul(arena, &num, &q2, &q2));
+    TRY(bbc_poly_mul(arena, num, &q2, &q2));
   }
   if (fold) {
     /* Whether the determinant seems to vanish inside the piece: its signs at a 3 x 3
@@ -829,9 +854,28 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
     }
     *fold = pos && neg;
   }
-  TRY(bbc_poly_mul(arena, &den, &f->dist2, &jac));
+  TRY(bbc_poly_mul(arena, den, &f->dist2, &jac));
+  return BBC_OK;
+#undef TRY
+}
+
+/* The explicit bound (Eq. 16): the rational part by Bernstein bounds, times scale; the
+ * rational is carried[0] / carried[1] when carried is not NULL, else jacobian_rational's
+ * (with its fold). */
+static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const chain_forms *f,
+                                 const bbc_poly *carried, int s_axis, int t_axis,
+                                 bbc_jacobian_form form, bbc_interval scale, double *e_lo,
+                                 double *e_hi, int *fold) {
+  bbc_poly rational[2];
+  if (!carried) {
+    bbc_result res =
+        jacobian_rational(arena, space, f, s_axis, t_axis, form, &rational[0], &rational[1], fold);
+    if (res != BBC_OK) return res;
+    carried = rational;
+  }
   bbc_range ratio;
-  TRY(bbc_rational_bound(arena, &num, &den, &ratio));
+  bbc_result res = bbc_rational_bound(arena, &carried[0], &carried[1], &ratio);
+  if (res != BBC_OK) return res;
   double lo, hi;
   magnitude(&ratio, &lo, &hi);
   /* Rounded products of positive numbers, pushed a few ulps outward. */
@@ -839,7 +883,6 @@ static bbc_result explicit_bound(bbc_arena *arena, const bbc_space *space, const
   *e_hi = isfinite(hi) ? hi * scale.hi * (1 + 4 * DBL_EPSILON) : INFINITY;
   if (!(*e_hi >= 0)) *e_hi = INFINITY; /* NaN from an unbounded scale */
   return BBC_OK;
-#undef TRY
 }
 
 /* Queues a piece with its origin (see bbc_bounder; ignored without split_forms). */
@@ -859,34 +902,45 @@ static bbc_result push(bbc_bounder *b, size_t *count, const bbc_piece *piece, ui
   return BBC_OK;
 }
 
-/* Adds the forms of n pieces about to be queued; *origin receives the first's. */
-static bbc_result push_forms(bbc_bounder *b, const piece_polys *polys, size_t n, uint64_t *origin) {
-  while (b->forms_count + n > b->forms_capacity) {
+/* Adds a parent's forms; *origin receives the first of its quadrants' origins. */
+static bbc_result push_parent(bbc_bounder *b, const piece_polys *polys, uint64_t *origin) {
+  if (b->forms_count == b->forms_capacity) {
     size_t capacity = b->forms_capacity * 2;
     piece_polys *p = realloc(b->forms, capacity * sizeof *p);
     if (!p) return BBC_ERR_OUT_OF_MEMORY;
     b->forms = p;
     b->forms_capacity = capacity;
   }
-  *origin = b->forms_base + b->forms_count;
-  memcpy(b->forms + b->forms_count, polys, n * sizeof *polys);
-  b->forms_count += n;
+  *origin = 8 * (b->forms_base + b->forms_count);
+  b->forms[b->forms_count++] = *polys;
   return BBC_OK;
 }
 
-/* The forms of the piece of this origin. Those before it belong to pieces examined
- * already (the FIFO order), so they are given back once they are half the array. */
-static void origin_polys(bbc_bounder *b, uint64_t origin, piece_polys *out) {
-  const size_t k = (size_t)(origin - b->forms_base);
-  *out = b->forms[k];
+/* The forms of the piece of this origin. Parents before its own have no more children
+ * waiting (the FIFO order), so they are given back once they are half the array. */
+static bbc_result origin_polys(bbc_bounder *b, uint64_t origin, int s_axis, int t_axis,
+                               piece_polys *out) {
+  const size_t k = (size_t)(origin / 8 - b->forms_base);
+  const int q = (int)(origin % 8);
+  bbc_result r = BBC_OK;
+  if (q == 4) {
+    *out = b->forms[k];
+  } else {
+    if (b->quadrants_of != origin / 8) {
+      r = polys_quadrants(&b->arena, &b->forms[k], s_axis, t_axis, b->quadrants);
+      b->quadrants_of = r == BBC_OK ? origin / 8 : UINT64_MAX;
+    }
+    if (r == BBC_OK) *out = b->quadrants[q];
+  }
   b->forms_head = k;
-  if (b->forms_head >= 1024 && 2 * b->forms_head >= b->forms_count) {
+  if (b->forms_head >= 256 && 2 * b->forms_head >= b->forms_count) {
     memmove(b->forms, b->forms + b->forms_head,
             (b->forms_count - b->forms_head) * sizeof *b->forms);
     b->forms_count -= b->forms_head;
     b->forms_base += b->forms_head;
     b->forms_head = 0;
   }
+  return r;
 }
 
 /* The forms of a piece in a fresh arena and variable space, and its position check. */
@@ -1023,7 +1077,8 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
       /* Depth first, so the stack holds at most 3 siblings per level plus one. */
       double um = 0.5 * (piece.u_lo + piece.u_hi), vm = 0.5 * (piece.v_lo + piece.v_hi);
       const double us[3] = {piece.u_lo, um, piece.u_hi}, vs[3] = {piece.v_lo, vm, piece.v_hi};
-      const int split = carry && (has_own || polys_store(&pf.forms, pf.s_axis, pf.t_axis, &own));
+      const int split =
+          carry && (has_own || polys_store(&pf.forms, NULL, 0, pf.s_axis, pf.t_axis, &own));
       piece_polys quadrants[4];
       if (split) result = polys_quadrants(&b->arena, &own, pf.s_axis, pf.t_axis, quadrants);
       for (int q = 0; q < 4 && result == BBC_OK; q++) {
@@ -1100,6 +1155,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
   b->split_forms = 0;
   b->forms_head = b->forms_count = 0;
   b->forms_base = 0;
+  b->quadrants_of = UINT64_MAX;
   uint64_t root_origin = 0;
   bbc_result result = domain_init(b, g, position_mode, fn, user, &root, &local);
   if (result != BBC_OK || root.status == BBC_PIECE_DISCARDED) goto done;
@@ -1117,9 +1173,21 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
                               &pf.forms);
     local.position_seconds += clock_seconds() - t0;
     if (result != BBC_OK) goto done;
-    b->split_forms = polys_store(&pf.forms, pf.s_axis, pf.t_axis, &root_polys);
-    if (b->split_forms && (result = push_forms(b, &root_polys, 1, &root_origin)) != BBC_OK)
-      goto done;
+    /* With the Jacobian's rational, which the pieces' irradiance bounds then take from
+     * it as they take their forms (unless only positions are asked for). */
+    bbc_poly jac[2];
+    const double area = (box[1] - box[0]) * (box[3] - box[2]);
+    b->split_forms = 0;
+    if (!prm.positions_only &&
+        jacobian_rational(&b->arena, &pf.space, &pf.forms, pf.s_axis, pf.t_axis, prm.jacobian,
+                          &jac[0], &jac[1], NULL) == BBC_OK)
+      b->split_forms = polys_store(&pf.forms, jac, area, pf.s_axis, pf.t_axis, &root_polys);
+    if (!b->split_forms)
+      b->split_forms = polys_store(&pf.forms, NULL, 0, pf.s_axis, pf.t_axis, &root_polys);
+    if (b->split_forms) {
+      if ((result = push_parent(b, &root_polys, &root_origin)) != BBC_OK) goto done;
+      root_origin += 4; /* the root's forms whole */
+    }
   }
 
   /* Breadth-first: a FIFO over the queue array, compacted when it drains or is half
@@ -1154,9 +1222,13 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     piece_forms pf;
     verdict v = VERDICT_PARTIAL;
     /* The forms from the parent's (the axes are those examine_position claims). */
-    if (b->split_forms) origin_polys(b, origin, &own);
-    result = examine_position(b, g, position_mode, &piece, b->split_forms ? &own : NULL, &pf,
-                                &v, NULL);
+    if (b->split_forms) {
+      bbc_arena_reset(&b->arena, 0);
+      result = origin_polys(b, origin, BBC_POLY_MAX_AXES - 1, BBC_POLY_MAX_AXES - 2, &own);
+    }
+    if (result == BBC_OK)
+      result = examine_position(b, g, position_mode, &piece, b->split_forms ? &own : NULL, &pf, &v,
+                                NULL);
     const double *box = pf.box;
     const bbc_tuple_geometry *gp = &pf.g; /* with the piece's light box */
     const int s_axis = pf.s_axis, t_axis = pf.t_axis;
@@ -1215,8 +1287,16 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       }
       const double uk_box[4] = {piece.uk_lo, piece.uk_hi, piece.vk_lo, piece.vk_hi};
       double e_lo = 0, e_hi = INFINITY;
+      /* The Jacobian's rational where the piece carries it. */
+      bbc_poly jac[2];
+      const int carried = b->split_forms && own.count == PIECE_POLYS;
+      if (carried) {
+        chain_forms view;
+        polys_view(&own, &view, jac);
+      }
       if (result == BBC_OK)
-        result = irradiance_bound(&b->arena, &space, gp, irr, box, uk_box, s_axis, t_axis,
+        result = irradiance_bound(&b->arena, &space, gp, irr, carried ? jac : NULL,
+                                  carried ? own.jacobian_area : 0, box, uk_box, s_axis, t_axis,
                                   prm.jacobian, alpha, &e_lo, &e_hi);
       local.irradiance_pieces++;
       local.irradiance_seconds += clock_seconds() - t1;
@@ -1302,14 +1382,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       continue;
     }
     uint64_t first_child = 0;
-    if (split && b->split_forms) {
-      /* The axes are those examine_position claims. */
-      piece_polys quadrants[4];
-      bbc_arena_reset(&b->arena, 0);
-      result = polys_quadrants(&b->arena, &own, pf.s_axis, pf.t_axis, quadrants);
-      if (result == BBC_OK) result = push_forms(b, quadrants, 4, &first_child);
-      if (result != BBC_OK) break;
-    }
+    if (split && b->split_forms && (result = push_parent(b, &own, &first_child)) != BBC_OK) break;
     if (split) {
       double um = 0.5 * (piece.u_lo + piece.u_hi), vm = 0.5 * (piece.v_lo + piece.v_hi);
       bbc_piece child = piece; /* inherits the position and irradiance bounds */
