@@ -1951,6 +1951,24 @@ TEST(arena_and_contracts) {
   CHECK_INT(bbc_poly_restrict(&B, &out, &x, lo, hi), BBC_ERR_INVALID_ARGUMENT);
   CHECK_INT(bbc_poly_derivative(&B, &out, &x, NAX), BBC_ERR_INVALID_ARGUMENT);
   CHECK_INT(bbc_poly_mul(&B, &out, NULL, &x), BBC_ERR_INVALID_ARGUMENT);
+  /* A degree above BBC_POLY_MAX_DEGREE on any axis makes an operand invalid (the eight
+   * degrees are tested at once): 120 passes, 121, 127, 128 and 255 do not. */
+  bbc_poly one, top;
+  REQUIRE(bbc_poly_constant(&B, &one, 1.0) == BBC_OK);
+  for (int j = 0; j < NAX; j++) {
+    unsigned char d[NAX] = {0};
+    d[j] = BBC_POLY_MAX_DEGREE;
+    REQUIRE(bbc_poly_elevate(&B, &top, &one, d) == BBC_OK);
+    CHECK_INT(bbc_poly_scale(&B, &out, &top, 2.0), BBC_OK);
+    const unsigned char bad[4] = {121, 127, 128, 255};
+    for (int k = 0; k < 4; k++) {
+      bbc_poly p = top; /* its coefficients are never read on refusal */
+      p.deg[j] = bad[k];
+      CHECK_INT(bbc_poly_scale(&B, &out, &p, 2.0), BBC_ERR_INVALID_ARGUMENT);
+      CHECK_INT(bbc_poly_mul(&B, &out, &p, &one), BBC_ERR_INVALID_ARGUMENT);
+      CHECK_INT(bbc_poly_mul(&B, &out, &one, &p), BBC_ERR_INVALID_ARGUMENT);
+    }
+  }
   CHECK_INT(bbc_sqrt_primal_fit(2.0, 1.0, NULL), BBC_ERR_INVALID_ARGUMENT);
   bbc_sqrt_primal sp;
   CHECK_INT(bbc_sqrt_primal_fit(2.0, 1.0, &sp), BBC_ERR_INVALID_ARGUMENT);

@@ -99,12 +99,6 @@ void bbc_arena_reset(bbc_arena *arena, size_t mark) {
 
 /* ---- Tensor helpers ----------------------------------------------------------------- */
 
-size_t bbc__size(const unsigned char deg[NAX]) {
-  size_t s = 1;
-  for (int j = 0; j < NAX; j++) s *= (size_t)deg[j] + 1;
-  return s;
-}
-
 size_t bbc__strides(const unsigned char deg[NAX], size_t stride[NAX]) {
   size_t s = 1;
   for (int j = NAX - 1; j >= 0; j--) {
@@ -122,11 +116,22 @@ double bbc__maxabs(const double *c, size_t n) {
   const __m128d absmask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
   const __m128d inf = _mm_set1_pd(INFINITY);
   __m128d vm = _mm_setzero_pd(), finite = _mm_cmpeq_pd(vm, vm);
+  __m128d vm2 = vm, finite2 = finite; /* four lanes per step, in two pairs */
+  for (; i + 4 <= n; i += 4) {
+    __m128d a = _mm_and_pd(_mm_loadu_pd(c + i), absmask);
+    __m128d b = _mm_and_pd(_mm_loadu_pd(c + i + 2), absmask);
+    finite = _mm_and_pd(finite, _mm_cmplt_pd(a, inf)); /* false for inf and NaN */
+    finite2 = _mm_and_pd(finite2, _mm_cmplt_pd(b, inf));
+    vm = _mm_max_pd(vm, a);
+    vm2 = _mm_max_pd(vm2, b);
+  }
   for (; i + 2 <= n; i += 2) {
     __m128d a = _mm_and_pd(_mm_loadu_pd(c + i), absmask);
-    finite = _mm_and_pd(finite, _mm_cmplt_pd(a, inf)); /* false for inf and NaN */
+    finite = _mm_and_pd(finite, _mm_cmplt_pd(a, inf));
     vm = _mm_max_pd(vm, a);
   }
+  finite = _mm_and_pd(finite, finite2);
+  vm = _mm_max_pd(vm, vm2);
   if (_mm_movemask_pd(finite) != 3) return INFINITY;
   double lanes[2];
   _mm_storeu_pd(lanes, vm);
@@ -271,10 +276,7 @@ static void axis_apply_banded(const double *in, const unsigned char deg[NAX], in
 }
 
 static int poly_ok(const bbc_poly *p) {
-  if (!p || !p->coef) return 0;
-  for (int j = 0; j < NAX; j++)
-    if (p->deg[j] > MAXD) return 0;
-  return 1;
+  return bbc__poly_ok(p);
 }
 
 static int axis_ok(int axis) {
@@ -934,9 +936,9 @@ static bbc_result mul_into(bbc_arena *arena, const bbc_poly *a, const bbc_poly *
   /* K: 2 per active axis for scaling a, the same for b and for the final division, 1 for
    * the product and terms - 1 for the sum, terms = prod(min(n_j, m_j) + 1). */
   int active = count_active(deg);
-  double terms = 1.0;
-  for (int j = 0; j < NAX; j++)
-    terms *= (double)((a->deg[j] < b->deg[j] ? a->deg[j] : b->deg[j]) + 1);
+  unsigned char least[NAX];
+  for (int j = 0; j < NAX; j++) least[j] = a->deg[j] < b->deg[j] ? a->deg[j] : b->deg[j];
+  double terms = (double)bbc__size(least); /* exact: below 2^53 */
   double k = 6.0 * active + terms + 1.0;
   double ma = bbc__maxabs(a->coef, na), mb = bbc__maxabs(b->coef, nb);
   double ea = bbc__radius(a->err), eb = bbc__radius(b->err);

@@ -4,6 +4,9 @@
 
 #include "bbc/bernstein.h"
 
+#include <stdint.h>
+#include <string.h>
+
 /* Early return on failure, as zstd's FORWARD_IF_ERROR. */
 #define BBC__TRY(expr)                     \
   do {                                     \
@@ -15,8 +18,27 @@
  * exact integer (exact up to n = 56). 0 <= n <= BBC_POLY_MAX_DEGREE. Thread-safe. */
 const double *bbc__binomial_row(int n);
 
-/* prod(deg[j] + 1). */
-size_t bbc__size(const unsigned char deg[BBC_POLY_MAX_AXES]);
+/* prod(deg[j] + 1), written out: it is asked for on every operation. */
+static inline size_t bbc__size(const unsigned char deg[BBC_POLY_MAX_AXES]) {
+  _Static_assert(BBC_POLY_MAX_AXES == 8, "bbc__size multiplies eight degrees");
+  return (((size_t)deg[0] + 1) * ((size_t)deg[1] + 1)) *
+         (((size_t)deg[2] + 1) * ((size_t)deg[3] + 1)) *
+         ((((size_t)deg[4] + 1) * ((size_t)deg[5] + 1)) *
+          (((size_t)deg[6] + 1) * ((size_t)deg[7] + 1)));
+}
+
+/* Whether p has coefficients and every degree at most BBC_POLY_MAX_DEGREE, the eight
+ * degrees tested at once: a byte above 120 has its top bit set or gets it from + 7, and
+ * + 7 carries into the next byte only from a byte whose top bit is set already. */
+static inline int bbc__poly_ok(const bbc_poly *p) {
+  _Static_assert(BBC_POLY_MAX_AXES == 8 && BBC_POLY_MAX_DEGREE == 120,
+                 "bbc__poly_ok tests eight degrees against 120");
+  if (!p || !p->coef) return 0;
+  uint64_t d;
+  memcpy(&d, p->deg, sizeof d);
+  return ((d | (d + 0x0707070707070707u)) & 0x8080808080808080u) == 0;
+}
+
 /* Strides of the tensor (last axis fastest); returns the size. */
 size_t bbc__strides(const unsigned char deg[BBC_POLY_MAX_AXES], size_t stride[BBC_POLY_MAX_AXES]);
 /* max |c_i|, or +inf when some c_i is not finite. */

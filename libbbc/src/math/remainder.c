@@ -107,10 +107,7 @@ static bbc_result affine_remainder(bbc_arena *arena, bbc_space *space, bbc_poly 
 }
 
 static int poly_ok(const bbc_poly *p) {
-  if (!p || !p->coef) return 0;
-  for (int j = 0; j < NAX; j++)
-    if (p->deg[j] > MAXD) return 0;
-  return 1;
+  return bbc__poly_ok(p);
 }
 
 bbc_result bbc_poly_remainder(bbc_arena *arena, bbc_space *space, bbc_poly *out, const bbc_poly *f,
