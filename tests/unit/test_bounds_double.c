@@ -215,6 +215,24 @@ TEST(ball320_tt) {
   CHECK(acc.unbounded * 20 < acc.admissible); /* 3.2 % (CI), 8.5 % before (see ball80) */
 }
 
+/* The larger balls at the paper's levels (Table 3): BBC_TEST_FULL=1 validates every
+ * 4th (ball1280) and 16th (ball5120) candidate, about 10^6 admissible paths each. */
+TEST(ball1280_tt) {
+  const scene_case c = {SHARED_SCENE("ball1280.gltf"), TT, 2, 53, 10, 3000, 4, 8000, 0};
+  bbc_validation acc;
+  validate_scene(&c, "ball1280 TT", &acc);
+  expect_valid(&acc, 500);
+  CHECK(acc.unbounded * 20 < acc.admissible); /* 3.5 % with BBC_TEST_FULL */
+}
+
+TEST(ball5120_tt) {
+  const scene_case c = {SHARED_SCENE("ball5120.gltf"), TT, 1, 211, 10, 3000, 16, 8000, 0};
+  bbc_validation acc;
+  validate_scene(&c, "ball5120 TT", &acc);
+  expect_valid(&acc, 500);
+  CHECK(acc.unbounded * 20 < acc.admissible); /* 4.1 % with BBC_TEST_FULL */
+}
+
 TEST(slab10k_tt) {
   const scene_case c = {SHARED_SCENE("slab10k.gltf"), TT, 2, 211, 10, 3000, 40, 6000, 0};
   bbc_validation acc;
