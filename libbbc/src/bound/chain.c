@@ -270,6 +270,8 @@ bbc_result bbc__chain_forms_prefix(bbc_arena *arena, bbc_space *space,
   } else if (g->light_model.kind == BBC_LIGHT_AREA) {
     bbc_poly3 light;
     TRY(bbc__chain_area_light(arena, space, g, s_axis, t_axis, &light));
+    TRY(bbc__chain_area_axes(space, s_axis, t_axis, out->light_axes));
+    out->light_axis_count = 2;
     TRY(bbc_poly3_sub(arena, &d0, x1, &light));
     TRY(bbc_poly3_dot(arena, &out->dist2, &d0, &d0));
     TRY(bbc_poly3_dot_vec(arena, &out->emit, &d0, g->light_model.emitter_normal));

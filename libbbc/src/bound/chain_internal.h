@@ -58,9 +58,9 @@ typedef struct chain_forms {
    * piece's variables, carried in forward mode (chain_double.c). */
   int has_derivatives;
   bbc_poly up_s, up_t, vp_s, vp_t, kappa_s, kappa_t;
-  /* Two bounces from an area light: the axes of the emitter's (a, b), which every
-   * reduction caps at CHAIN_LIGHT_DEGREE (bbc__flatten_light); light_axis_count is 2
-   * then, else 0. */
+  /* An area light: the axes of the emitter's (a, b); light_axis_count is 2 then, else
+   * 0. Two bounces cap every reduction on them at CHAIN_LIGHT_DEGREE
+   * (bbc__flatten_light), one bounce the Jacobian's products (bounder.c). */
   int light_axes[2];
   int light_axis_count;
   void *scratch; /* state between the two steps below, in the arena */
