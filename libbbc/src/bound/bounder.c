@@ -688,8 +688,9 @@ static bbc_result irradiance_bound(bbc_arena *arena, const bbc_space *space,
  * remain): on a wavy plane of 100 triangles under a 0.5 emitter the precompute took 124
  * CPU-s instead of 72, with the same check-bounds counts and a median log10(E_hi/E) of
  * 0.515 against 0.525 (docs/lights.md). Degree 0 made 46 % of the paths unbounded.
- * Refraction keeps every degree: capped, the generated pool's T bounds were 2x cheaper
- * but left 1.7 % of the paths unbounded, where none are. */
+ * Refraction is left as it is: the reduction also folds its remainder axes into the
+ * radius, and the generated pool's T bounds, 2x cheaper, left 1.7 % of the paths
+ * unbounded (none are) at any cap from 1 to 3. */
 #define JACOBIAN_LIGHT_DEGREE 1
 
 /* p reduced in place to JACOBIAN_LIGHT_DEGREE on light[0..1]; nothing when light is NULL. */
