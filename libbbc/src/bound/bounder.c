@@ -685,8 +685,8 @@ static bbc_result irradiance_bound(bbc_arena *arena, const bbc_space *space,
  * and |d0|^2), what each fit misses entering its radius (bbc__flatten_light). q, p, r
  * and their derivatives have degree 1 on these axes, and without the cap the
  * denominator reaches degree 5 on each (6084 coefficients on four axes where 1521
- * remain): on a wavy plane of 100 triangles under a 0.5 emitter the precompute took 124
- * CPU-s instead of 72, with the same check-bounds counts and a median log10(E_hi/E) of
+ * remain): on a wavy plane of 100 triangles under a 0.5 emitter the precompute took 95
+ * CPU-s instead of 55, with the same check-bounds counts and a median log10(E_hi/E) of
  * 0.515 against 0.525 (docs/lights.md). Degree 0 made 46 % of the paths unbounded.
  * Refraction is left as it is: the reduction also folds its remainder axes into the
  * radius, and the generated pool's T bounds, 2x cheaper, left 1.7 % of the paths
