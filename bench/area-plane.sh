@@ -36,9 +36,9 @@
 #    caustic (lit mean about 0.01) is nearly an absolute error, and relMSE' with
 #    eps = 1e-2 (lit mean)^2, the relMSE of the images scaled to a lit mean of 1; a black
 #    image's score is given for both.
-# Cost at 26e828a, 2 cores shared with other jobs: 559 s wall in all at load average 5
-# (the precompute 229 CPU-s, 208 s wall; the long pt render 263 CPU-s; the references,
-# cached, 29 more); at load 8-12 the precompute alone took 1012 s wall, the rest 446 s.
+# Cost at 81a98e8, one of the 2 cores busy with another job: 351 s wall in all (the
+# precompute 162 CPU-s, 156 s wall; the long pt render 173 CPU-s; the references, cached,
+# 22 more); at 26e828a at load 8-12 the precompute alone took 1012 s wall.
 # CPU-s: user + sys of each process (/usr/bin/time); the load average is recorded. Writes
 # bench/results/area-plane.md and area-plane.png (gnuplot, if installed:
 # scripts/install-deps.sh --bench). Builds bbc (Release) in build/ if needed.
