@@ -98,7 +98,6 @@ seeded() {
     END { printf "%.3f %.4g %.6f %s", c / NR, e / NR, q / NR, s }' "$pfx.seeds"
 }
 
-machine="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //'), $(nproc) cores"
 
 
 

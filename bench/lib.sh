@@ -1,6 +1,9 @@
 # Shell helpers shared by the benchmark scripts (bench/compare.sh, bench/area-plane.sh, bench/sun-pool.sh).
 # The caller sets $work (a scratch folder), $scale and $tool (its name, for messages).
 
+# The machine, for the results' headers: CPU model and core count.
+machine="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //'), $(nproc) cores"
+
 # n K: the budget K times the scale, at least 1, rounded.
 n() { awk -v a="$1" -v k="$scale" 'BEGIN { v = a * k; if (v < 1) v = 1; printf "%d", v + 0.5 }'; }
 

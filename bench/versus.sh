@@ -29,7 +29,6 @@ scale=1
 tool=versus.sh
 mkdir -p "$work"
 . "$root/bench/lib.sh"
-machine="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //'), $(nproc) cores"
 for b in "$old" "$new"; do
   for t in bbc-precompute/bbc-precompute bbc-render/bbc-render bbc-inspect/bbc-inspect; do
     [ -x "$b/$t" ] || { echo "versus.sh: $b/$t is missing" >&2; exit 1; }
