@@ -8,13 +8,15 @@
 #   sh bench/gamma_sweep.sh BUILD_DIR WORK_DIR [SCENE...]
 #
 # SCENE is a name in ../shared/scenes (default plane1k pool4k); its chain is T for
-# pool*, TT at --max-level 3 for ball*, R otherwise, and the caustic's depth 2 + the
-# chain's length. WORK_DIR receives the caches (made with default options and that
-# chain when missing), the references (bbc at REF_SPP samples, default 1024, Sobol,
-# seed 1000; made when missing, or put there as WORK_DIR/SCENE-ref.exr) and sweep.md.
-# SPP (default 32), SEEDS (default "7 8 9 10"), WIDTH (default 160), THREADS (default 1)
-# and SETTINGS (default the gammas 10-1000 and expected counts 1-8, separated by commas)
-# set the sweep's renders.
+# pool*, TT at --max-level LEVEL (default 3) for ball* (named SCENE-LLEVEL below), R
+# otherwise, and the caustic's depth 2 + the chain's length. WORK_DIR receives the caches
+# (made with default options and that chain when missing), the references (bbc at
+# REF_SPP samples, default 1024, Sobol, seed 1000; made when missing, or put there as
+# WORK_DIR/SCENE-ref.exr) and sweep.md. SPP (default 32), SEEDS (default "7 8 9 10"),
+# WIDTH (default 160), THREADS (default 1) and SETTINGS (default the gammas 10-1000 and
+# expected counts 1-8, separated by commas) set the sweep's renders; a setting may name
+# another method (--method uniform --gamma 30: the expected count of --gamma 30, taken
+# with uniform probabilities).
 set -eu
 bin=$1
 work=$2
@@ -38,13 +40,14 @@ out="$work/sweep.md"
 for s in $scenes; do
   chain=R
   level=
-  case $s in pool*) chain=T ;; ball*) chain=TT level=3 ;; esac
+  case $s in pool*) chain=T ;; ball*) chain=TT level=${LEVEL:-3} ;; esac
   depth=$((2 + ${#chain}))
-  cache="$work/$s.bbc"
+  name=$s${level:+-L$level}
+  cache="$work/$name.bbc"
   [ -f "$cache" ] || "$bin/bbc-precompute/bbc-precompute" "$shared/$s.gltf" -o "$cache" \
     --chains $chain ${level:+--max-level $level} --no-progress
   common="$shared/$s.gltf --cache $cache --only caustics --max-depth $depth --width $width --no-progress"
-  ref="$work/$s-ref.exr"
+  ref="$work/$name-ref.exr"
   # shellcheck disable=SC2086
   [ -f "$ref" ] || "$bin/bbc-render/bbc-render" $common --spp "$ref_spp" --seed 1000 -o "$ref"
   old_ifs=$IFS
@@ -62,7 +65,7 @@ for s in $scenes; do
       s_mean=$(sed -n 's/.*|S| \([0-9.]*\);.*/\1/p' "$work/err")
       echo "$cpu $rel $s_mean" >> "$work/seeds"
     done
-    awk -v s="$s" -v setting="$setting" '
+    awk -v s="$name" -v setting="$setting" '
       { c += $1; e += $2; m += $3; per = per (NR > 1 ? " / " : "") sprintf("%.2g", $2) }
       END { c /= NR; e /= NR; m /= NR
             printf "| %s | %s | %.3f | %.4g | %s | %.3g | %.2f |\n", s, setting, c, e, per, c * e, m }' \
