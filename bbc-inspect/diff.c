@@ -65,6 +65,9 @@ int cmd_diff(const char *path_a, const char *path_b) {
   DIFF_D("params.m", a.params.m, b.params.m);
   DIFF_U("params.grid_resolution", a.params.grid_resolution, b.params.grid_resolution);
   DIFF_U("params.remainder", a.params.remainder, b.params.remainder);
+  DIFF_U("params.area_lights", a.params.area_lights, b.params.area_lights);
+  DIFF_U("params.area_double", a.params.area_double, b.params.area_double);
+  DIFF_D("params.alpha_area", a.params.alpha_area, b.params.alpha_area);
   DIFF_H("fingerprint.total", a.fingerprint.total, b.fingerprint.total);
   DIFF_H("fingerprint.geometry", a.fingerprint.geometry, b.fingerprint.geometry);
   DIFF_H("fingerprint.materials", a.fingerprint.materials, b.fingerprint.materials);

@@ -28,6 +28,10 @@ int cmd_info(const char *path) {
       "m %g, grid %u, remainder %s\n",
       inspect_chains_text(p->chains, chains, sizeof chains), p->max_level, p->sigma,
       p->alpha_single, p->alpha_double, p->m, p->grid_resolution, p->remainder ? "on" : "off");
+  if (p->area_lights)
+    printf("area lights  on, double scattering %s, alpha %g%s\n", p->area_double ? "on" : "off",
+           p->alpha_area > 0 ? p->alpha_area : p->alpha_double,
+           p->alpha_area > 0 ? "" : " (the two-bounce alpha: a cache before 1.5)");
   const bbc_fingerprint *f = &in.fingerprint;
   printf(
       "fingerprint  %016llx (geometry %016llx, materials %016llx, meshes %016llx, "

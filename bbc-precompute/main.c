@@ -50,8 +50,10 @@ static const char help[] =
     "                        for area lights\n"
     "  --alpha A             stop when the irradiance bound's upper/lower ratio is\n"
     "                        below A (default 2), one specular vertex\n"
-    "  --alpha2 A            the same for two specular vertices, and for every tuple\n"
-    "                        of an area light (default 10)\n"
+    "  --alpha2 A            the same for two specular vertices (default 10)\n"
+    "  --alpha-area A        the same for every tuple of an area light (default 100:\n"
+    "                        the emitter point drawn at render time, not the choice\n"
+    "                        of tuples, sets their error; docs/lights.md)\n"
     "  --m M                 solutions assumed per tuple, Eq. 21 (default 1)\n"
     "  --resolution N        cells along the longer side of each receiver grid\n"
     "                        (default 512)\n"
@@ -195,7 +197,7 @@ int main(int argc, char **argv) {
   bbc_precompute_options options;
   memset(&options, 0, sizeof options);
   bbc_precompute_params_default(&options.params);
-  int progress = -1, stats = 0, allow_empty = 0, no_geometry = 0;
+  int progress = -1, stats = 0, allow_empty = 0, no_geometry = 0, alpha_area_given = 0;
   bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
 
   while (a.i < argc) {
@@ -205,12 +207,11 @@ int main(int argc, char **argv) {
       return 0;
     } else if (cli_flag(&a, "--version")) {
       /* Without GEOM the minor version is the smallest the file needs (R-HDR-3). */
-      printf("bbc-precompute %s (libbbc %s, writes .bbc format %d.3, %d.%d with --area-double; "
-             "with --no-geometry %d.0, %d.1 with --shard, %d.2 "
-             "with --area-lights)\n",
+      printf("bbc-precompute %s (libbbc %s, writes .bbc format %d.3, %d.%d with --area-lights; "
+             "with --no-geometry %d.0, %d.1 with --shard)\n",
              bbc_version_string(), bbc_version_string(), BBC_FORMAT_VERSION_MAJOR,
              BBC_FORMAT_VERSION_MAJOR, BBC_FORMAT_VERSION_MINOR, BBC_FORMAT_VERSION_MAJOR,
-             BBC_FORMAT_VERSION_MAJOR, BBC_FORMAT_VERSION_MAJOR);
+             BBC_FORMAT_VERSION_MAJOR);
       return 0;
     } else if (cli_option(&a, "-o", &value) || cli_option(&a, "--output", &value)) {
       output = value;
@@ -230,6 +231,9 @@ int main(int argc, char **argv) {
       options.params.alpha_single = cli_parse_double(&a, "--alpha", value, 1, 1e30);
     } else if (cli_option(&a, "--alpha2", &value)) {
       options.params.alpha_double = cli_parse_double(&a, "--alpha2", value, 1, 1e30);
+    } else if (cli_option(&a, "--alpha-area", &value)) {
+      options.params.alpha_area = cli_parse_double(&a, "--alpha-area", value, 1, 1e30);
+      alpha_area_given = 1;
     } else if (cli_option(&a, "--m", &value)) {
       options.params.m = cli_parse_double(&a, "--m", value, 1e-6, 1e6);
     } else if (cli_option(&a, "--resolution", &value)) {
@@ -275,6 +279,8 @@ int main(int argc, char **argv) {
   if (!output) cli_usage_error(usage, "no output given (-o OUT.bbc)");
   if (options.params.area_double && !options.params.area_lights)
     cli_usage_error(usage, "--area-double needs --area-lights");
+  if (alpha_area_given && !options.params.area_lights)
+    cli_usage_error(usage, "--alpha-area needs --area-lights");
   if (options.params.area_double && !(options.params.chains & BBC_CHAIN_MASK_DOUBLE))
     cli_usage_error(usage, "--area-double needs a double-scattering chain type in --chains");
 

@@ -23,7 +23,7 @@ test_degenerate_receiver_cache_is_valid() {
 
 test_help_documents_every_flag() {
   expect_status 0 "$PRECOMPUTE" --help
-  for flag in --output --stats --json --chains --max-level --sigma --alpha --alpha2 --m --resolution \
+  for flag in --output --stats --json --chains --max-level --sigma --alpha --alpha2 --alpha-area --m --resolution \
               --no-remainder --jacobian --threads --entry-memory --progress --no-progress \
               --version --help --allow-empty --light-units; do
     grep -q -- "$flag" "$TMP/out" || fail "--help does not mention $flag"
@@ -34,6 +34,8 @@ test_bad_usage_exits_2() {
   expect_status 2 "$PRECOMPUTE" "$MIRROR"
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --chains X
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --alpha2 0.5
+  expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --alpha-area nan
+  expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --alpha-area 50
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --sigma abc
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --max-level 99
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --resolution 0

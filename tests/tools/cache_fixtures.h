@@ -542,7 +542,12 @@ static int fx_invalid_corpus(fx_case *cases) {
             sec->flags = 0);
     FX_EDIT(BBC_ERR_CORRUPT, "required-section-marked-optional", "PARM", sec->flags = 0);
     FX_EDIT(BBC_ERR_CORRUPT, "short-PARM", "PARM", sec->size = 60);
-    FX_EDIT(BBC_ERR_CORRUPT, "nonzero-reserved-PARM", "PARM", sec->data[50] = 1);
+    FX_EDIT(BBC_ERR_CORRUPT, "nonzero-reserved-PARM", "PARM", sec->data[58] = 1);
+    /* R-PAR-1 (1.5): alpha_area is 0 without area lights; this file has none. */
+    FX_EDIT(BBC_ERR_CORRUPT, "alpha-area-without-area-lights", "PARM", {
+      double a = 100.0;
+      memcpy(sec->data + 48, &a, 8);
+    });
     FX_EDIT(BBC_ERR_CORRUPT, "unknown-chain-bit", "PARM", sec->data[0] = 0x7F);
     FX_EDIT(BBC_ERR_CORRUPT, "nan-sigma", "PARM", memset(sec->data + 8, 0xFF, 8));
     FX_EDIT(BBC_ERR_CORRUPT, "absurd-grid-resolution", "PARM",

@@ -161,7 +161,7 @@ TEST(area_flat_mirror_caustic_is_the_mirrored_emitter) {
   REQUIRE(measure(f.scene, &l));
   bbc_cache_info info;
   bbc_cache_get_info(f.cache, &info);
-  CHECK(info.version_minor == 3 && info.params.area_lights == 1);
+  CHECK(info.version_minor == 5 && info.params.area_lights == 1 && info.params.alpha_area == 100);
   CHECK(info.scene_emitter_count == f.scene->emitter_count);
   CHECK(info.tuple_count > 0);
   bbc_image *image = render(&f, BBC_METHOD_BBC, BBC_COMPONENT_CAUSTICS,
@@ -183,6 +183,83 @@ TEST(area_flat_mirror_caustic_is_the_mirrored_emitter) {
 /* Cache and path tracing together: the floor gets the direct light plus the mirrored
  * light exactly once. The path tracer must skip the caustic paths the cache counts
  * (docs/lights.md); counting them twice, or neither, must show. */
+/* The flat mirror under its emitter at level 6, bounded with alpha_area a (alpha_double
+ * 10); returns the cache (its bytes in *bytes) and the precompute's statistics. */
+static bbc_cache *area_alpha_cache(const bbc_scene *scene, double a, void **bytes,
+                                   bbc_precompute_stats *st) {
+  bbc_precompute_options o;
+  memset(&o, 0, sizeof o);
+  bbc_precompute_params_default(&o.params);
+  o.params.chains = BBC_CHAIN_BIT(BBC_CHAIN_R);
+  o.params.max_level = 6;
+  o.params.grid_resolution = 64;
+  o.params.area_lights = 1;
+  o.params.alpha_area = a;
+  o.threads = 1;
+  bbc_cache_builder *b = NULL;
+  size_t size = 0;
+  bbc_cache *c = NULL;
+  *bytes = NULL;
+  if (bbc_precompute(&b, scene, &o, st) == BBC_OK &&
+      bbc_cache_builder_write_memory(b, bytes, &size, NULL) == BBC_OK)
+    bbc_cache_open_memory(&c, *bytes, size, NULL);
+  bbc_cache_builder_free(b);
+  return c;
+}
+
+/* Area lights have their own ratio (PARM alpha_area, format 1.5): 0 bounds them at
+ * alpha_double as before 1.5 (minor version 3 here: GEOM) and gives the same cells as
+ * alpha_area = alpha_double; a looser ratio stops earlier (fewer pieces). */
+TEST(area_alpha_is_stored_and_used) {
+  bbc_scene *scene = NULL;
+  REQUIRE(bbc_scene_load(&scene, TEST_SCENE("flat-mirror-area.gltf"), NULL) == BBC_OK);
+  const double alphas[3] = {0, 10, 100};
+  void *bytes[3];
+  bbc_precompute_stats st[3];
+  bbc_cache *c[3];
+  bbc_cache_info in[3];
+  for (int k = 0; k < 3; k++) {
+    memset(&st[k], 0, sizeof st[k]);
+    c[k] = area_alpha_cache(scene, alphas[k], &bytes[k], &st[k]);
+    REQUIRE(c[k]);
+    bbc_cache_get_info(c[k], &in[k]);
+    CHECK(in[k].params.alpha_area == alphas[k]);
+    CHECK_INT(in[k].version_minor, k == 0 ? 3 : 5);
+    CHECK_INT(bbc_cache_validate(c[k], NULL, NULL), BBC_OK);
+  }
+  /* 0 and 10: the same pieces and the same entries, cell by cell. */
+  CHECK(st[0].irradiance_pieces == st[1].irradiance_pieces && st[0].entries == st[1].entries);
+  CHECK(in[0].entry_count == in[1].entry_count && in[0].entry_count > 0);
+  bbc_cache_cursor *cur[2] = {NULL, NULL};
+  REQUIRE(bbc_cache_cursor_create(&cur[0], c[0]) == BBC_OK &&
+          bbc_cache_cursor_create(&cur[1], c[1]) == BBC_OK);
+  uint64_t differ = 0, cells = in[0].cell_count;
+  for (uint64_t cell = 0; cell < cells; cell++) {
+    const bbc_cache_entry *e0, *e1;
+    uint32_t n0 = 0, n1 = 0;
+    if (bbc_cache_cell(cur[0], cell, &e0, &n0) != BBC_OK) {
+      differ++;
+      continue;
+    }
+    /* e0 stays valid: the next call is on the other cursor. */
+    if (bbc_cache_cell(cur[1], cell, &e1, &n1) != BBC_OK || n0 != n1 ||
+        (n0 && memcmp(e0, e1, n0 * sizeof *e0) != 0))
+      differ++;
+  }
+  CHECK(cells > 0);
+  CHECK_INT(differ, 0);
+  /* 100: fewer irradiance pieces than 10. */
+  fprintf(stderr, "irradiance pieces: alpha_area 10: %llu, 100: %llu\n",
+          (unsigned long long)st[1].irradiance_pieces, (unsigned long long)st[2].irradiance_pieces);
+  CHECK(st[2].irradiance_pieces < st[1].irradiance_pieces);
+  for (int k = 0; k < 2; k++) bbc_cache_cursor_free(cur[k]);
+  for (int k = 0; k < 3; k++) {
+    bbc_cache_close(c[k]);
+    free(bytes[k]);
+  }
+  bbc_scene_free(scene);
+}
+
 TEST(area_flat_mirror_split_counts_each_path_once) {
   fixture f;
   REQUIRE(setup(&f, TEST_SCENE("flat-mirror-area.gltf"), BBC_CHAIN_BIT(BBC_CHAIN_R)));
@@ -324,7 +401,7 @@ TEST(area_two_mirrors_rr_matches_path_tracing) {
                         BBC_CHAIN_BIT(BBC_CHAIN_R) | BBC_CHAIN_BIT(BBC_CHAIN_RR), 5, 1));
   bbc_cache_info info;
   bbc_cache_get_info(f.cache, &info);
-  CHECK(info.version_minor == 4 && info.params.area_lights == 1 && info.params.area_double == 1);
+  CHECK(info.version_minor == 5 && info.params.area_lights == 1 && info.params.area_double == 1);
   uint64_t rr = 0;
   const bbc_tuple *tuples = bbc_cache_tuples(f.cache);
   for (uint32_t i = 0; i < info.tuple_count; i++) rr += tuples[i].chain == BBC_CHAIN_RR;

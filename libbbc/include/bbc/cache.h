@@ -41,10 +41,15 @@ typedef struct bbc_precompute_params {
    * and a double-scattering chain type in `chains`. Bounding them costs far more than
    * single scattering (docs/lights.md), hence opt-in. */
   uint32_t area_double;
+  /* The bound/lower-bound threshold for every tuple of an area light (>= 1; format 1.5,
+   * PARM bytes 48-55; bbc-precompute --alpha-area, default 100). 0 means alpha_double:
+   * what the area lights of caches before 1.5 used, and what a cache without area lights
+   * stores. */
+  double alpha_area;
 } bbc_precompute_params;
 
 /* The paper's defaults: all chains, level 10, sigma 1e-4, alpha 2 and 10, m 1, 512
- * cells, remainder variables on. */
+ * cells, remainder variables on; alpha 100 for area lights (docs/lights.md). */
 BBC_API void bbc_precompute_params_default(bbc_precompute_params *params);
 
 /* ------------------------------------------------------------------ fingerprint */

@@ -163,6 +163,9 @@ static inline int bbc__info_text_valid(const uint8_t *p, size_t n) {
 void bbc__params_encode(const bbc_precompute_params *p, uint8_t out[BBC__PARM_SIZE]);
 /* 1 if the parameters satisfy R-PAR-1. */
 int bbc__params_valid(const bbc_precompute_params *p);
+/* The ratio the tuples of area lights are bounded to: alpha_area, or alpha_double where
+ * it is 0 (caches before 1.5). */
+double bbc__params_alpha_area(const bbc_precompute_params *p);
 
 /* The compressor used for chunks, exposed for the layout measurements in the tests:
  * returns the compressed size, or 0 on failure. */

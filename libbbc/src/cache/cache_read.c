@@ -318,12 +318,13 @@ static bbc_result check_params_and_fingerprint(bbc_cache *c) {
   q->remainder = flags & 1u;
   q->area_lights = (flags >> 1) & 1u;
   q->area_double = (flags >> 2) & 1u;
+  q->alpha_area = bbc__ldf64(p + 48);
   if ((q->chains & ~BBC_CHAIN_MASK_ALL) != 0)
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "reserved chain bits 0x%x not zero (R-FILE-2)",
                 q->chains & ~BBC_CHAIN_MASK_ALL);
-  if ((flags & ~7u) != 0 || !all_zero(p + 48, 16))
+  if ((flags & ~7u) != 0 || !all_zero(p + 56, 8))
     return fail(c, BBC_ERR_CORRUPT, "PARM", at + 44, "reserved bits not zero (R-FILE-2)");
-  if (!bbc__params_valid(q))
+  if (!bbc__params_valid(q) || (!q->area_lights && q->alpha_area != 0))
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "parameter out of its range (R-PAR-1)");
 
   p = c->sec[K_FPRT];
@@ -872,6 +873,9 @@ bbc_result bbc_cache_check_params(const bbc_cache *c, const bbc_precompute_param
     snprintf(diff, sizeof diff, "remainder %u, expected %u", q->remainder, p->remainder);
   else if (q->area_lights != (p->area_lights ? 1u : 0u))
     snprintf(diff, sizeof diff, "area_lights %u, expected %u", q->area_lights, p->area_lights);
+  else if (p->area_lights && bbc__params_alpha_area(q) != bbc__params_alpha_area(p))
+    snprintf(diff, sizeof diff, "alpha_area %.17g, expected %.17g", bbc__params_alpha_area(q),
+             bbc__params_alpha_area(p));
   else if (q->area_double !=
            (p->area_lights && p->area_double && (p->chains & BBC_CHAIN_MASK_DOUBLE) ? 1u : 0u))
     snprintf(diff, sizeof diff, "area_double %u (format %u.%u), expected %u", q->area_double,

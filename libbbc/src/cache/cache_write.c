@@ -1070,7 +1070,8 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   memcpy(header, BBC__MAGIC, 8);
   bbc__st16(header + 8, BBC_FORMAT_VERSION_MAJOR);
   /* The smallest minor version whose features the file uses (R-HDR-3). */
-  bbc__st16(header + 10, b->params.area_double  ? BBC__MINOR_AREA_DOUBLE
+  bbc__st16(header + 10, b->params.area_lights && b->params.alpha_area != 0 ? BBC__MINOR_AREA_ALPHA
+                         : b->params.area_double  ? BBC__MINOR_AREA_DOUBLE
                          : geom                    ? BBC__MINOR_GEOMETRY
                          : b->params.area_lights ? BBC__MINOR_AREA
                          : b->shard_count   ? BBC__MINOR_SHARD

@@ -529,6 +529,8 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   bound.jacobian = options->jacobian;
   bbc_bound_params bound2 = bound; /* two bounces: their own alpha */
   bound2.alpha = params->alpha_double;
+  bbc_bound_params bound_area = bound; /* every tuple of an area light: its own alpha */
+  bound_area.alpha = bbc__params_alpha_area(params);
 
   const int threads = st.threads;
   bbc_bounder **bounders = calloc((size_t)threads, sizeof *bounders);
@@ -595,9 +597,10 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
         int ok = bbc_tuple_geometry_init(&g, scene, t) == BBC_OK &&
                  coverage_begin(&covers[id], grid, sink.receiver) == BBC_OK;
         if (ok) {
-          /* Area lights stop at the two-bounce ratio too (docs/lights.md). */
-          bbc_bound_params prm =
-              g.length == 2 || g.light_model.kind == BBC_LIGHT_AREA ? bound2 : bound;
+          /* Area lights stop at a ratio of their own (docs/lights.md). */
+          bbc_bound_params prm = g.light_model.kind == BBC_LIGHT_AREA ? bound_area
+                                 : g.length == 2                      ? bound2
+                                                                      : bound;
           prm.need = piece_need;
           prm.need_user = &sink;
           ok = bbc_bound_tuple(bounders[id], &g, &prm, keep_piece, &sink, &thread_stats[id]) ==
