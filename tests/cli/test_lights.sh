@@ -41,7 +41,9 @@ test_area_lights_through_the_cache() {
   expect_status 0 "$PRECOMPUTE" "$BBC_TEST_SCENES/flat-mirror-area.gltf" -o "$TMP/area.bbc" \
     --max-level 5 --resolution 64 --no-progress --chains R --area-lights
   expect_status 0 "$INSPECT" info "$TMP/area.bbc"
-  grep -q "^format *1.3 " "$TMP/out" || fail "info: not format 1.3: $(cat "$TMP/out")"
+  grep -q "^format *1.5 " "$TMP/out" || fail "info: not format 1.5: $(cat "$TMP/out")"
+  grep -q "^area lights *on, double scattering off, alpha 100$" "$TMP/out" ||
+    fail "info: no area lights line: $(cat "$TMP/out")"
   grep -q "^  light 1: [1-9][0-9]* tuples (R [1-9]" "$TMP/out" || fail "info: $(cat "$TMP/out")"
   expect_status 0 "$INSPECT" validate "$TMP/area.bbc"
   expect_status 0 "$INSPECT" check-bounds "$BBC_TEST_SCENES/flat-mirror-area.gltf" "$TMP/area.bbc" \
@@ -55,20 +57,21 @@ test_area_lights_through_the_cache() {
 }
 
 # Double scattering from area lights is opt-in: --area-lights alone caches the emitters'
-# R only (format 1.3) whatever --chains holds; --area-double adds their RR (format 1.4),
-# whose bounds check-bounds finds clean; --area-double without --area-lights or without a
-# double-scattering chain type is a usage error.
+# R only whatever --chains holds; --area-double adds their RR, whose bounds check-bounds
+# finds clean (format 1.5 for both: area lights' ratio); --area-double or --alpha-area
+# without --area-lights, or --area-double without a double-scattering chain type, is a
+# usage error.
 test_area_double_is_opt_in() {
   scene="$BBC_TEST_SCENES/two-mirrors-area.gltf"
   expect_status 0 "$PRECOMPUTE" "$scene" -o "$TMP/single.bbc" --max-level 4 --resolution 64 \
     --no-progress --chains R,RR --area-lights
   expect_status 0 "$INSPECT" info "$TMP/single.bbc"
-  grep -q "^format *1.3 " "$TMP/out" || fail "info: not format 1.3: $(cat "$TMP/out")"
+  grep -q "^area lights *on, double scattering off" "$TMP/out" || fail "info: $(cat "$TMP/out")"
   grep -q "^tuples .*RR" "$TMP/out" && fail "RR tuples without --area-double: $(cat "$TMP/out")"
   expect_status 0 "$PRECOMPUTE" "$scene" -o "$TMP/double.bbc" --max-level 4 --resolution 64 \
     --no-progress --chains R,RR --area-lights --area-double
   expect_status 0 "$INSPECT" info "$TMP/double.bbc"
-  grep -q "^format *1.4 " "$TMP/out" || fail "info: not format 1.4: $(cat "$TMP/out")"
+  grep -q "^area lights *on, double scattering on" "$TMP/out" || fail "info: $(cat "$TMP/out")"
   grep -q "^  light 1: [1-9][0-9]* tuples (R [1-9][0-9]*, RR [1-9]" "$TMP/out" ||
     fail "info: $(cat "$TMP/out")"
   expect_status 0 "$INSPECT" check-bounds "$scene" "$TMP/double.bbc" --samples 500 --no-progress
@@ -78,6 +81,8 @@ test_area_double_is_opt_in() {
   grep -q "needs --area-lights" "$TMP/err" || fail "message: $(cat "$TMP/err")"
   expect_status 2 "$PRECOMPUTE" "$scene" -o "$TMP/x.bbc" --area-lights --area-double --chains R
   grep -q "needs a double-scattering chain type" "$TMP/err" || fail "message: $(cat "$TMP/err")"
+  expect_status 2 "$PRECOMPUTE" "$scene" -o "$TMP/x.bbc" --alpha-area 30
+  grep -q "alpha-area needs --area-lights" "$TMP/err" || fail "message: $(cat "$TMP/err")"
   [ -e "$TMP/x.bbc" ] && fail "a cache was written"
   return 0
 }
