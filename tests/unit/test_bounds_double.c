@@ -177,7 +177,7 @@ static int collect_level(void *user, const bbc_piece *piece) {
 
 /* The level limit of two bounces: a piece whose irradiance bound is unbounded may be
  * split once more, and no deeper, and only unbounded pieces reach that level; the
- * root-only limit keeps one piece. */
+ * root-only limit keeps one piece (without the position refinement, tested below). */
 TEST(unbounded_pieces_one_level_deeper) {
   bbc_scene *scene = NULL;
   REQUIRE(bbc_scene_load(&scene, SHARED_SCENE("ball80.gltf"), NULL) == BBC_OK);
@@ -193,6 +193,7 @@ TEST(unbounded_pieces_one_level_deeper) {
     bbc_bound_params p;
     memset(&p, 0, sizeof p);
     p.max_level = 2;
+    p.position_levels = -1;
     level_count c = {{-1, -1}, 0};
     REQUIRE(bbc_bound_tuple(b, &g, &p, collect_level, &c, NULL) == BBC_OK);
     for (int j = 0; j < 2; j++)
@@ -208,6 +209,87 @@ TEST(unbounded_pieces_one_level_deeper) {
   }
   CHECK(top[0] <= 3 && top[1] <= 3);
   CHECK(deeper > 0); /* the rule is used here */
+  bbc_bounder_free(b);
+  free(tuples);
+  bbc_scene_free(scene);
+}
+
+typedef struct leaf_list {
+  bbc_piece items[4096];
+  int count, overflow;
+} leaf_list;
+
+static int collect_leaf(void *user, const bbc_piece *piece) {
+  leaf_list *l = user;
+  if (piece->status != BBC_PIECE_KEPT) return 0;
+  if (l->count == (int)(sizeof l->items / sizeof l->items[0])) {
+    l->overflow = 1;
+    return 0;
+  }
+  l->items[l->count++] = *piece;
+  return 0;
+}
+
+static double box_area(const bbc_piece *p) {
+  return (p->uk_hi - p->uk_lo) * (p->vk_hi - p->vk_lo);
+}
+
+/* The position refinement of two bounces: each leaf it makes lies in a leaf of the
+ * subdivision without it, inherits that leaf's irradiance bound exactly, has a position
+ * box inside its box, and stops POSITION_LEVELS (4) below the level limit; the boxes
+ * shrink (by area, summed over the tuples, to well under half here). Validity of the
+ * refined leaves' position bounds is the harness's (ball80_tt and the others bound with
+ * the refinement on). */
+TEST(position_refinement_nests_in_the_unrefined_leaves) {
+  bbc_scene *scene = NULL;
+  REQUIRE(bbc_scene_load(&scene, SHARED_SCENE("ball80.gltf"), NULL) == BBC_OK);
+  bbc_tuple *tuples = NULL;
+  size_t count = 0;
+  REQUIRE(bbc_tuples_find(scene, TT, &tuples, &count) == BBC_OK);
+  bbc_bounder *b = NULL;
+  REQUIRE(bbc_bounder_create(&b) == BBC_OK);
+  static leaf_list plain, refined;
+  double area_plain = 0, area_refined = 0;
+  int deepest = 0, outside = 0, bound_changed = 0, box_grew = 0;
+  for (size_t i = 0; i < count; i += 3) {
+    bbc_tuple_geometry g;
+    REQUIRE(bbc_tuple_geometry_init(&g, scene, &tuples[i]) == BBC_OK);
+    bbc_bound_params p;
+    memset(&p, 0, sizeof p);
+    p.max_level = 2;
+    p.position_levels = -1;
+    plain.count = refined.count = 0;
+    REQUIRE(bbc_bound_tuple(b, &g, &p, collect_leaf, &plain, NULL) == BBC_OK);
+    p.position_levels = 0; /* the default */
+    REQUIRE(bbc_bound_tuple(b, &g, &p, collect_leaf, &refined, NULL) == BBC_OK);
+    REQUIRE(!plain.overflow && !refined.overflow);
+    for (int k = 0; k < plain.count; k++) area_plain += box_area(&plain.items[k]);
+    for (int k = 0; k < refined.count; k++) {
+      const bbc_piece *r = &refined.items[k];
+      area_refined += box_area(r);
+      if (r->level > deepest) deepest = r->level;
+      const bbc_piece *home = NULL;
+      for (int j = 0; j < plain.count && !home; j++) {
+        const bbc_piece *q = &plain.items[j];
+        if (r->u_lo >= q->u_lo && r->u_hi <= q->u_hi && r->v_lo >= q->v_lo && r->v_hi <= q->v_hi)
+          home = q;
+      }
+      if (!home) {
+        outside++;
+        continue;
+      }
+      bound_changed += r->e_lo != home->e_lo || r->e_hi != home->e_hi;
+      box_grew += r->uk_lo < home->uk_lo || r->uk_hi > home->uk_hi || r->vk_lo < home->vk_lo ||
+                  r->vk_hi > home->vk_hi;
+    }
+  }
+  fprintf(stderr, "position boxes' area %.4g -> %.4g, deepest leaf %d\n", area_plain, area_refined,
+          deepest);
+  CHECK(outside == 0);
+  CHECK(bound_changed == 0);
+  CHECK(box_grew == 0);
+  CHECK(deepest > 3 && deepest <= 2 + 4); /* used, and no deeper than its limit */
+  CHECK(area_refined < 0.5 * area_plain);
   bbc_bounder_free(b);
   free(tuples);
   bbc_scene_free(scene);

@@ -90,6 +90,10 @@ typedef struct bbc_bound_params {
                        (NOT conservative: the paper's Fig. 18 ablation) */
   bbc_jacobian_form jacobian;
   int positions_only; /* skip irradiance bounds (E_hi = +inf, E_lo = 0) */
+  /* Two bounces from a point, spot or sun: how many levels below the level limit a kept
+   * piece whose position bound is still at least sigma in area is split for its position
+   * bound alone, its quarters inheriting its irradiance bound; 0 = 4, negative = none */
+  int position_levels;
   /* Optional (NULL: always split by the rules): asked for every piece whose position
    * bound is known, with the E_lo, E_hi it inherits from its parent (a bound of its
    * paths too) and again once its own irradiance bound is known. It may stop the
@@ -124,8 +128,10 @@ typedef struct bbc_piece {
    * its subdivision level (the u1 box's is `level`); [0, 1]^2 and 0 for other lights. */
   double a_lo, a_hi, b_lo, b_hi;
   int light_level;
-  /* Area lights: the subdivision's bookkeeping (which box the last split halved, and
-   * which splits were found not to pay, docs/lights.md "Subdivision"); 0 otherwise. */
+  /* The subdivision's bookkeeping: for area lights, which box the last split halved and
+   * which splits were found not to pay (docs/lights.md "Subdivision"); for two bounces
+   * from other lights, whether the piece was split for its position bound alone
+   * (bbc_bound_params.position_levels). */
   int split_state;
 } bbc_piece;
 

@@ -1043,8 +1043,20 @@ enum {
   SPLIT_LAST_U1 = 1,      /* the piece is a quarter of its parent's u1 box */
   SPLIT_LAST_LIGHT = 2,   /* ... of its parent's light box */
   SPLIT_U1_SPENT = 4,     /* a u1 split did not pay */
-  SPLIT_LIGHT_SPENT = 8   /* a light split did not pay */
+  SPLIT_LIGHT_SPENT = 8,  /* a light split did not pay */
+  SPLIT_POSITION_ONLY = 16 /* refined for its position bound alone (below) */
 };
+
+/* Two bounces from a point, spot or sun: a piece the rules above keep may still have a
+ * position bound many cells wide (alpha stops the subdivision where the irradiance
+ * bound is tight enough, whatever its footprint). It is then split further for its
+ * position bound alone, down to POSITION_LEVELS (bbc_bound_params.position_levels)
+ * below the level limit while the area of its position bound is at least sigma: its
+ * quarters inherit its irradiance bound (valid on any part of its domain) and get
+ * position checks only, about a tenth of an irradiance bound's cost, so the cells
+ * listing the tuple shrink toward those its caustic reaches (docs/double-scattering.md,
+ * "Position refinement"). */
+#define POSITION_LEVELS 4
 
 /* Area lights: whether a piece to be split splits its light box rather than its u1 box:
  * the one whose world-space extent is larger (the u1 box's sides times T1's edges, the
@@ -1179,6 +1191,9 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
                        : prm.sigma > 0                       ? prm.sigma
                                                              : 1e-4;
   const double alpha = prm.alpha > 0 ? prm.alpha : g->length == 2 ? 10.0 : 2.0;
+  const int position_levels = prm.position_levels > 0   ? prm.position_levels
+                              : prm.position_levels < 0 ? 0
+                                                        : POSITION_LEVELS;
   const chain_sqrt_mode position_mode =
       prm.no_remainder ? CHAIN_SQRT_NO_REMAINDER : CHAIN_SQRT_PRIMAL;
   const chain_sqrt_mode irradiance_mode =
@@ -1302,9 +1317,10 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
                                                   piece.light_level < light_max_level(max_level))) &&
                     need == BBC_NEED_SPLIT;
     double area = (piece.uk_hi - piece.uk_lo) * (piece.vk_hi - piece.vk_lo);
+    const int refining = piece.split_state & SPLIT_POSITION_ONLY;
     int split = 0;
-    if (need == BBC_NEED_NONE) {
-      split = 0;
+    if (need == BBC_NEED_NONE || refining) {
+      split = 0; /* a refined piece keeps its inherited irradiance bound (below) */
     } else if (can_split && v == VERDICT_PARTIAL && area >= sigma) {
       split = 1;
     } else if (!prm.positions_only) {
@@ -1353,6 +1369,14 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
         split = !prm.need || prm.need(prm.need_user, &piece) != BBC_NEED_NONE;
     } else {
       split = can_split && area >= sigma;
+    }
+    /* The position refinement (POSITION_LEVELS). */
+    if (!split && g->length == 2 && g->light_model.kind != BBC_LIGHT_AREA && !prm.positions_only &&
+        max_level > 0 && piece.level < max_level + position_levels && area >= sigma &&
+        need == BBC_NEED_SPLIT &&
+        (!prm.need || refining || prm.need(prm.need_user, &piece) == BBC_NEED_SPLIT)) {
+      split = 1;
+      piece.split_state |= SPLIT_POSITION_ONLY;
     }
     /* A spot's falloff over the piece's directions (1 for other lights) multiplies the
      * bound of a kept piece, after the stopping rule, which judges the geometric factors
