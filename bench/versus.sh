@@ -13,8 +13,8 @@
 # 1001; it shares nothing with either cache). CPU-s are user + sys (/usr/bin/time);
 # render figures are means over the seeds (BBC_SEEDS, default "7 8 9 10") at each spp of
 # BBC_SPP (default "4 16 64"); "at equal CPU" interpolates OLD_BUILD's curve log-log at
-# NEW_BUILD's CPU-s (along 1/CPU beyond its ends). Writes OUT.md (default
-# bench/results/versus.md).
+# NEW_BUILD's CPU-s (along 1/CPU beyond its ends); BBC_BENCH_SCENES (default all three)
+# picks scenes by name. Writes OUT.md (default bench/results/versus.md).
 set -eu
 [ $# -ge 2 ] || { echo "usage: sh bench/versus.sh OLD_BUILD NEW_BUILD [OUT.md]" >&2; exit 1; }
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -57,6 +57,7 @@ summary=""
 for row in "plane7k R 20000000 3" "pool4k T 100000000 3" "ball320 TT 100000000 4"; do
   set -- $row
   s=$1 chain=$2 photons=$3 depth=$4
+  case " ${BBC_BENCH_SCENES:-$s} " in *" $s "*) ;; *) continue ;; esac
   gltf=$scenes/$s.gltf
   level=""
   [ "$s" = ball320 ] && level="--max-level 3"
