@@ -91,8 +91,9 @@ typedef struct bbc_bound_params {
   bbc_jacobian_form jacobian;
   int positions_only; /* skip irradiance bounds (E_hi = +inf, E_lo = 0) */
   /* Two bounces from a point, spot or sun: how many levels below the level limit a kept
-   * piece whose position bound is still at least sigma in area is split for its position
-   * bound alone, its quarters inheriting its irradiance bound; 0 = 4, negative = none */
+   * piece whose position bound is still at least 4 sigma in area is split for its
+   * position bound alone, its quarters inheriting its irradiance bound; 0 = 4, negative =
+   * none */
   int position_levels;
   /* Optional (NULL: always split by the rules): asked for every piece whose position
    * bound is known, with the E_lo, E_hi it inherits from its parent (a bound of its

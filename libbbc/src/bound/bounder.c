@@ -1051,12 +1051,14 @@ enum {
  * position bound many cells wide (alpha stops the subdivision where the irradiance
  * bound is tight enough, whatever its footprint). It is then split further for its
  * position bound alone, down to POSITION_LEVELS (bbc_bound_params.position_levels)
- * below the level limit while the area of its position bound is at least sigma: its
- * quarters inherit its irradiance bound (valid on any part of its domain) and get
- * position checks only, about a tenth of an irradiance bound's cost, so the cells
- * listing the tuple shrink toward those its caustic reaches (docs/double-scattering.md,
+ * below the level limit while the area of its position bound is at least
+ * POSITION_SIGMAS times sigma: its quarters inherit its irradiance bound (valid on any
+ * part of its domain) and get position checks only, about a tenth of an irradiance
+ * bound's cost, so the cells listing the tuple shrink toward those its caustic reaches.
+ * Below 4 sigma a split buys few cells for its checks (docs/double-scattering.md,
  * "Position refinement"). */
 #define POSITION_LEVELS 4
+#define POSITION_SIGMAS 4.0
 
 /* Area lights: whether a piece to be split splits its light box rather than its u1 box:
  * the one whose world-space extent is larger (the u1 box's sides times T1's edges, the
@@ -1372,7 +1374,8 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     }
     /* The position refinement (POSITION_LEVELS). */
     if (!split && g->length == 2 && g->light_model.kind != BBC_LIGHT_AREA && !prm.positions_only &&
-        max_level > 0 && piece.level < max_level + position_levels && area >= sigma &&
+        max_level > 0 && piece.level < max_level + position_levels &&
+        area >= POSITION_SIGMAS * sigma &&
         need == BBC_NEED_SPLIT &&
         (!prm.need || refining || prm.need(prm.need_user, &piece) == BBC_NEED_SPLIT)) {
       split = 1;
