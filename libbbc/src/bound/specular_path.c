@@ -215,8 +215,10 @@ static void check_geometric_side(const bbc_specular_triangle *tri, bbc_vec3 d_in
   if ((in_s < 0) != (in_g < 0) || (out_s < 0) != (out_g < 0)) *flags |= BBC_PATH_GEOMETRIC_SIDE;
 }
 
-bbc_result bbc_specular_path_trace(const bbc_path_geometry *g, double u, double v,
-                                   bbc_specular_path *out) {
+/* The trace; with to_last_vertex, it stops at the last specular vertex (complete is then
+ * 1 when that vertex was reached). */
+static bbc_result trace(const bbc_path_geometry *g, double u, double v, int to_last_vertex,
+                        bbc_specular_path *out) {
   if (!out) return BBC_ERR_INVALID_ARGUMENT;
   memset(out, 0, sizeof *out);
   if (!g || (g->length != 1 && g->length != 2) || !isfinite(u) || !isfinite(v))
@@ -265,6 +267,10 @@ bbc_result bbc_specular_path_trace(const bbc_path_geometry *g, double u, double 
 
   for (int i = 0; i < g->length; i++) {
     const bbc_specular_triangle *tri = &g->specular[i];
+    if (to_last_vertex && i == g->length - 1) {
+      out->complete = 1;
+      return BBC_OK;
+    }
     dvec d_next;
     if (!scatter(tri, d, n, &d_next, &out->flags)) return BBC_OK; /* TIR */
     check_geometric_side(tri, dv_value(d), dv_value(d_next), dv_value(n), &out->flags);
@@ -316,6 +322,16 @@ bbc_result bbc_specular_path_trace(const bbc_path_geometry *g, double u, double 
     }
   }
   return BBC_OK;
+}
+
+bbc_result bbc_specular_path_trace(const bbc_path_geometry *g, double u, double v,
+                                   bbc_specular_path *out) {
+  return trace(g, u, v, 0, out);
+}
+
+bbc_result bbc__specular_path_trace_to_last_vertex(const bbc_path_geometry *g, double u, double v,
+                                                   bbc_specular_path *out) {
+  return trace(g, u, v, 1, out);
 }
 
 /* ------------------------------------------------------------------------------------ */
