@@ -237,21 +237,22 @@ static double box_area(const bbc_piece *p) {
 /* The position refinement of two bounces: each leaf it makes lies in a leaf of the
  * subdivision without it, inherits that leaf's irradiance bound exactly, has a position
  * box inside its box, and stops POSITION_LEVELS (4) below the level limit; the boxes
- * shrink (by area, summed over the tuples, to well under half here). Validity of the
- * refined leaves' position bounds is the harness's (ball80_tt and the others bound with
- * the refinement on). */
-TEST(position_refinement_nests_in_the_unrefined_leaves) {
+ * shrink (by area, summed over the tuples, to well under half here). Refraction computes
+ * each quarter's forms, reflection halves its parent's (bounder.c, refined_store): a
+ * scene of each. Validity of the refined leaves' position bounds is the harness's
+ * (ball80_tt, wavy_corner_rr and the others bound with the refinement on). */
+static void refinement_nests(const char *path, uint32_t chains, size_t stride) {
   bbc_scene *scene = NULL;
-  REQUIRE(bbc_scene_load(&scene, SHARED_SCENE("ball80.gltf"), NULL) == BBC_OK);
+  REQUIRE(bbc_scene_load(&scene, path, NULL) == BBC_OK);
   bbc_tuple *tuples = NULL;
   size_t count = 0;
-  REQUIRE(bbc_tuples_find(scene, TT, &tuples, &count) == BBC_OK);
+  REQUIRE(bbc_tuples_find(scene, chains, &tuples, &count) == BBC_OK);
   bbc_bounder *b = NULL;
   REQUIRE(bbc_bounder_create(&b) == BBC_OK);
   static leaf_list plain, refined;
   double area_plain = 0, area_refined = 0;
   int deepest = 0, outside = 0, bound_changed = 0, box_grew = 0;
-  for (size_t i = 0; i < count; i += 3) {
+  for (size_t i = 0; i < count; i += stride) {
     bbc_tuple_geometry g;
     REQUIRE(bbc_tuple_geometry_init(&g, scene, &tuples[i]) == BBC_OK);
     bbc_bound_params p;
@@ -283,8 +284,8 @@ TEST(position_refinement_nests_in_the_unrefined_leaves) {
                   r->vk_hi > home->vk_hi;
     }
   }
-  fprintf(stderr, "position boxes' area %.4g -> %.4g, deepest leaf %d\n", area_plain, area_refined,
-          deepest);
+  fprintf(stderr, "%s: position boxes' area %.4g -> %.4g, deepest leaf %d\n", path, area_plain,
+          area_refined, deepest);
   CHECK(outside == 0);
   CHECK(bound_changed == 0);
   CHECK(box_grew == 0);
@@ -293,6 +294,14 @@ TEST(position_refinement_nests_in_the_unrefined_leaves) {
   bbc_bounder_free(b);
   free(tuples);
   bbc_scene_free(scene);
+}
+
+TEST(position_refinement_nests_in_the_unrefined_leaves) {
+  refinement_nests(SHARED_SCENE("ball80.gltf"), TT, 3);
+}
+
+TEST(position_refinement_nests_with_carried_forms) {
+  refinement_nests(TEST_SCENE("wavy-corner.gltf"), RR, 7);
 }
 
 TEST(ball320_tt) {

@@ -67,6 +67,13 @@ struct bbc_bounder {
   uint64_t forms_base;
   uint64_t quadrants_of; /* UINT64_MAX: none */
   piece_polys quadrants[4];
+  /* Two bounces: the position forms of the tuple's pieces split by the position
+   * refinement, for their quarters (refined_store); a quarter's origin is 8 (k + 1) + q
+   * for parent k and quarter q (origins below 8 carry nothing). */
+  struct refined_parent *refined;
+  size_t refined_count, refined_capacity;
+  double *refined_coef;
+  size_t refined_coef_used, refined_coef_capacity;
 };
 
 bbc_result bbc_bounder_create(bbc_bounder **out) {
@@ -90,6 +97,8 @@ bbc_result bbc_bounder_create(bbc_bounder **out) {
 
 void bbc_bounder_free(bbc_bounder *b) {
   if (!b) return;
+  free(b->refined);
+  free(b->refined_coef);
   free(b->memory);
   free(b->queue);
   free(b->origin);
@@ -425,13 +434,117 @@ static bbc_result polys_quadrants(bbc_arena *arena, const piece_polys *parent, i
   return r;
 }
 
+/* Two reflections: the forms the position check reads (position_check), which the
+ * position refinement carries from a piece to its quarters. Halving re-parameterises
+ * each exactly (bbc_poly_split adds the rounding to its radius); the radius each form got
+ * when it was computed (the flattening's, chain_double.c) stays the parent's. That costs
+ * nothing measurable for reflection (wavy-corner RR: the same cells for half the
+ * refinement's cost), but refraction's forms carry the linearised square roots' radii,
+ * and their quarters' boxes would stay wide (ball320 TT level 3: 190,810 cell entries
+ * instead of 137,886): refracting chains compute each quarter's forms. */
+#define REFINED_FORMS 12
+
+typedef struct refined_parent {
+  int has_beta, has_beta2;
+  unsigned char deg[REFINED_FORMS][BBC_POLY_MAX_AXES];
+  double err[REFINED_FORMS];
+  size_t at; /* its coefficients in bbc_bounder.refined_coef */
+} refined_parent;
+
+static bbc_poly *refined_form(chain_forms *f, int k) {
+  bbc_poly *forms[REFINED_FORMS] = {&f->facing, &f->beta,    &f->up2,     &f->vp2,
+                                    &f->kappa2, &f->tnum2,   &f->facing2, &f->beta2,
+                                    &f->up,     &f->vp,      &f->kappa,   &f->tnum};
+  return forms[k];
+}
+
+static const bbc_poly *refined_form_of(const chain_forms *f, int k) {
+  return refined_form((chain_forms *)f, k);
+}
+
+/* Whether form k is there: beta and beta2 only at refractions. */
+static int refined_present(const chain_forms *f, int k) {
+  return (k != 1 || f->has_beta) && (k != 7 || f->has_beta2);
+}
+
+/* Keeps a two-bounce piece's position forms for its quarters; *origin receives the
+ * first quarter's origin, or 0 (the quarters compute their own) when a form depends on
+ * an axis other than s and t. */
+static bbc_result refined_store(bbc_bounder *b, const chain_forms *f, int s_axis, int t_axis,
+                                uint64_t *origin) {
+  *origin = 0;
+  size_t need = 0;
+  for (int k = 0; k < REFINED_FORMS; k++) {
+    if (!refined_present(f, k)) continue;
+    const bbc_poly *p = refined_form_of(f, k);
+    for (int j = 0; j < BBC_POLY_MAX_AXES; j++)
+      if (p->deg[j] != 0 && j != s_axis && j != t_axis) return BBC_OK;
+    need += bbc_poly_size(p);
+  }
+  if (b->refined_count == b->refined_capacity) {
+    size_t capacity = b->refined_capacity ? 2 * b->refined_capacity : 64;
+    refined_parent *r = realloc(b->refined, capacity * sizeof *r);
+    if (!r) return BBC_ERR_OUT_OF_MEMORY;
+    b->refined = r;
+    b->refined_capacity = capacity;
+  }
+  if (need > b->refined_coef_capacity - b->refined_coef_used) {
+    size_t capacity = b->refined_coef_capacity ? b->refined_coef_capacity : 1 << 16;
+    while (capacity - b->refined_coef_used < need) capacity *= 2;
+    double *c = realloc(b->refined_coef, capacity * sizeof *c);
+    if (!c) return BBC_ERR_OUT_OF_MEMORY;
+    b->refined_coef = c;
+    b->refined_coef_capacity = capacity;
+  }
+  refined_parent *r = &b->refined[b->refined_count];
+  r->has_beta = f->has_beta, r->has_beta2 = f->has_beta2;
+  r->at = b->refined_coef_used;
+  for (int k = 0; k < REFINED_FORMS; k++) {
+    if (!refined_present(f, k)) continue;
+    const bbc_poly *p = refined_form_of(f, k);
+    memcpy(r->deg[k], p->deg, sizeof r->deg[k]);
+    r->err[k] = p->err;
+    const size_t n = bbc_poly_size(p);
+    memcpy(b->refined_coef + b->refined_coef_used, p->coef, n * sizeof *p->coef);
+    b->refined_coef_used += n;
+  }
+  *origin = 8 * (uint64_t)(++b->refined_count);
+  return BBC_OK;
+}
+
+/* The position forms of the quarter of this origin (refined_store), in the arena. */
+static bbc_result refined_forms(bbc_bounder *b, uint64_t origin, int s_axis, int t_axis,
+                                chain_forms *f) {
+  const refined_parent *r = &b->refined[origin / 8 - 1];
+  const int q = (int)(origin % 8);
+  memset(f, 0, sizeof *f);
+  f->length = 2;
+  f->has_beta = r->has_beta, f->has_beta2 = r->has_beta2;
+  f->slope_enclosed = f->slope_enclosed2 = 1;
+  size_t at = r->at;
+  for (int k = 0; k < REFINED_FORMS; k++) {
+    if (!refined_present(f, k)) continue;
+    bbc_poly parent;
+    memcpy(parent.deg, r->deg[k], sizeof parent.deg);
+    parent.err = r->err[k];
+    parent.coef = b->refined_coef + at;
+    at += bbc_poly_size(&parent);
+    bbc_poly half[2], quarter[2];
+    bbc_result res = bbc_poly_split(&b->arena, &parent, s_axis, &half[0], &half[1]);
+    if (res == BBC_OK) res = bbc_poly_split(&b->arena, &half[q & 1], t_axis, &quarter[0], &quarter[1]);
+    if (res != BBC_OK) return res;
+    *refined_form(f, k) = quarter[q >> 1];
+  }
+  return BBC_OK;
+}
+
 /* The forms of a piece with its position bound and sign conditions (Supp. Sec. 4.1
  * "positional check"). A condition proved false everywhere discards the piece; one that
  * may fail somewhere makes it partial (subdivided while the level allows). The forms
  * are built in two steps, so that a piece whose light misses T2 costs only the first. */
 static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
                                  const double box[4], int s_axis, int t_axis, chain_sqrt_mode mode,
-                                 const piece_polys *polys, chain_forms *f,
+                                 const piece_polys *polys, int carried, chain_forms *f,
                                  bbc_piece *piece, verdict *out, int *contained) {
   *out = VERDICT_DISCARD;
   if (contained) *contained = 0;
@@ -442,11 +555,11 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
   if (box[0] + box[2] > 1.0) return BBC_OK;
   /* A spot lights nothing of the piece where its falloff is 0 everywhere. */
   if (bbc__light_falloff_over_box(g->light, &g->light_model, g->p, box).hi <= 0) return BBC_OK;
-  /* Carried forms come whole; computed ones in two steps. */
+  /* Carried forms come whole (in polys, or already in f); computed ones in two steps. */
   bbc_result r = BBC_OK;
   if (polys)
     polys_view(polys, f, NULL);
-  else
+  else if (!carried)
     r = bbc__chain_forms_prefix(arena, space, g, box, s_axis, t_axis, mode, f);
   if (r != BBC_OK) return r;
   int partial = 0, wide = 0, inside = 0, inside2 = 1;
@@ -473,7 +586,8 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
       return r;
     if (partial < 0) return BBC_OK;
   }
-  if (!polys && (r = bbc__chain_forms_rest(arena, space, g, mode, f)) != BBC_OK) return r;
+  if (!polys && !carried && (r = bbc__chain_forms_rest(arena, space, g, mode, f)) != BBC_OK)
+    return r;
   if (f->length == 2) {
     bbc_interval facing2 = bbc_poly_bound(&f->facing2);
     if (facing2.hi < 0) return BBC_OK;
@@ -988,11 +1102,12 @@ typedef struct piece_forms {
   bbc_tuple_geometry g; /* the tuple's, with the piece's light box */
 } piece_forms;
 
-/* polys: the piece's carried forms, or NULL to compute them. */
+/* polys: the piece's carried forms, or NULL to compute them; refined: the origin of a
+ * quarter whose two-bounce forms are its parent's (refined_store), else below 8. */
 static bbc_result examine_position(bbc_bounder *b, const bbc_tuple_geometry *g,
                                    chain_sqrt_mode mode, bbc_piece *piece,
-                                   const piece_polys *polys, piece_forms *pf, verdict *v,
-                                   int *contained) {
+                                   const piece_polys *polys, uint64_t refined, piece_forms *pf,
+                                   verdict *v, int *contained) {
   pf->box[0] = piece->u_lo, pf->box[1] = piece->u_hi;
   pf->box[2] = piece->v_lo, pf->box[3] = piece->v_hi;
   pf->g = *g;
@@ -1009,8 +1124,12 @@ static bbc_result examine_position(bbc_bounder *b, const bbc_tuple_geometry *g,
     pf->g.light_box[0] = piece->a_lo, pf->g.light_box[1] = piece->a_hi;
     pf->g.light_box[2] = piece->b_lo, pf->g.light_box[3] = piece->b_hi;
   }
+  if (refined >= 8) {
+    bbc_result r = refined_forms(b, refined, pf->s_axis, pf->t_axis, &pf->forms);
+    if (r != BBC_OK) return r;
+  }
   return position_check(&b->arena, &pf->space, &pf->g, pf->box, pf->s_axis, pf->t_axis, mode,
-                        polys, &pf->forms, piece, v, contained);
+                        polys, refined >= 8, &pf->forms, piece, v, contained);
 }
 
 /* The whole light box on a fresh piece. */
@@ -1114,7 +1233,7 @@ static bbc_result domain_init(bbc_bounder *b, const bbc_tuple_geometry *g, chain
     piece_forms pf;
     verdict v = VERDICT_PARTIAL;
     int contained = 0;
-    result = examine_position(b, g, mode, &piece, has_own ? &own : NULL, &pf, &v, &contained);
+    result = examine_position(b, g, mode, &piece, has_own ? &own : NULL, 0, &pf, &v, &contained);
     local->position_pieces++;
     if (result != BBC_OK) break;
     if (v == VERDICT_DISCARD) {
@@ -1209,6 +1328,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
   b->forms_head = b->forms_count = 0;
   b->forms_base = 0;
   b->quadrants_of = UINT64_MAX;
+  b->refined_count = b->refined_coef_used = 0;
   uint64_t root_origin = 0;
   bbc_result result = domain_init(b, g, position_mode, fn, user, &root, &local);
   if (result != BBC_OK || root.status == BBC_PIECE_DISCARDED) goto done;
@@ -1280,8 +1400,8 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       result = origin_polys(b, origin, BBC_POLY_MAX_AXES - 1, BBC_POLY_MAX_AXES - 2, &own);
     }
     if (result == BBC_OK)
-      result = examine_position(b, g, position_mode, &piece, b->split_forms ? &own : NULL, &pf, &v,
-                                NULL);
+      result = examine_position(b, g, position_mode, &piece, b->split_forms ? &own : NULL,
+                                b->split_forms ? 0 : origin, &pf, &v, NULL);
     const double *box = pf.box;
     const bbc_tuple_geometry *gp = &pf.g; /* with the piece's light box */
     const int s_axis = pf.s_axis, t_axis = pf.t_axis;
@@ -1446,6 +1566,9 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     }
     uint64_t first_child = 0;
     if (split && b->split_forms && (result = push_parent(b, &own, &first_child)) != BBC_OK) break;
+    if (split && (piece.split_state & SPLIT_POSITION_ONLY) && !g->refract && !g->refract2 &&
+        (result = refined_store(b, &forms, s_axis, t_axis, &first_child)) != BBC_OK)
+      break;
     if (split) {
       double um = 0.5 * (piece.u_lo + piece.u_hi), vm = 0.5 * (piece.v_lo + piece.v_hi);
       bbc_piece child = piece; /* inherits the position and irradiance bounds */
