@@ -1139,6 +1139,13 @@ static void whole_light(bbc_piece *p) {
   p->light_level = 0;
 }
 
+/* prm->need for the piece as it stands (BBC_NEED_SPLIT without one), asked once while its
+ * bounds do not change: *memo holds the answer, or -1 before it is asked. */
+static bbc_piece_need ask_need(const bbc_bound_params *prm, const bbc_piece *piece, int *memo) {
+  if (*memo < 0) *memo = prm->need ? (int)prm->need(prm->need_user, piece) : (int)BBC_NEED_SPLIT;
+  return (bbc_piece_need)*memo;
+}
+
 /* The deepest level of an area light's box: a few halvings (BBC_LIGHT_MAX_LEVEL) make
  * the footprint of one emitter part small against the emitter's whole, and every
  * further one quadruples the pieces of all four variables. */
@@ -1440,6 +1447,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
                     need == BBC_NEED_SPLIT;
     double area = (piece.uk_hi - piece.uk_lo) * (piece.vk_hi - piece.vk_lo);
     const int refining = piece.split_state & SPLIT_POSITION_ONLY;
+    int need_memo = (int)need; /* ask_need's answer for the piece's current bounds */
     int split = 0;
     if (need == BBC_NEED_NONE || refining) {
       split = 0; /* a refined piece keeps its inherited irradiance bound (below) */
@@ -1478,7 +1486,8 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
       /* Both the piece's own bound and the inherited one hold: keep the tighter ends. */
       piece.e_lo = fmax(piece.e_lo, e_lo);
       piece.e_hi = fmin(piece.e_hi, e_hi);
-      if (can_split && prm.need) can_split = prm.need(prm.need_user, &piece) == BBC_NEED_SPLIT;
+      need_memo = -1;
+      if (can_split) can_split = ask_need(&prm, &piece, &need_memo) == BBC_NEED_SPLIT;
       split = can_split && (area >= sigma || g->light_model.kind == BBC_LIGHT_AREA) &&
               !(piece.e_hi < alpha * piece.e_lo);
       /* Two bounces: a piece whose irradiance bound is unbounded is split whatever the
@@ -1488,7 +1497,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
        * would otherwise cover every cell its position bound reaches. */
       if (!split && g->length == 2 && !(piece.e_hi < INFINITY) && max_level > 0 &&
           piece.level < max_level + UNBOUNDED_LEVELS)
-        split = !prm.need || prm.need(prm.need_user, &piece) != BBC_NEED_NONE;
+        split = ask_need(&prm, &piece, &need_memo) != BBC_NEED_NONE;
     } else {
       split = can_split && area >= sigma;
     }
@@ -1496,8 +1505,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     if (!split && g->length == 2 && g->light_model.kind != BBC_LIGHT_AREA && !prm.positions_only &&
         max_level > 0 && piece.level < max_level + position_levels &&
         area >= POSITION_SIGMAS * sigma &&
-        need == BBC_NEED_SPLIT &&
-        (!prm.need || refining || prm.need(prm.need_user, &piece) == BBC_NEED_SPLIT)) {
+        need == BBC_NEED_SPLIT && ask_need(&prm, &piece, &need_memo) == BBC_NEED_SPLIT) {
       split = 1;
       piece.split_state |= SPLIT_POSITION_ONLY;
     }
