@@ -180,9 +180,6 @@ TEST(area_flat_mirror_caustic_is_the_mirrored_emitter) {
   teardown(&f);
 }
 
-/* Cache and path tracing together: the floor gets the direct light plus the mirrored
- * light exactly once. The path tracer must skip the caustic paths the cache counts
- * (docs/lights.md); counting them twice, or neither, must show. */
 /* The flat mirror under its emitter at level 6, bounded with alpha_area a (alpha_double
  * 10); returns the cache (its bytes in *bytes) and the precompute's statistics. */
 static bbc_cache *area_alpha_cache(const bbc_scene *scene, double a, void **bytes,
@@ -260,6 +257,9 @@ TEST(area_alpha_is_stored_and_used) {
   bbc_scene_free(scene);
 }
 
+/* Cache and path tracing together: the floor gets the direct light plus the mirrored
+ * light exactly once. The path tracer must skip the caustic paths the cache counts
+ * (docs/lights.md); counting them twice, or neither, must show. */
 TEST(area_flat_mirror_split_counts_each_path_once) {
   fixture f;
   REQUIRE(setup(&f, TEST_SCENE("flat-mirror-area.gltf"), BBC_CHAIN_BIT(BBC_CHAIN_R)));
