@@ -67,7 +67,7 @@ struct bbc_bounder {
   uint64_t forms_base;
   uint64_t quadrants_of; /* UINT64_MAX: none */
   piece_polys quadrants[4];
-  /* Two bounces: the position forms of the tuple's pieces split by the position
+  /* Two reflections: the position forms of the tuple's pieces split by the position
    * refinement, for their quarters (refined_store); a quarter's origin is 8 (k + 1) + q
    * for parent k and quarter q (origins below 8 carry nothing). */
   struct refined_parent *refined;
@@ -442,19 +442,17 @@ static bbc_result polys_quadrants(bbc_arena *arena, const piece_polys *parent, i
  * refinement's cost), but refraction's forms carry the linearised square roots' radii,
  * and their quarters' boxes would stay wide (ball320 TT level 3: 190,810 cell entries
  * instead of 137,886): refracting chains compute each quarter's forms. */
-#define REFINED_FORMS 12
+#define REFINED_FORMS 10
 
 typedef struct refined_parent {
-  int has_beta, has_beta2;
   unsigned char deg[REFINED_FORMS][BBC_POLY_MAX_AXES];
   double err[REFINED_FORMS];
   size_t at; /* its coefficients in bbc_bounder.refined_coef */
 } refined_parent;
 
 static bbc_poly *refined_form(chain_forms *f, int k) {
-  bbc_poly *forms[REFINED_FORMS] = {&f->facing, &f->beta,    &f->up2,     &f->vp2,
-                                    &f->kappa2, &f->tnum2,   &f->facing2, &f->beta2,
-                                    &f->up,     &f->vp,      &f->kappa,   &f->tnum};
+  bbc_poly *forms[REFINED_FORMS] = {&f->facing, &f->up2,     &f->vp2, &f->kappa2, &f->tnum2,
+                                    &f->facing2, &f->up,     &f->vp,  &f->kappa,  &f->tnum};
   return forms[k];
 }
 
@@ -462,20 +460,15 @@ static const bbc_poly *refined_form_of(const chain_forms *f, int k) {
   return refined_form((chain_forms *)f, k);
 }
 
-/* Whether form k is there: beta and beta2 only at refractions. */
-static int refined_present(const chain_forms *f, int k) {
-  return (k != 1 || f->has_beta) && (k != 7 || f->has_beta2);
-}
-
-/* Keeps a two-bounce piece's position forms for its quarters; *origin receives the
- * first quarter's origin, or 0 (the quarters compute their own) when a form depends on
- * an axis other than s and t. */
+/* Keeps a two-reflection piece's position forms for its quarters; *origin receives the
+ * first quarter's origin, or 0 (the quarters compute their own) for refraction (forms
+ * with a beta) or when a form depends on an axis other than s and t. */
 static bbc_result refined_store(bbc_bounder *b, const chain_forms *f, int s_axis, int t_axis,
                                 uint64_t *origin) {
   *origin = 0;
+  if (f->has_beta || f->has_beta2) return BBC_OK;
   size_t need = 0;
   for (int k = 0; k < REFINED_FORMS; k++) {
-    if (!refined_present(f, k)) continue;
     const bbc_poly *p = refined_form_of(f, k);
     for (int j = 0; j < BBC_POLY_MAX_AXES; j++)
       if (p->deg[j] != 0 && j != s_axis && j != t_axis) return BBC_OK;
@@ -497,10 +490,8 @@ static bbc_result refined_store(bbc_bounder *b, const chain_forms *f, int s_axis
     b->refined_coef_capacity = capacity;
   }
   refined_parent *r = &b->refined[b->refined_count];
-  r->has_beta = f->has_beta, r->has_beta2 = f->has_beta2;
   r->at = b->refined_coef_used;
   for (int k = 0; k < REFINED_FORMS; k++) {
-    if (!refined_present(f, k)) continue;
     const bbc_poly *p = refined_form_of(f, k);
     memcpy(r->deg[k], p->deg, sizeof r->deg[k]);
     r->err[k] = p->err;
@@ -519,11 +510,9 @@ static bbc_result refined_forms(bbc_bounder *b, uint64_t origin, int s_axis, int
   const int q = (int)(origin % 8);
   memset(f, 0, sizeof *f);
   f->length = 2;
-  f->has_beta = r->has_beta, f->has_beta2 = r->has_beta2;
   f->slope_enclosed = f->slope_enclosed2 = 1;
   size_t at = r->at;
   for (int k = 0; k < REFINED_FORMS; k++) {
-    if (!refined_present(f, k)) continue;
     bbc_poly parent;
     memcpy(parent.deg, r->deg[k], sizeof parent.deg);
     parent.err = r->err[k];
@@ -1574,7 +1563,7 @@ bbc_result bbc_bound_tuple(bbc_bounder *b, const bbc_tuple_geometry *g,
     }
     uint64_t first_child = 0;
     if (split && b->split_forms && (result = push_parent(b, &own, &first_child)) != BBC_OK) break;
-    if (split && (piece.split_state & SPLIT_POSITION_ONLY) && !g->refract && !g->refract2 &&
+    if (split && (piece.split_state & SPLIT_POSITION_ONLY) &&
         (result = refined_store(b, &forms, s_axis, t_axis, &first_child)) != BBC_OK)
       break;
     if (split) {
