@@ -134,6 +134,7 @@ typedef struct bbc_render_stats {
   uint64_t newton_estimates; /* reciprocal-probability estimates made (newton-stoch) */
   uint64_t newton_trials;    /* the sum of their K: mean K = trials / estimates */
   uint64_t newton_cap_hits;  /* estimates whose K reached newton_max_trials */
+  /* The next three are estimates: each thread times every 8th lookup and scales. */
   double sampling_seconds;   /* thread time preparing the cells' lists (sum over threads) */
   double decoding_seconds;   /* thread time decoding cells */
   double solving_seconds;    /* thread time drawing tuples, solving them and tracing

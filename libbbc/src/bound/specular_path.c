@@ -267,13 +267,14 @@ static bbc_result trace(const bbc_path_geometry *g, double u, double v, int to_l
 
   for (int i = 0; i < g->length; i++) {
     const bbc_specular_triangle *tri = &g->specular[i];
-    if (to_last_vertex && i == g->length - 1) {
+    if (to_last_vertex && i == g->length - 1) { /* one vertex: x1 is the last */
       out->complete = 1;
       return BBC_OK;
     }
     dvec d_next;
     if (!scatter(tri, d, n, &d_next, &out->flags)) return BBC_OK; /* TIR */
-    check_geometric_side(tri, dv_value(d), dv_value(d_next), dv_value(n), &out->flags);
+    if (!to_last_vertex)
+      check_geometric_side(tri, dv_value(d), dv_value(d_next), dv_value(n), &out->flags);
 
     /* The next vertex: the ray meets the next triangle's plane (Eq. 9). */
     int last = i == g->length - 1;
@@ -310,6 +311,10 @@ static bbc_result trace(const bbc_path_geometry *g, double u, double v, int to_l
       out->u2[1] = bv.v;
       out->du2[0][0] = bu.du, out->du2[0][1] = bu.dv;
       out->du2[1][0] = bv.du, out->du2[1][1] = bv.dv;
+      if (to_last_vertex && i + 1 == g->length - 1) {
+        out->complete = 1;
+        return BBC_OK;
+      }
       /* The second vertex's normal depends on u1 through u2 = (bu, bv): the duals carry
        * that dependence on. */
       if (!shading_normal(&g->specular[i + 1], bu, bv, &n)) {

@@ -58,6 +58,7 @@ typedef struct bbc__caustics_thread {
    * reciprocal-probability estimates, the sum of their K and those stopped at the cap. */
   uint64_t newton_solves, newton_converged, newton_estimates, newton_trials, newton_cap_hits;
   double sampling_seconds, decoding_seconds, solving_seconds;
+  uint64_t timing_tick; /* lookups asked for, to time every TIMING_STRIDE-th (caustics.c) */
   /* The first failed lookup (a damaged chunk: BBC_ERR_CHECKSUM or BBC_ERR_CORRUPT), or
    * BBC_OK. Once set, this thread looks nothing up any more and the render stops: no
    * image is made from a damaged cache (format-spec Sec. 9, R-REN-1). */

@@ -135,19 +135,29 @@ static dvec4 qv_affine(const bbc_vec3 a[3], double u, double v, int su) {
 }
 
 /* An orthonormal basis of a triangle's plane. Returns 0 for a degenerate triangle. */
-static int plane_basis(const bbc_specular_triangle *t, bbc_vec3 *g1, bbc_vec3 *g2) {
+static int plane_basis(const bbc_specular_triangle *t, bbc_vec3 g[2]) {
   bbc_vec3 e1 = v3_sub(t->p[1], t->p[0]), e2 = v3_sub(t->p[2], t->p[0]);
   bbc_vec3 ng = v3_cross(e1, e2);
   if (!(v3_dot(ng, ng) > 0) || !(v3_dot(e1, e1) > 0)) return 0;
-  *g1 = v3_normalize(e1);
-  *g2 = v3_normalize(v3_cross(v3_normalize(ng), *g1));
+  g[0] = v3_normalize(e1);
+  g[1] = v3_normalize(v3_cross(v3_normalize(ng), g[0]));
   return 1;
 }
 
+/* What one solve iterates on: the chain, the receiver point and each specular
+ * triangle's plane basis (computed once per solve, not per evaluation). */
+typedef struct newton_chain {
+  const bbc_path_geometry *g;
+  bbc_vec3 xk;
+  bbc_vec3 basis[2][2];
+  int basis_ok[2];
+} newton_chain;
+
 /* The two constraint values of one vertex with their derivatives (see the top). Returns
  * 0 where they are undefined (coincident vertices, vanishing normal). */
-static int vertex_constraint(const bbc_specular_triangle *t, dvec4 prev, dvec4 x, dvec4 next,
+static int vertex_constraint(const newton_chain *q, int i, dvec4 prev, dvec4 x, dvec4 next,
                              dvec4 n, dual4 out[2]) {
+  const bbc_specular_triangle *t = &q->g->specular[i];
   dvec4 wi, wo, nh;
   if (!qv_normalize(qv_sub(prev, x), &wi) || !qv_normalize(qv_sub(next, x), &wo) ||
       !qv_normalize(n, &nh))
@@ -160,10 +170,9 @@ static int vertex_constraint(const bbc_specular_triangle *t, dvec4 prev, dvec4 x
   }
   dvec4 h = qv_add(qv_scale(wi, ei), qv_scale(wo, eo));
   dvec4 c = qv_cross(h, nh);
-  bbc_vec3 g1, g2;
-  if (!plane_basis(t, &g1, &g2)) return 0;
-  out[0] = qv_dotc(c, g1);
-  out[1] = qv_dotc(c, g2);
+  if (!q->basis_ok[i]) return 0;
+  out[0] = qv_dotc(c, q->basis[i][0]);
+  out[1] = qv_dotc(c, q->basis[i][1]);
   return 1;
 }
 
@@ -180,7 +189,8 @@ static dvec4 light_vertex(const bbc_path_geometry *g, dvec4 x1) {
  * bbc_solver_verify then accepts or rejects with its own, smaller tolerance. Returns 1
  * if it moved. */
 #define CLAMP_MARGIN 1e-6
-static int clamp_to_triangle(const bbc_vec3 p[3], double *u, double *v) {
+static int clamp_to_triangle(const bbc_specular_triangle *t, double *u, double *v) {
+  const bbc_vec3 *p = t->p;
   if (*u >= -CLAMP_MARGIN && *v >= -CLAMP_MARGIN && *u + *v <= 1 + CLAMP_MARGIN) return 0;
   bbc_vec3 e1 = v3_sub(p[1], p[0]), e2 = v3_sub(p[2], p[0]), e3 = v3_sub(p[2], p[1]);
   bbc_vec3 q = v3_add(p[0], v3_add(v3_scale(e1, *u), v3_scale(e2, *v)));
@@ -216,8 +226,10 @@ static int clamp_to_triangle(const bbc_vec3 p[3], double *u, double *v) {
  * values) and jac (2 x 2, d f / d u1) and the traced path up to the last vertex. Returns
  * 0 where the trace breaks off before it or the constraint is undefined; p is only
  * filled for chains of length 2. */
-static int reduced_constraint(const bbc_path_geometry *g, bbc_vec3 xk, const double z[2],
-                              double f[2], double jac[4], bbc_specular_path *p) {
+static int reduced_constraint(const newton_chain *q, const double z[2], double f[2], double jac[4],
+                              bbc_specular_path *p) {
+  const bbc_path_geometry *g = q->g;
+  const bbc_vec3 xk = q->xk;
   int last = g->length - 1;
   /* One vertex needs no trace: its neighbours are the light and x_k. */
   if (last > 0 && (bbc__specular_path_trace_to_last_vertex(g, z[0], z[1], p) != BBC_OK ||
@@ -227,7 +239,7 @@ static int reduced_constraint(const bbc_path_geometry *g, bbc_vec3 xk, const dou
   dual4 c[2];
   if (last == 0) {
     dvec4 n1 = qv_affine(g->specular[0].n, z[0], z[1], 0);
-    if (!vertex_constraint(&g->specular[0], light_vertex(g, x1), x1, qv_const(xk), n1, c)) return 0;
+    if (!vertex_constraint(q, 0, light_vertex(g, x1), x1, qv_const(xk), n1, c)) return 0;
     for (int r = 0; r < 2; r++) {
       f[r] = c[r].v;
       jac[2 * r] = c[r].d[0], jac[2 * r + 1] = c[r].d[1];
@@ -237,7 +249,7 @@ static int reduced_constraint(const bbc_path_geometry *g, bbc_vec3 xk, const dou
   /* x2 and n2 in slots 2 and 3 (u2, v2), then the chain rule through d u2 / d u1. */
   dvec4 x2 = qv_affine(g->specular[1].p, p->u2[0], p->u2[1], 2);
   dvec4 n2 = qv_affine(g->specular[1].n, p->u2[0], p->u2[1], 2);
-  if (!vertex_constraint(&g->specular[1], x1, x2, qv_const(xk), n2, c)) return 0;
+  if (!vertex_constraint(q, 1, x1, x2, qv_const(xk), n2, c)) return 0;
   for (int r = 0; r < 2; r++) {
     f[r] = c[r].v;
     for (int k = 0; k < 2; k++)
@@ -253,12 +265,12 @@ static int reduced_constraint(const bbc_path_geometry *g, bbc_vec3 xk, const dou
  * verification decides: near a fold of the caustic the Jacobian is nearly singular, the
  * residual's rounding floor turns into steps that cannot lower it, and yet z is the root
  * to the precision the data allow. */
-static int reduced_newton(const bbc_path_geometry *g, bbc_vec3 xk, double z[2], int max_it,
-                          int *iterations) {
-  clamp_to_triangle(g->specular[0].p, &z[0], &z[1]);
+static int reduced_newton(const newton_chain *q, double z[2], int max_it, int *iterations) {
+  const bbc_path_geometry *g = q->g;
+  clamp_to_triangle(&g->specular[0], &z[0], &z[1]);
   double f[2], jac[4];
   bbc_specular_path p;
-  if (!reduced_constraint(g, xk, z, f, jac, &p)) return -1;
+  if (!reduced_constraint(q, z, f, jac, &p)) return -1;
   double norm = fabs(f[0]) + fabs(f[1]);
   for (int it = 0; it < max_it; it++) {
     *iterations = it + 1;
@@ -278,8 +290,8 @@ static int reduced_newton(const bbc_path_geometry *g, bbc_vec3 xk, double z[2], 
     int accepted = 0;
     for (int k = 0; k < 12 && !accepted; k++, lambda *= 0.5) {
       zn[0] = z[0] + lambda * du, zn[1] = z[1] + lambda * dv;
-      clamp_to_triangle(g->specular[0].p, &zn[0], &zn[1]);
-      if (!reduced_constraint(g, xk, zn, fn, jn, &p)) continue;
+      clamp_to_triangle(&g->specular[0], &zn[0], &zn[1]);
+      if (!reduced_constraint(q, zn, fn, jn, &p)) continue;
       double nn = fabs(fn[0]) + fabs(fn[1]);
       /* A step at rounding level need not lower the residual. */
       if (nn < norm || lambda * len <= 1e-12) accepted = 1, norm = nn;
@@ -304,15 +316,15 @@ static int reduced_newton(const bbc_path_geometry *g, bbc_vec3 xk, double z[2], 
  * form's residual jumps there (x2 passes through infinity), and from a start whose ray
  * meets T2's plane behind x1 (common in a mirror corner, where only part of T1 sends
  * light toward T2) it cannot reach the root. Returns 0 where undefined. */
-static int full_constraint(const bbc_path_geometry *g, bbc_vec3 xk, const double z[4], double f[4],
-                           double jac[16]) {
+static int full_constraint(const newton_chain *q, const double z[4], double f[4], double jac[16]) {
+  const bbc_path_geometry *g = q->g;
   dvec4 x1 = qv_affine(g->specular[0].p, z[0], z[1], 0);
   dvec4 n1 = qv_affine(g->specular[0].n, z[0], z[1], 0);
   dvec4 x2 = qv_affine(g->specular[1].p, z[2], z[3], 2);
   dvec4 n2 = qv_affine(g->specular[1].n, z[2], z[3], 2);
   dual4 c[4];
-  if (!vertex_constraint(&g->specular[0], light_vertex(g, x1), x1, x2, n1, c) ||
-      !vertex_constraint(&g->specular[1], x1, x2, qv_const(xk), n2, c + 2))
+  if (!vertex_constraint(q, 0, light_vertex(g, x1), x1, x2, n1, c) ||
+      !vertex_constraint(q, 1, x1, x2, qv_const(q->xk), n2, c + 2))
     return 0;
   for (int r = 0; r < 4; r++) {
     f[r] = c[r].v;
@@ -356,12 +368,12 @@ static int solve4(double a[16], double b[4], double x[4]) {
 
 /* Damped Newton on the full constraint, u1 and u2 clamped into their triangles; the same
  * step control and return values as reduced_newton. */
-static int full_newton(const bbc_path_geometry *g, bbc_vec3 xk, double z[4], int max_it,
-                       int *iterations) {
-  clamp_to_triangle(g->specular[0].p, &z[0], &z[1]);
-  clamp_to_triangle(g->specular[1].p, &z[2], &z[3]);
+static int full_newton(const newton_chain *q, double z[4], int max_it, int *iterations) {
+  const bbc_path_geometry *g = q->g;
+  clamp_to_triangle(&g->specular[0], &z[0], &z[1]);
+  clamp_to_triangle(&g->specular[1], &z[2], &z[3]);
   double f[4], jac[16];
-  if (!full_constraint(g, xk, z, f, jac)) return -1;
+  if (!full_constraint(q, z, f, jac)) return -1;
   double norm = fabs(f[0]) + fabs(f[1]) + fabs(f[2]) + fabs(f[3]);
   for (int it = 0; it < max_it; it++) {
     *iterations = it + 1;
@@ -378,9 +390,9 @@ static int full_newton(const bbc_path_geometry *g, bbc_vec3 xk, double z[4], int
     int accepted = 0;
     for (int k = 0; k < 12 && !accepted; k++, lambda *= 0.5) {
       for (int r = 0; r < 4; r++) zn[r] = z[r] + lambda * dz[r];
-      clamp_to_triangle(g->specular[0].p, &zn[0], &zn[1]);
-      clamp_to_triangle(g->specular[1].p, &zn[2], &zn[3]);
-      if (!full_constraint(g, xk, zn, fn, jn)) continue;
+      clamp_to_triangle(&g->specular[0], &zn[0], &zn[1]);
+      clamp_to_triangle(&g->specular[1], &zn[2], &zn[3]);
+      if (!full_constraint(q, zn, fn, jn)) continue;
       double nn = fabs(fn[0]) + fabs(fn[1]) + fabs(fn[2]) + fabs(fn[3]);
       if (nn < norm || lambda * len <= 1e-12) accepted = 1, norm = nn;
     }
@@ -407,7 +419,12 @@ bbc_result bbc_solver_newton(const bbc_path_geometry *g, bbc_vec3 xk, const doub
   double z[2] = {u1_init[0], u1_init[1]};
   int max_it = options && options->max_iterations > 0 ? options->max_iterations : 30;
   int its = 0;
-  int status = reduced_newton(g, xk, z, max_it, &its);
+  newton_chain q;
+  memset(&q, 0, sizeof q);
+  q.g = g;
+  q.xk = xk;
+  for (int i = 0; i < g->length; i++) q.basis_ok[i] = plane_basis(&g->specular[i], q.basis[i]);
+  int status = reduced_newton(&q, z, max_it, &its);
   if (stats) stats->newton_iterations += (uint64_t)its;
   int ok = status >= 0 && bbc_solver_verify(g, xk, z[0], z[1], options, out);
   /* A second chance where the reduced iteration ended on the far side of its
@@ -425,7 +442,7 @@ bbc_result bbc_solver_newton(const bbc_path_geometry *g, bbc_vec3 xk, const doub
   if (second_chance) {
     double w[4] = {u1_init[0], u1_init[1], 1.0 / 3.0, 1.0 / 3.0};
     int full_its = 0;
-    int full_status = full_newton(g, xk, w, max_it, &full_its);
+    int full_status = full_newton(&q, w, max_it, &full_its);
     if (stats) stats->newton_iterations += (uint64_t)full_its;
     its += full_its;
     if (full_status >= 0 && bbc_solver_verify(g, xk, w[0], w[1], options, out)) {
