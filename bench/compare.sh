@@ -5,6 +5,13 @@
 #                       [--seeds "7 8 9 10 11 12 13 14"]
 #   (BBC_BENCH_SCENES="plane1k pool4k" limits the shared scenes to those named)
 #
+# The shared scenes (part 2) are read from --scenes DIR, else from $BBC_SHARED_DIR/scenes
+# (BBC_SHARED_DIR: the folder holding scenes/), else from ../shared/scenes beside the
+# repository; that folder exists on some machines only. When it, or one of the scenes
+# part 2 needs, is missing, part 2 is skipped with one line on stderr saying what is
+# missing and how to provide it: --part all runs part 1 alone, --part scenes exits 0 at
+# once (before installing or building anything).
+#
 # Every budget (method, spp) is rendered once per seed of --seeds (eight by default: one
 # seed can be an outlier for every method), and reported by its mean relMSE and mean
 # CPU-seconds over the seeds; every method uses the same seeds (the same camera samples).
@@ -31,10 +38,9 @@
 # when missing (scripts/install-deps.sh --bench, as root) and builds bbc (Release) in build/.
 set -eu
 root=$(cd "$(dirname "$0")/.." && pwd)
-cd "$root" # POV-Ray's I/O restrictions let it write below the current folder only
 scale=1
 part=all
-scenes=$root/../shared/scenes
+scenes=
 scene_width=80
 seeds="7 8 9 10 11 12 13 14"
 while [ $# -gt 0 ]; do
@@ -54,12 +60,31 @@ for k in $seeds; do
 done
 nseeds=$(echo $seeds | wc -w)
 [ "$nseeds" -gt 0 ] || { echo "compare.sh: --seeds is empty" >&2; exit 1; }
+tool=compare.sh
+. "$root/bench/lib.sh"
 
+# The shared scenes of part 2: scene:chain:level:photons of a reference (light
+# tracing):spp of the long bbc render and of the long enumeration.
+shared_specs="plane1k:R::20000000:2048:128 plane7k:R::20000000:2048:128 pool4k:T::100000000:2048:512
+  ball320:TT:3:100000000:2048:2048"
+case $part in
+  all | scenes)
+    needed=
+    for spec in $shared_specs; do
+      if picked "${spec%%:*}"; then needed="$needed ${spec%%:*}.gltf"; fi
+    done
+    # shellcheck disable=SC2086
+    if ! scenes=$(shared_scenes "$scenes" $needed); then
+      [ $part = scenes ] && exit 0
+      part=flat
+    fi ;;
+esac
+
+cd "$root" # POV-Ray's I/O restrictions let it write below the current folder only
 sh "$root/scripts/install-deps.sh" --bench
 for t in gnuplot povray /usr/bin/time; do
   command -v "$t" > /dev/null || { echo "compare.sh: $t is missing" >&2; exit 1; }
 done
-. "$root/bench/lib.sh"
 build_release "$root"
 bin=$root/build
 gen=$bin/scenes/bbc-scenegen
@@ -68,7 +93,6 @@ ren=$bin/bbc-render/bbc-render
 work=$root/bench/work
 out=$root/bench/results
 mkdir -p "$work/flat" "$work/scenes" "$work/refs" "$out"
-tool=compare.sh
 # BBC_COMMIT names the commit measured when root is not a git checkout.
 commit=${BBC_COMMIT:-$(git -C "$root" rev-parse --short HEAD 2> /dev/null || echo unknown)}
 dirty=$(git -C "$root" status --porcelain --untracked-files=no -- libbbc bbc-render bbc-precompute \
@@ -293,12 +317,9 @@ scenes_part() {
   d=$work/scenes
   w=$scene_width
   : > "$d/summary.dat"
-  # scene:chain:level:photons of a reference (light tracing):spp of the long bbc render
-  # and of the long enumeration
-  for spec in plane1k:R::20000000:2048:128 plane7k:R::20000000:2048:128 pool4k:T::100000000:2048:512 \
-    ball320:TT:3:100000000:2048:2048; do
+  for spec in $shared_specs; do
     s=${spec%%:*}
-    case " ${BBC_BENCH_SCENES:-$s} " in *" $s "*) ;; *) continue ;; esac
+    picked "$s" || continue
     set -- $(echo "$spec" | awk -F: '{ for (i = 1; i <= NF; i++) printf "%s ", ($i == "" ? "-" : $i) }')
     chain=$2
     level=$3
@@ -307,7 +328,6 @@ scenes_part() {
     refspp=$(n "$5")
     chkspp=$(n "$6")
     gltf=$scenes/$s.gltf
-    [ -f "$gltf" ] || { echo "compare.sh: $gltf is missing, skipped" >&2; continue; }
     # The precompute, reused while the cache is newer than bbc-precompute and the scene.
     if [ -f "$d/$s-pre.cpu" ] && [ "$d/$s.bbc" -nt "$pre" ] && [ "$d/$s.bbc" -nt "$gltf" ]; then
       pc=$(cat "$d/$s-pre.cpu")

@@ -7,9 +7,13 @@
 #
 #   sh bench/gamma_sweep.sh BUILD_DIR WORK_DIR [SCENE...]
 #
-# SCENE is a name in ../shared/scenes (default plane1k pool4k); its chain is T for
+# SCENE is a name in the shared scenes (default plane1k pool4k); its chain is T for
 # pool*, TT at --max-level LEVEL (default 3) for ball* (named SCENE-LLEVEL below), R
-# otherwise, and the caustic's depth 2 + the chain's length. WORK_DIR receives the caches
+# otherwise, and the caustic's depth 2 + the chain's length. The shared scenes are read
+# from $BBC_SHARED_DIR/scenes (BBC_SHARED_DIR: the folder holding scenes/), else from
+# ../shared/scenes beside the repository; that folder exists on some machines only: when
+# it, or a SCENE.gltf in it, is missing, the script says so in one line on stderr and
+# exits 0 without running anything. WORK_DIR receives the caches
 # (made with default options and that chain when missing), the references (bbc at
 # REF_SPP samples, default 1024, Sobol, seed 1000; made when missing, or put there as
 # WORK_DIR/SCENE-ref.exr) and sweep.md. SPP (default 32), SEEDS (default "7 8 9 10"),
@@ -18,11 +22,18 @@
 # another method (--method uniform --gamma 30: the expected count of --gamma 30, taken
 # with uniform probabilities).
 set -eu
+[ $# -ge 2 ] || { echo "usage: sh bench/gamma_sweep.sh BUILD_DIR WORK_DIR [SCENE...]" >&2; exit 1; }
 bin=$1
 work=$2
 shift 2
 scenes=${*:-plane1k pool4k}
-shared=$(cd "$(dirname "$0")/../../shared/scenes" && pwd)
+root=$(cd "$(dirname "$0")/.." && pwd)
+tool=gamma_sweep.sh
+. "$root/bench/lib.sh"
+needed=
+for s in $scenes; do needed="$needed $s.gltf"; done
+# shellcheck disable=SC2086
+shared=$(shared_scenes "" $needed) || exit 0
 spp=${SPP:-32}
 ref_spp=${REF_SPP:-1024}
 threads=${THREADS:-1}

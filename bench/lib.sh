@@ -1,5 +1,7 @@
-# Shell helpers shared by the benchmark scripts (bench/compare.sh, bench/area-plane.sh, bench/sun-pool.sh).
-# The caller sets $work (a scratch folder), $scale and $tool (its name, for messages).
+# Shell helpers shared by the benchmark scripts (bench/compare.sh, bench/area-plane.sh,
+# bench/sun-pool.sh, bench/run.sh, bench/versus.sh, bench/gamma_sweep.sh).
+# The caller sets $root (the repository), $work (a scratch folder), $scale and $tool (its
+# name, for messages).
 
 # The machine, for the results' headers: CPU model and core count.
 machine="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //'), $(nproc) cores"
@@ -50,4 +52,40 @@ build_release() {
     cmake -S "$1" -B "$1/build" -DCMAKE_BUILD_TYPE=Release > /dev/null
   fi
   cmake --build "$1/build" -j "$(nproc)" > /dev/null
+}
+
+# picked SCENE: whether BBC_BENCH_SCENES (names separated by spaces; default all) names SCENE.
+picked() { case " ${BBC_BENCH_SCENES:-$1} " in *" $1 "*) return 0 ;; esac; return 1; }
+
+# shared_scenes DIR [FILE...]: prints the folder of the shared research scenes (plane1k,
+# pool4k, ball320...: glTF files kept outside the repository, on some machines only): DIR
+# when not empty (a script's own argument wins), else $BBC_SHARED_DIR/scenes
+# (BBC_SHARED_DIR: the folder holding scenes/), else ../shared/scenes beside the
+# repository. When that folder or one of the FILEs in it is missing, prints nothing, says
+# in one line on stderr what is missing and how to provide it, and returns 1; the caller
+# then skips what needs the scenes and exits 0:
+#   scenes=$(shared_scenes "$dir" pool4k.gltf) || exit 0
+shared_scenes() {
+  if [ -n "$1" ]; then
+    shared_dir=$1
+    shared_how="as given on the command line"
+  else
+    shared_dir=${BBC_SHARED_DIR:-$(cd "$root/.." && pwd)/shared}/scenes
+    shared_how="set BBC_SHARED_DIR to the folder holding scenes/"
+  fi
+  shift
+  if [ ! -d "$shared_dir" ]; then
+    echo "$tool: skipped: no shared scenes at $shared_dir ($shared_how)" >&2
+    return 1
+  fi
+  shared_dir=$(cd "$shared_dir" && pwd)
+  shared_missing=
+  for shared_file in "$@"; do
+    [ -f "$shared_dir/$shared_file" ] || shared_missing="$shared_missing${shared_missing:+, }$shared_file"
+  done
+  if [ -n "$shared_missing" ]; then
+    echo "$tool: skipped: no $shared_missing in $shared_dir ($shared_how)" >&2
+    return 1
+  fi
+  echo "$shared_dir"
 }

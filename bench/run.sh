@@ -11,6 +11,13 @@
 #   --double  regenerates only the double-refraction table of precompute.md (the balls
 #             and the slab) and keeps the rest of that file as it is; render.md is left
 #             alone.
+#   SHARED_SCENES_DIR  the folder of the shared scenes (plane1k.gltf...; a scene missing
+#             from it is left out of the tables); when not given (or empty),
+#             $BBC_SHARED_DIR/scenes (BBC_SHARED_DIR: the folder holding scenes/), else
+#             ../shared/scenes beside the repository. Every table needs that folder:
+#             without it the script says so in one line on stderr and exits 0, running
+#             nothing and leaving bench/results/ as it is.
+#   SECONDS_PER_RENDER  the time of each equal-time render of render.md (10 by default).
 # Needs a Release build in build/ (sh scripts/build.sh).
 set -eu
 single=0
@@ -18,7 +25,9 @@ double=0
 [ "${1:-}" = --single ] && { single=1; shift; }
 [ "${1:-}" = --double ] && { double=1; shift; }
 root=$(cd "$(dirname "$0")/.." && pwd)
-scenes=${1:-$root/../shared/scenes}
+tool=run.sh
+. "$root/bench/lib.sh"
+scenes=$(shared_scenes "${1:-}") || exit 0
 seconds=${2:-10}
 bin=$root/build
 out=$root/bench/results

@@ -15,20 +15,31 @@
 # BBC_SPP (default "4 16 64"); "at equal CPU" interpolates OLD_BUILD's curve log-log at
 # NEW_BUILD's CPU-s (along 1/CPU beyond its ends); BBC_BENCH_SCENES (default all three)
 # picks scenes by name. Writes OUT.md (default bench/results/versus.md).
+# The scenes are the shared ones, read from $BBC_SHARED_DIR/scenes (BBC_SHARED_DIR: the
+# folder holding scenes/), else from ../shared/scenes beside the repository; that folder
+# exists on some machines only. When it, or one of the scenes picked, is missing, the
+# script says so in one line on stderr and exits 0 without running anything.
 set -eu
 [ $# -ge 2 ] || { echo "usage: sh bench/versus.sh OLD_BUILD NEW_BUILD [OUT.md]" >&2; exit 1; }
 root=$(cd "$(dirname "$0")/.." && pwd)
+tool=versus.sh
+. "$root/bench/lib.sh"
+# The rows, scene:chain:photons of the reference:the caustic's depth.
+rows="plane7k:R:20000000:3 pool4k:T:100000000:3 ball320:TT:100000000:4"
+needed=
+for row in $rows; do
+  if picked "${row%%:*}"; then needed="$needed ${row%%:*}.gltf"; fi
+done
+# shellcheck disable=SC2086
+scenes=$(shared_scenes "" $needed) || exit 0
 old=$(cd "$1" && pwd)
 new=$(cd "$2" && pwd)
 out=${3:-$root/bench/results/versus.md}
-scenes=$root/../shared/scenes
 seeds=${BBC_SEEDS:-"7 8 9 10"}
 spps=${BBC_SPP:-"4 16 64"}
 work=$root/bench/work/versus
 scale=1
-tool=versus.sh
 mkdir -p "$work"
-. "$root/bench/lib.sh"
 for b in "$old" "$new"; do
   for t in bbc-precompute/bbc-precompute bbc-render/bbc-render bbc-inspect/bbc-inspect; do
     [ -x "$b/$t" ] || { echo "versus.sh: $b/$t is missing" >&2; exit 1; }
@@ -54,10 +65,10 @@ commit() {
   echo "|---|---|---|---|---|---|---|---|---|---|"
 } > "$out.tmp"
 summary=""
-for row in "plane7k R 20000000 3" "pool4k T 100000000 3" "ball320 TT 100000000 4"; do
-  set -- $row
+for row in $rows; do
+  set -- $(echo "$row" | tr : ' ')
   s=$1 chain=$2 photons=$3 depth=$4
-  case " ${BBC_BENCH_SCENES:-$s} " in *" $s "*) ;; *) continue ;; esac
+  picked "$s" || continue
   gltf=$scenes/$s.gltf
   level=""
   [ "$s" = ball320 ] && level="--max-level 3"

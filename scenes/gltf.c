@@ -187,8 +187,8 @@ static void checker_png(unsigned long n, bytes *png) {
 /* ------------------------------------------------------------------------------------ */
 /* glTF output. */
 
-static const char *const MATERIAL_NAMES[MAT_COUNT] = {"diffuse", "mirror",  "glass",
-                                                      "water",   "emitter", "deck"};
+static const char *const MATERIAL_NAMES[MAT_COUNT] = {"diffuse", "mirror",  "glass", "water",
+                                                      "diamond", "emitter", "deck"};
 
 static void json_material(bytes *j, const scene *s, material_kind k) {
   bytes_printf(j, "{\"name\":\"%s\",\"pbrMetallicRoughness\":", MATERIAL_NAMES[k]);
@@ -211,13 +211,16 @@ static void json_material(bytes *j, const scene *s, material_kind k) {
       break;
     case MAT_GLASS:
     case MAT_WATER:
+    case MAT_DIAMOND:
       bytes_printf(j,
                    "{\"baseColorFactor\":[1,1,1,1],\"metallicFactor\":0,"
                    "\"roughnessFactor\":0},\"extensions\":{"
                    "\"KHR_materials_transmission\":{\"transmissionFactor\":1},"
                    "\"KHR_materials_volume\":{\"thicknessFactor\":1},"
                    "\"KHR_materials_ior\":{\"ior\":%s}}}",
-                   k == MAT_GLASS ? "1.5" : "1.33");
+                   k == MAT_GLASS   ? "1.5"
+                   : k == MAT_WATER ? "1.33"
+                                    : "2.42");
       break;
     case MAT_DECK:
       /* glass-pool's deck: light warm stone, matte. */
@@ -374,7 +377,8 @@ static void build_gltf(const scene *s, const char *uri, bytes *json, bytes *bin)
   /* --sun and --spot turn the point light into a directional light or a spot aimed from
    * the light's position at the origin (the node's -Z, as KHR_lights_punctual says). */
   const char *light_type = o->sun > 0 ? "directional" : o->spot > 0 ? "spot" : "point";
-  int transmissive = material_index[MAT_GLASS] >= 0 || material_index[MAT_WATER] >= 0;
+  int transmissive = material_index[MAT_GLASS] >= 0 || material_index[MAT_WATER] >= 0 ||
+                     material_index[MAT_DIAMOND] >= 0;
 
   bytes_printf(json, "{\"asset\":{\"version\":\"2.0\",\"generator\":\"" TOOL
                      "\",\"extras\":{\"bbc\":{\"light_units\":\"radiometric\"}}}");

@@ -225,23 +225,32 @@ static const wave GLASS_POOL_WAVES[] = {
     {0.045, 0.77, 4.1, 2.7},
 };
 
-/* The water over [-2, 2]^2: POOL_WAVES, or GLASS_POOL_WAVES when params is non-NULL. */
-static void pool_surface(const void *params, uint32_t i, uint32_t ni, uint32_t j, uint32_t nj,
-                         vec3 *p, vec3 *n) {
-  const wave *waves = params ? GLASS_POOL_WAVES : POOL_WAVES;
-  size_t count = params ? sizeof GLASS_POOL_WAVES / sizeof GLASS_POOL_WAVES[0]
-                        : sizeof POOL_WAVES / sizeof POOL_WAVES[0];
-  double x = -2.0 + 4.0 * i / ni, z = -2.0 + 4.0 * j / nj;
-  double y = 0, dy_dx = 0, dy_dz = 0;
+/* The height h0 + a sum of plane waves at (a, b), and its derivatives. */
+static double wave_height(double h0, const wave *waves, size_t count, double a, double b,
+                          double *h_a, double *h_b) {
+  double h = h0;
+  *h_a = 0, *h_b = 0;
   for (size_t w = 0; w < count; w++) {
     const wave *q = &waves[w];
     double k = 2 * PI / q->wavelength;
-    double dx = cos(q->direction), dz = sin(q->direction);
-    double arg = k * (x * dx + z * dz) + q->phase;
-    y += q->amplitude * sin(arg);
-    dy_dx += q->amplitude * k * dx * cos(arg);
-    dy_dz += q->amplitude * k * dz * cos(arg);
+    double da = cos(q->direction), db = sin(q->direction);
+    double arg = k * (a * da + b * db) + q->phase;
+    h += q->amplitude * sin(arg);
+    *h_a += q->amplitude * k * da * cos(arg);
+    *h_b += q->amplitude * k * db * cos(arg);
   }
+  return h;
+}
+
+#define COUNT_OF(a) (sizeof(a) / sizeof((a)[0]))
+
+/* The water over [-2, 2]^2: POOL_WAVES, or GLASS_POOL_WAVES when params is non-NULL. */
+static void pool_surface(const void *params, uint32_t i, uint32_t ni, uint32_t j, uint32_t nj,
+                         vec3 *p, vec3 *n) {
+  double x = -2.0 + 4.0 * i / ni, z = -2.0 + 4.0 * j / nj, dy_dx, dy_dz;
+  double y =
+      params ? wave_height(0, GLASS_POOL_WAVES, COUNT_OF(GLASS_POOL_WAVES), x, z, &dy_dx, &dy_dz)
+             : wave_height(0, POOL_WAVES, COUNT_OF(POOL_WAVES), x, z, &dy_dx, &dy_dz);
   *p = v3(x, y, z);
   *n = v3(-dy_dx, 1.0, -dy_dz);
 }
@@ -258,20 +267,54 @@ static const wave PLANE_WAVES[] = {
 static void wavy_plane_surface(const void *params, uint32_t i, uint32_t ni, uint32_t j, uint32_t nj,
                                vec3 *p, vec3 *n) {
   (void)params;
-  double x = 0.9 + (double)i / ni, y = 0.0005 + (double)j / nj;
-  double z = -0.5, dz_dx = 0, dz_dy = 0;
-  for (size_t w = 0; w < sizeof PLANE_WAVES / sizeof PLANE_WAVES[0]; w++) {
-    const wave *q = &PLANE_WAVES[w];
-    double k = 2 * PI / q->wavelength;
-    double dx = cos(q->direction), dy = sin(q->direction);
-    double arg = k * (x * dx + y * dy) + q->phase;
-    z += q->amplitude * sin(arg);
-    dz_dx += q->amplitude * k * dx * cos(arg);
-    dz_dy += q->amplitude * k * dy * cos(arg);
-  }
+  double x = 0.9 + (double)i / ni, y = 0.0005 + (double)j / nj, dz_dx, dz_dy;
+  double z = wave_height(-0.5, PLANE_WAVES, COUNT_OF(PLANE_WAVES), x, y, &dz_dx, &dz_dy);
   *p = v3(x, y, z);
   *n = v3(-dz_dx, -dz_dy, 1.0);
 }
+
+/* A heightfield of plane waves over the rectangle [a0, a1] x [b0, b1]: the point
+ * (a, h0 + h(a, b), b) when the height runs along y (the pools' water), or (a, b,
+ * h0 + h(a, b)) when it runs along z (the standing sheets of the slab); facing is +1
+ * or -1, the sign of the normal's component along the height axis. */
+typedef struct heightfield {
+  double a0, a1, b0, b1, h0, facing;
+  int along_z;
+  const wave *waves;
+  size_t count;
+} heightfield;
+
+static void heightfield_surface(const void *params, uint32_t i, uint32_t ni, uint32_t j,
+                                uint32_t nj, vec3 *p, vec3 *n) {
+  const heightfield *q = params;
+  double a = q->a0 + (q->a1 - q->a0) * i / ni, b = q->b0 + (q->b1 - q->b0) * j / nj, h_a, h_b;
+  double h = wave_height(q->h0, q->waves, q->count, a, b, &h_a, &h_b);
+  vec3 up = v3(-h_a * q->facing, q->facing, -h_b * q->facing);
+  *p = q->along_z ? v3(a, b, h) : v3(a, h, b);
+  *n = q->along_z ? v3(up.x, up.z, up.y) : up;
+}
+
+/* The shared pools' water (the paper's Pool): a wide rectangle around y = 0.297, 2.3
+ * above their floor. Its crests (sum of A k^2 about 1.5) focus light from above about
+ * 2.7 below, so the floor shows a soft net with bright knots where crests cross. */
+static const wave WIDE_POOL_WAVES[] = {
+    {0.04, 2.0, 0.3, 0.0},
+    {0.032, 1.6, 2.0, 1.2},
+    {0.024, 1.25, 4.0, 2.5},
+};
+
+/* The shared slab's two sheets (the paper's Slab), standing across z: the front one,
+ * facing the light at z = -2, waves by up to 0.07 about z = -0.15; the back one, 0.15
+ * behind it, by up to 0.03 about z = 0. */
+static const wave SLAB_FRONT_WAVES[] = {
+    {0.03, 0.7, 0.5, 0.0},
+    {0.022, 0.55, 2.1, 1.0},
+    {0.015, 0.45, 3.9, 2.0},
+};
+static const wave SLAB_BACK_WAVES[] = {
+    {0.015, 0.9, 1.2, 0.5},
+    {0.012, 0.65, 2.8, 1.7},
+};
 
 /* ------------------------------------------------------------------------------------ */
 /* Tessellation counts. Each picks the grid closest to the requested triangle count. */
@@ -455,6 +498,63 @@ static void add_sphere(mesh *m, uint32_t n, vec3 centre, double radius) {
   free(grid);
 }
 
+/* A flat facet of a convex solid around `inside`: its own three vertices carry the
+ * facet's normal, turned away from `inside`. */
+static void add_facet(mesh *m, vec3 a, vec3 b, vec3 c, vec3 inside) {
+  vec3 n = v_cross(v_sub(b, a), v_sub(c, a));
+  vec3 centroid = v_scale(v_add(v_add(a, b), c), 1.0 / 3.0);
+  if (v_dot(n, v_sub(centroid, inside)) < 0) n = v_scale(n, -1);
+  mesh_add_triangle(m, mesh_add_vertex(m, a, n, 0, 0), mesh_add_vertex(m, b, n, 0, 0),
+                    mesh_add_vertex(m, c, n, 0, 0));
+}
+
+/* A round brilliant-like gem with k main facets a side (k = 8 in a real brilliant),
+ * standing on its culet at the origin with its table up, girdle radius 0.68: 14 k flat
+ * facets, each its own triangle -
+ *   crown:    the table (a fan of k), k star facets, k kites (2 each) and 2k upper
+ *             girdle facets, between the table at y = 1.2 and the girdle's top at 0.8;
+ *   girdle:   a band of 2k quads from y = 0.8 down to 0.74;
+ *   pavilion: 2k lower girdle facets and k mains (2 each) down to the culet.
+ * Vertices lie on the crown's and the pavilion's cones, so the solid is convex and, by
+ * positions, closed. */
+static void add_gem(mesh *m, uint32_t k) {
+  const double R = 0.68, table_r = 0.55 * R, star_r = 0.78 * R, lower_r = 0.55 * R;
+  const double table_y = 1.2, girdle_top = 0.8, girdle_bottom = 0.74, culet_y = 0.023;
+  const vec3 inside = v3(0, 0.6, 0), culet = v3(0, culet_y, 0), table_c = v3(0, table_y, 0);
+  /* On the crown's cone through (R, girdle_top) and (table_r, table_y), and on the
+   * pavilion's through the culet and (R, girdle_bottom). */
+  const double star_y = girdle_top + (R - star_r) / (R - table_r) * (table_y - girdle_top);
+  const double lower_y = culet_y + lower_r / R * (girdle_bottom - culet_y);
+#define GEM_POINT(r, angle, y) v3((r)*cos(angle), (y), (r)*sin(angle))
+  for (uint32_t i = 0; i < k; i++) {
+    double a0 = 2 * PI * i / k, a1 = 2 * PI * (i + 1) / k, half = a0 + PI / k;
+    double prev_half = a0 - PI / k;
+    vec3 t0 = GEM_POINT(table_r, a0, table_y), t1 = GEM_POINT(table_r, a1, table_y);
+    vec3 star = GEM_POINT(star_r, half, star_y), prev_star = GEM_POINT(star_r, prev_half, star_y);
+    vec3 g0 = GEM_POINT(R, a0, girdle_top), gh = GEM_POINT(R, half, girdle_top);
+    vec3 g1 = GEM_POINT(R, a1, girdle_top);
+    vec3 b0 = GEM_POINT(R, a0, girdle_bottom), bh = GEM_POINT(R, half, girdle_bottom);
+    vec3 b1 = GEM_POINT(R, a1, girdle_bottom);
+    vec3 lower = GEM_POINT(lower_r, half, lower_y);
+    vec3 prev_lower = GEM_POINT(lower_r, prev_half, lower_y);
+    add_facet(m, table_c, t0, t1, inside);   /* table */
+    add_facet(m, t0, t1, star, inside);      /* star */
+    add_facet(m, t0, prev_star, g0, inside); /* kite, two halves */
+    add_facet(m, t0, g0, star, inside);
+    add_facet(m, star, g0, gh, inside); /* upper girdle */
+    add_facet(m, star, gh, g1, inside);
+    add_facet(m, g0, gh, bh, inside); /* girdle band */
+    add_facet(m, g0, bh, b0, inside);
+    add_facet(m, gh, g1, b1, inside);
+    add_facet(m, gh, b1, bh, inside);
+    add_facet(m, b0, bh, lower, inside); /* lower girdle */
+    add_facet(m, bh, b1, lower, inside);
+    add_facet(m, b0, lower, culet, inside); /* pavilion main, two halves */
+    add_facet(m, b0, culet, prev_lower, inside);
+  }
+#undef GEM_POINT
+}
+
 /* ------------------------------------------------------------------------------------ */
 /* Scenes. */
 
@@ -629,6 +729,71 @@ static void gen_wavy_plane(scene *s, unsigned long size) {
   s->eye = v3(2.709, 4.605, 1.895), s->target = v3(0.981, 1.433, 0.177);
 }
 
+/* The shared balls, slab and diamond stand on a 6 x 6 floor under a light of 50 W/sr;
+ * the camera looks from (0, 6, 6) (the slab's from (2, 5, 5)) with a field of view of
+ * 40 degrees. */
+static void add_research_floor(scene *s) {
+  mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
+  add_plane(floor, -3, 3, -3, 3, 0, 1, 1);
+  s->intensity = 50;
+  s->eye = v3(0, 6, 6), s->target = v3(0, 0, 0.8);
+}
+
+static void gen_ball(scene *s, unsigned long size) {
+  /* The shared balls' set-up (the paper's Ball): radius 1 on the floor, the light at
+   * (1, 2, -2), level with the ball's top and behind it; --size 80, 320, 1280 and
+   * 5120 are the shared balls' tessellations. */
+  mesh *ball = scene_add_mesh(s, "ball", MAT_GLASS, ROLE_CASTER);
+  add_sphere(ball, sphere_frequency(size), v3(0, 1, 0), 1.0);
+  add_research_floor(s);
+  s->light = v3(1, 2, -2);
+}
+
+static void gen_slab_sheets(scene *s, unsigned long size) {
+  /* The shared slab's set-up (the paper's Slab): two wavy glass sheets 2 x 2 standing
+   * on the floor across z, open at their edges (the glass between them is the slab);
+   * the front sheet has four fifths of the triangles. The light at (1, 2, -2) shines
+   * through both onto the floor behind. */
+  mesh *slab = scene_add_mesh(s, "slab", MAT_GLASS, ROLE_CASTER);
+  heightfield front = {
+      -0.98, 0.98, 0.02, 1.98, -0.15, -1, 1, SLAB_FRONT_WAVES, COUNT_OF(SLAB_FRONT_WAVES)};
+  heightfield back = {
+      -0.98, 0.98, 0.02, 1.98, 0.0, 1, 1, SLAB_BACK_WAVES, COUNT_OF(SLAB_BACK_WAVES)};
+  uint32_t nf = square_grid_side(size * 4 / 5 ? size * 4 / 5 : 1);
+  uint32_t nb = square_grid_side(size / 5 ? size / 5 : 1);
+  mesh_add_grid(slab, nf, nf, heightfield_surface, &front);
+  mesh_add_grid(slab, nb, nb, heightfield_surface, &back);
+  add_research_floor(s);
+  s->light = v3(1, 2, -2);
+  s->eye = v3(2, 5, 5), s->target = v3(0, 0, 1);
+}
+
+static void gen_diamond(scene *s, unsigned long size) {
+  /* The shared diamond's set-up: a gem of ior 2.42 with flat facets (total internal
+   * reflection is common inside it), the light at (1, 3, -2); --size 280 gives 20 main
+   * facets a side. */
+  mesh *gem = scene_add_mesh(s, "diamond", MAT_DIAMOND, ROLE_CASTER);
+  add_gem(gem, size / 14 > 3 ? (uint32_t)(size / 14) : 3);
+  add_research_floor(s);
+  s->light = v3(1, 3, -2);
+}
+
+static void gen_wide_pool(scene *s, unsigned long size) {
+  /* The shared pools' set-up (the paper's Pool): water 8.2 x 11.5 over a 16 x 16 floor
+   * 2.3 below, the light 3.7 above the water, the camera from (0, 9, 12) with a field
+   * of view of 50 degrees. Grid cells are about square. */
+  mesh *water = scene_add_mesh(s, "water", MAT_WATER, ROLE_CASTER);
+  heightfield q = {-3.8, 4.4, -5.2, 6.3, 0.297, 1, 0, WIDE_POOL_WAVES, COUNT_OF(WIDE_POOL_WAVES)};
+  uint32_t nx = round_at_least_1(sqrt(size / 2.0 * 8.2 / 11.5));
+  uint32_t nz = round_at_least_1(size / (2.0 * nx));
+  mesh_add_grid(water, nx, nz, heightfield_surface, &q);
+  mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
+  add_plane(floor, -8, 8, -8, 8, -2, 1, 1);
+  s->light = v3(0.5, 4, 1), s->intensity = 50;
+  s->eye = v3(0, 9, 12), s->target = v3(0, 0, 24.0 / 11.0);
+  s->yfov = 0.87266462599716477;
+}
+
 const kind_info KINDS[KIND_COUNT] = {
     {"floor", 2, "a 4 x 4 floor under a point light, no caster (E = I cos/r^2)", gen_floor},
     {"flat-mirror", 2000, "a flat mirror wall beside the floor (mirrored-light test)",
@@ -649,6 +814,12 @@ const kind_info KINDS[KIND_COUNT] = {
      gen_wavy_plane},
     {"glass-pool", 2000, "the pool's water beside a deck with a glass ball, under a warm light",
      gen_glass_pool},
+    {"ball", 320, "a glass ball in the set-up of the shared balls (paper's Ball)", gen_ball},
+    {"slab-sheets", 10000, "two wavy glass sheets in the set-up of the shared slab (paper's Slab)",
+     gen_slab_sheets},
+    {"diamond", 280, "a faceted gem (ior 2.42) in the set-up of the shared diamond", gen_diamond},
+    {"wide-pool", 4000, "wide wavy water in the set-up of the shared pools (paper's Pool)",
+     gen_wide_pool},
 };
 
 void build_scene(scene *s, const options *o) {

@@ -13,7 +13,8 @@
  *     1, metallic 1, roughness 0; glass/water = metallic 0, roughness 0 with
  *     KHR_materials_transmission 1, KHR_materials_volume thickness 1 and
  *     KHR_materials_ior.
- *   - Casters have smooth analytic vertex normals and shared vertices; receivers have
+ *   - Casters have smooth analytic vertex normals and shared vertices (the diamond:
+ *     flat facets, each with vertices of its own); receivers have
  *     NORMAL and TEXCOORD_0 spanning [0,1]. Triangles wind counter-clockwise seen from
  *     the side their normals point to.
  *   - One point light (KHR_lights_punctual) or, with --area-light, one small emissive

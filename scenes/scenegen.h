@@ -54,6 +54,7 @@ typedef enum material_kind {
   MAT_MIRROR,
   MAT_GLASS,
   MAT_WATER,
+  MAT_DIAMOND,
   MAT_EMITTER,
   MAT_DECK,
   MAT_COUNT
@@ -87,6 +88,10 @@ typedef enum kind {
   KIND_GLASS_BOX,
   KIND_WAVY_PLANE,
   KIND_GLASS_POOL,
+  KIND_BALL,
+  KIND_SLAB_SHEETS,
+  KIND_DIAMOND,
+  KIND_WIDE_POOL,
   KIND_COUNT
 } kind;
 

@@ -90,3 +90,14 @@ scene glass-sphere --size 80 --area-light 0.25 -o "$out/glass-sphere-area.gltf"
 scene glass-box -o "$out/glass-box.gltf"
 # The shared planes' set-up (the paper's Plane), small: its footprints cover many cells.
 scene wavy-plane --size 200 -o "$out/wavy-plane.gltf"
+# The research set-ups of the paper (Sec. 6), made here so the suite needs nothing from
+# outside the repository: the wavy plane (R), the pool (T), the balls (TT, at the four
+# tessellations of the paper's Table 3), the two-sheet slab (TT, open) and the diamond
+# (TT, flat facets, ior 2.42), at the sizes of the research meshes they stand in for.
+scene wavy-plane --size 1200 -o "$out/plane1k.gltf"
+scene wide-pool --size 4000 -o "$out/pool4k.gltf"
+for n in 80 320 1280 5120; do
+  scene ball --size $n -o "$out/ball$n.gltf"
+done
+scene slab-sheets --size 10000 -o "$out/slab10k.gltf"
+scene diamond -o "$out/diamond.gltf"

@@ -16,10 +16,26 @@ void harness_fail(const char *file, int line, const char *fmt, ...);
  * small otherwise so the CI suite stays quick. */
 long harness_scale(long ci_count, long full_count);
 
-/* Paths of data the tests use. */
+/* Marks the current test skipped, with one line saying why: its runner exits with
+ * HARNESS_SKIPPED, which ctest counts as "not run", never as passed. For opt-in tests
+ * whose input is missing; a test that also failed a check still fails. */
+#define HARNESS_SKIPPED 77
+void harness_skip(const char *fmt, ...);
+#define SKIP(...)              \
+  do {                         \
+    harness_skip(__VA_ARGS__); \
+    return;                    \
+  } while (0)
+
+/* Paths of data the tests use: the scenes the build generates (tests/make_test_scenes.sh)
+ * and the repository's files. */
 #define TEST_SCENE(file) BBC_TEST_SCENES "/" file
-#define SHARED_SCENE(file) BBC_SHARED_DIR "/scenes/" file
 #define SOURCE_PATH(file) BBC_SOURCE_DIR "/" file
+
+/* The folder of the shared research scenes and real assets for opt-in tests: the
+ * environment's BBC_SHARED_DIR (the folder holding scenes/), or NULL when it is unset or
+ * has no scenes/ folder. The suite itself never needs it. */
+const char *harness_shared_dir(void);
 
 #define TEST(name)                                                 \
   static void test_##name(void);                                   \

@@ -265,7 +265,7 @@ static void scene_test(const char *path, bbc_chain chain, int no_remainder, long
 /* plane1k: single reflection off a plane with interpolated normals (the paper's Plane). */
 TEST(plane1k_reflection) {
   tally t;
-  scene_test(SHARED_SCENE("plane1k.gltf"), BBC_CHAIN_R, 0, 12, 200, 420, &t);
+  scene_test(TEST_SCENE("plane1k.gltf"), BBC_CHAIN_R, 0, 12, 200, 420, &t);
   report("plane1k R", &t);
   CHECK(t.valid > 1000);
   CHECK_INT(t.violations, 0);
@@ -277,7 +277,7 @@ TEST(plane1k_reflection) {
 /* pool4k: single refraction through a water surface onto the pool floor. */
 TEST(pool4k_refraction) {
   tally t;
-  scene_test(SHARED_SCENE("pool4k.gltf"), BBC_CHAIN_T, 0, 40, 100, 125, &t);
+  scene_test(TEST_SCENE("pool4k.gltf"), BBC_CHAIN_T, 0, 40, 100, 125, &t);
   report("pool4k T", &t);
   CHECK(t.valid > 1000);
   CHECK_INT(t.violations, 0);
@@ -290,7 +290,7 @@ TEST(pool4k_refraction) {
  * refraction bounds fail for some paths (the paper's Fig. 18). */
 TEST(pool4k_without_remainders_violates) {
   tally t;
-  scene_test(SHARED_SCENE("pool4k.gltf"), BBC_CHAIN_T, 1, 40, 100, 125, &t);
+  scene_test(TEST_SCENE("pool4k.gltf"), BBC_CHAIN_T, 1, 40, 100, 125, &t);
   report("pool4k T without remainder variables", &t);
   CHECK(t.violations > 0);
 }

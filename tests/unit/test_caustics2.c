@@ -600,7 +600,8 @@ TEST(two_bounce_respects_max_depth) {
  * the caustic. Averages of N independent estimates converge like 1 / N in relMSE and
  * are unbiased (z-test over all points); newton-det is never above the reference and
  * its bias is reported. */
-static void estimator_converges(const char *path, int trace_n, int n_wanted, int grid) {
+static void estimator_converges(const char *path, int trace_n, int n_wanted, int grid,
+                                int checked) {
   fixture f;
   REQUIRE(load(&f, path));
   REQUIRE(cache_traced(&f, trace_n, 0.01, 64));
@@ -690,9 +691,9 @@ static void estimator_converges(const char *path, int trace_n, int n_wanted, int
   /* 16x the estimates: 16x less error (4x is asked). A solution whose basin is a small
    * share of T1 is found rarely and then weighted by a large K, so the estimates are
    * skewed and the sample variance understates the noise until N is large: on the
-   * shared scenes (full run) the error falls unevenly with N, the z-test is looser, and
-   * only their figures are printed. */
-  if (!harness_scale(0, 1) || strstr(path, "test-scenes")) {
+   * research set-ups (full run) the error falls unevenly with N, the z-test is looser,
+   * and only their figures are printed (checked = 0). */
+  if (checked) {
     CHECK(errors[2] < errors[0] / 4);
     CHECK(fabs(z) < 4);
   }
@@ -715,18 +716,15 @@ static void estimator_converges(const char *path, int trace_n, int n_wanted, int
 }
 
 TEST(stoch_estimator_converges) {
-  estimator_converges(TEST_SCENE("glass-sphere.gltf"), 4, 12, 32);
+  estimator_converges(TEST_SCENE("glass-sphere.gltf"), 4, 12, 32, 1);
 }
 
-/* The same on the shared scenes and with more points, in the full run only. */
-TEST(stoch_estimator_converges_shared_scenes) {
-  if (!harness_scale(0, 1)) {
-    fprintf(stderr, "skipped: set BBC_TEST_FULL=1\n");
-    return;
-  }
-  estimator_converges(TEST_SCENE("glass-sphere.gltf"), 8, 48, 48);
-  estimator_converges(SHARED_SCENE("ball320.gltf"), 8, 48, 48);
-  estimator_converges(SHARED_SCENE("slab10k.gltf"), 3, 24, 32);
+/* The same on the research set-ups and with more points, in the full run only. */
+TEST(stoch_estimator_converges_research_scenes) {
+  if (!harness_scale(0, 1)) SKIP("a full-run measurement: set BBC_TEST_FULL=1");
+  estimator_converges(TEST_SCENE("glass-sphere.gltf"), 8, 48, 48, 1);
+  estimator_converges(TEST_SCENE("ball320.gltf"), 8, 48, 48, 0);
+  estimator_converges(TEST_SCENE("slab10k.gltf"), 3, 24, 32, 0);
 }
 
 /* Caustic-only renders, in the full run (minutes): newton-stoch and newton-det
@@ -797,11 +795,8 @@ static void converges(const char *path, int trace_n, uint32_t w, uint32_t h, uin
 }
 
 TEST(render_convergence_measurement) {
-  if (!harness_scale(0, 1)) {
-    fprintf(stderr, "skipped: set BBC_TEST_FULL=1\n");
-    return;
-  }
+  if (!harness_scale(0, 1)) SKIP("a full-run measurement: set BBC_TEST_FULL=1");
   converges(TEST_SCENE("glass-sphere.gltf"), 16, 128, 96, 1024);
-  converges(SHARED_SCENE("ball320.gltf"), 16, 128, 96, 1024);
-  converges(SHARED_SCENE("slab10k.gltf"), 3, 96, 72, 256);
+  converges(TEST_SCENE("ball320.gltf"), 16, 128, 96, 1024);
+  converges(TEST_SCENE("slab10k.gltf"), 3, 96, 72, 256);
 }

@@ -90,8 +90,8 @@ static char *read_file(const char *path, size_t *size) {
   return data;
 }
 
-/* The number after the first occurrence of "key": in a JSON text, or -1. The shared
- * scenes are written one key per line, which makes this enough of a parser. */
+/* The number after the first occurrence of "key": in a JSON text, or -1: enough of a
+ * parser for the generated and shared scenes, whose keys are each written once. */
 static double json_number_after(const char *text, const char *key) {
   char pattern[64];
   snprintf(pattern, sizeof pattern, "\"%s\":", key);
@@ -237,77 +237,101 @@ static void check_invariants(const bbc_scene *s) {
   CHECK_NEAR(u[0] * v[0] + u[1] * v[1] + u[2] * v[2], 0.0, 1e-12);
 }
 
-/* ------------------------------------------------------------------ shared scenes */
+/* ------------------------------------------------------------------ research scenes */
 
-/* Every scene in ../shared/scenes loads with the triangle count its extras declare,
- * a caster of the right material, a diffuse receiver, the point light and the camera
- * written in the file. */
-TEST(shared_scenes) {
-  int count = 0;
-  char **names = list_dir(SHARED_SCENE(""), ".gltf", NULL, &count);
-  CHECK(count >= 1);
-  for (int i = 0; i < count; i++) {
-    char path[2048];
-    snprintf(path, sizeof path, "%s%s", SHARED_SCENE(""), names[i]);
-    size_t size;
-    char *text = read_file(path, &size);
-    messages m;
-    bbc_scene *s = load_ok(path, &m);
-    if (!s || !text) {
-      harness_fail(__FILE__, __LINE__, "%s did not load", names[i]);
-      free(text);
-      bbc_scene_free(s);
-      continue;
-    }
-    fprintf(stderr, "  %s: %u triangles, %u vertices\n", names[i], s->triangle_count,
-            s->vertex_count);
-    check_invariants(s);
-    CHECK_INT(m.warnings, 0);
-    /* extras.bbc.triangles counts the caster's triangles (the first node); the floor
-     * adds its own two. */
-    double triangles = json_number_after(text, "triangles");
-    if (triangles >= 0) CHECK_INT(s->meshes[0].triangle_count, (long long)triangles);
-    CHECK_INT(s->mesh_count, 2);
-    const bbc_mesh *caster = &s->meshes[0], *floor = &s->meshes[1];
-    CHECK_INT(caster->role, BBC_ROLE_CASTER);
-    CHECK_INT(floor->role, BBC_ROLE_RECEIVER);
-    CHECK_INT(floor->triangle_count, 2);
-    CHECK(floor->has_uvs);
-    const bbc_material *cm = &s->materials[caster->material];
-    const bbc_material *fm = &s->materials[floor->material];
-    CHECK_INT(fm->type, BBC_MATERIAL_DIFFUSE);
-    CHECK_NEAR(fm->base_color[0], 0.8, 1e-7);
-    if (strncmp(names[i], "plane", 5) == 0) {
-      CHECK_INT(cm->type, BBC_MATERIAL_MIRROR);
-      CHECK_NEAR(cm->base_color[1], 0.78, 1e-7);
-    } else {
-      double ior = strncmp(names[i], "diamond", 7) == 0 ? 2.42
-                   : strncmp(names[i], "pool", 4) == 0  ? 1.33
-                                                        : 1.5;
-      CHECK_INT(cm->type, BBC_MATERIAL_DIELECTRIC);
-      CHECK_NEAR(cm->ior, ior, 1e-6);
-    }
-    CHECK_INT(s->point_light_count, 1);
-    CHECK_NEAR(s->point_lights[0].intensity[0], json_number_after(text, "intensity"), 1e-6);
-    CHECK_INT(s->emitter_count, 0);
-    CHECK_NEAR(s->emitter_power, 0.0, 0.0);
-    CHECK_INT(s->camera.width, (long long)json_number_after(text, "width"));
-    CHECK_INT(s->camera.height, (long long)json_number_after(text, "height"));
-    CHECK_NEAR(s->camera.aspect, json_number_after(text, "aspectRatio"), 1e-12);
-    CHECK_NEAR(s->camera.yfov, json_number_after(text, "yfov"), 1e-12);
-    CHECK(strcmp(s->path, path) == 0);
+/* One scene in a research set-up (a caster over a floor of two triangles) loads with the
+ * caster's triangle count its extras declare, a caster of the right material (mirror
+ * base colour `mirror_green`), a diffuse receiver, the point light and the camera written
+ * in the file. */
+static void check_research_scene(const char *path, const char *name, double mirror_green) {
+  size_t size;
+  char *text = read_file(path, &size);
+  messages m;
+  bbc_scene *s = load_ok(path, &m);
+  if (!s || !text) {
+    harness_fail(__FILE__, __LINE__, "%s did not load", path);
     free(text);
     bbc_scene_free(s);
+    return;
+  }
+  fprintf(stderr, "  %s: %u triangles, %u vertices\n", name, s->triangle_count, s->vertex_count);
+  check_invariants(s);
+  CHECK_INT(m.warnings, 0);
+  /* extras.bbc.triangles counts the caster's triangles (the first node); the floor
+   * adds its own two. */
+  double triangles = json_number_after(text, "triangles");
+  if (triangles >= 0) CHECK_INT(s->meshes[0].triangle_count, (long long)triangles);
+  CHECK_INT(s->mesh_count, 2);
+  const bbc_mesh *caster = &s->meshes[0], *floor = &s->meshes[1];
+  CHECK_INT(caster->role, BBC_ROLE_CASTER);
+  CHECK_INT(floor->role, BBC_ROLE_RECEIVER);
+  CHECK_INT(floor->triangle_count, 2);
+  CHECK(floor->has_uvs);
+  const bbc_material *cm = &s->materials[caster->material];
+  const bbc_material *fm = &s->materials[floor->material];
+  CHECK_INT(fm->type, BBC_MATERIAL_DIFFUSE);
+  CHECK_NEAR(fm->base_color[0], 0.8, 1e-7);
+  if (strncmp(name, "plane", 5) == 0) {
+    CHECK_INT(cm->type, BBC_MATERIAL_MIRROR);
+    CHECK_NEAR(cm->base_color[1], mirror_green, 1e-7);
+  } else {
+    double ior = strncmp(name, "diamond", 7) == 0 ? 2.42
+                 : strncmp(name, "pool", 4) == 0  ? 1.33
+                                                  : 1.5;
+    CHECK_INT(cm->type, BBC_MATERIAL_DIELECTRIC);
+    CHECK_NEAR(cm->ior, ior, 1e-6);
+  }
+  CHECK_INT(s->point_light_count, 1);
+  CHECK_NEAR(s->point_lights[0].intensity[0], json_number_after(text, "intensity"), 1e-6);
+  CHECK_INT(s->emitter_count, 0);
+  CHECK_NEAR(s->emitter_power, 0.0, 0.0);
+  CHECK_INT(s->camera.width, (long long)json_number_after(text, "width"));
+  CHECK_INT(s->camera.height, (long long)json_number_after(text, "height"));
+  CHECK_NEAR(s->camera.aspect, json_number_after(text, "aspectRatio"), 1e-12);
+  CHECK_NEAR(s->camera.yfov, json_number_after(text, "yfov"), 1e-12);
+  CHECK(strcmp(s->path, path) == 0);
+  free(text);
+  bbc_scene_free(s);
+}
+
+/* The research set-ups the build generates (tests/make_test_scenes.sh): the wavy plane,
+ * the pool, the four balls, the slab's two sheets and the diamond. */
+TEST(research_scenes) {
+  static const char *const names[] = {"plane1k.gltf", "pool4k.gltf",   "ball80.gltf",
+                                      "ball320.gltf", "ball1280.gltf", "ball5120.gltf",
+                                      "slab10k.gltf", "diamond.gltf"};
+  for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
+    char path[2048];
+    snprintf(path, sizeof path, "%s%s", TEST_SCENE(""), names[i]);
+    check_research_scene(path, names[i], 1.0);
+  }
+}
+
+/* Opt-in: every scene in the shared folder's scenes/ (BBC_SHARED_DIR), the research
+ * meshes of the paper's set-ups with their gold mirrors, loads the same way. */
+TEST(shared_folder_scenes) {
+  const char *shared = harness_shared_dir();
+  if (!shared) SKIP("no shared scenes (set BBC_SHARED_DIR to the folder holding scenes/)");
+  char dir[2048];
+  snprintf(dir, sizeof dir, "%s/scenes/", shared);
+  int count = 0;
+  char **names = list_dir(dir, ".gltf", NULL, &count);
+  CHECK(count >= 1);
+  for (int i = 0; i < count; i++) {
+    char path[4096];
+    snprintf(path, sizeof path, "%s%s", dir, names[i]);
+    check_research_scene(path, names[i], 0.78);
   }
   free_list(names);
 }
 
-/* diamond.gltf in detail: light at (1,3,-2); camera at (0,6,6) rotated about x by the
+/* diamond.gltf (the research set-up, as generated) in detail: light at (1,3,-2); camera
+ * at (0,6,6) rotated about x by the
  * quaternion (qx,0,0,qw), so it looks along -w with w = (0, -sin a, cos a), a = 2
  * atan2(qx, qw), and u = x. */
-TEST(shared_diamond_light_and_camera) {
+TEST(diamond_light_and_camera) {
   messages m;
-  bbc_scene *s = load_ok(SHARED_SCENE("diamond.gltf"), &m);
+  bbc_scene *s = load_ok(TEST_SCENE("diamond.gltf"), &m);
   REQUIRE(s != NULL);
   CHECK_NEAR(s->point_lights[0].position.x, 1.0, 0.0);
   CHECK_NEAR(s->point_lights[0].position.y, 3.0, 0.0);
@@ -1324,7 +1348,7 @@ TEST(io_directory) {
 TEST(null_arguments) {
   messages m = {0};
   bbc_scene_options options = {on_error, on_warning, &m, BBC_LIGHT_UNITS_FILE};
-  CHECK_INT(bbc_scene_load(NULL, SHARED_SCENE("plane1k.gltf"), &options), BBC_ERR_INVALID_ARGUMENT);
+  CHECK_INT(bbc_scene_load(NULL, TEST_SCENE("plane1k.gltf"), &options), BBC_ERR_INVALID_ARGUMENT);
   bbc_scene *s = (bbc_scene *)1;
   CHECK_INT(bbc_scene_load(&s, NULL, &options), BBC_ERR_INVALID_ARGUMENT);
   CHECK(s == NULL);

@@ -1,6 +1,6 @@
 /* The per-tuple solvers (bbc/solver.h) against independent oracles: analytic reflection
  * points for flat mirrors, Snell's law solved by bisection for flat interfaces and slabs,
- * and round trips on the shared scenes (sample u1, trace the exact path to x_k, solve for
+ * and round trips on the research set-ups (sample u1, trace the exact path to x_k, solve for
  * x_k and recover u1). */
 #include <math.h>
 #include <stdlib.h>
@@ -273,11 +273,11 @@ TEST(round_trip_sun_and_spot) {
 }
 
 TEST(round_trip_plane1k) {
-  round_trip_test(SHARED_SCENE("plane1k.gltf"), BBC_CHAIN_R, harness_scale(20000, 500000));
+  round_trip_test(TEST_SCENE("plane1k.gltf"), BBC_CHAIN_R, harness_scale(20000, 500000));
 }
 
 TEST(round_trip_pool4k) {
-  round_trip_test(SHARED_SCENE("pool4k.gltf"), BBC_CHAIN_T, harness_scale(20000, 500000));
+  round_trip_test(TEST_SCENE("pool4k.gltf"), BBC_CHAIN_T, harness_scale(20000, 500000));
 }
 
 /* The generated scenes with strongly curved normals. */
@@ -687,7 +687,7 @@ TEST(newton_tt_flat_slab) {
 /* Newton on single scattering agrees with the polynomial solver wherever it converges. */
 TEST(newton_single_agrees_with_poly) {
   bbc_scene *s = NULL;
-  REQUIRE(bbc_scene_load(&s, SHARED_SCENE("plane1k.gltf"), NULL) == BBC_OK);
+  REQUIRE(bbc_scene_load(&s, TEST_SCENE("plane1k.gltf"), NULL) == BBC_OK);
   uint32_t *casters, *receivers;
   uint32_t nc = role_triangles(s, BBC_ROLE_CASTER, &casters);
   uint32_t nr = role_triangles(s, BBC_ROLE_RECEIVER, &receivers);

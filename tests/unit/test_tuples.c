@@ -285,7 +285,7 @@ TEST(media) {
   check_loaded(s, BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000), min);
   bbc_scene_free(s);
 
-  REQUIRE(bbc_scene_load(&s, SHARED_SCENE("slab10k.gltf"), NULL) == BBC_OK);
+  REQUIRE(bbc_scene_load(&s, TEST_SCENE("slab10k.gltf"), NULL) == BBC_OK);
   uint32_t slab = s->triangle_mesh[0];
   CHECK_INT(s->meshes[slab].closed, 0);
   CHECK_INT(s->point_lights[0].medium, 0);
@@ -326,17 +326,17 @@ TEST(glass_sphere_closed) {
 }
 TEST(ball80_closed) {
   static const long min[BBC_CHAIN_COUNT] = {0, 0, 0, 0, 0, 10000};
-  check_scene(SHARED_SCENE("ball80.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
+  check_scene(TEST_SCENE("ball80.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000),
               min);
 }
 TEST(slab10k_open) {
   static const long min[BBC_CHAIN_COUNT] = {0, 0, 0, 0, 0, 10000};
-  check_scene(SHARED_SCENE("slab10k.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(200000, 2000000),
+  check_scene(TEST_SCENE("slab10k.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(200000, 2000000),
               min);
 }
 TEST(diamond_closed_flat) {
   static const long min[BBC_CHAIN_COUNT] = {0, 0, 0, 0, 0, 1000};
-  check_scene(SHARED_SCENE("diamond.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(200000, 2000000),
+  check_scene(TEST_SCENE("diamond.gltf"), BBC_CHAIN_MASK_ALL, harness_scale(200000, 2000000),
               min);
 }
 TEST(mirror_pool_rt_tr) {

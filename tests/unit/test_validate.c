@@ -208,7 +208,7 @@ TEST(plane1k_reflection) {
   bbc_validation_reset(&acc);
   oracle_tally t;
   memset(&t, 0, sizeof t);
-  validate_scene(SHARED_SCENE("plane1k.gltf"), BBC_CHAIN_R, harness_scale(12, 1),
+  validate_scene(TEST_SCENE("plane1k.gltf"), BBC_CHAIN_R, harness_scale(12, 1),
                  (uint32_t)harness_scale(200, 420), &p, &acc, &t);
   report("plane1k R", &acc);
   CHECK(acc.admissible > 1000);
@@ -224,7 +224,7 @@ TEST(pool4k_refraction) {
   bbc_validation_reset(&acc);
   oracle_tally t;
   memset(&t, 0, sizeof t);
-  validate_scene(SHARED_SCENE("pool4k.gltf"), BBC_CHAIN_T, harness_scale(40, 1),
+  validate_scene(TEST_SCENE("pool4k.gltf"), BBC_CHAIN_T, harness_scale(40, 1),
                  (uint32_t)harness_scale(100, 125), &p, &acc, &t);
   report("pool4k T", &acc);
   CHECK(acc.admissible > 1000);
@@ -242,7 +242,7 @@ TEST(pool4k_without_remainders_violates) {
   bbc_validation_reset(&acc);
   oracle_tally t;
   memset(&t, 0, sizeof t);
-  validate_scene(SHARED_SCENE("pool4k.gltf"), BBC_CHAIN_T, harness_scale(40, 1),
+  validate_scene(TEST_SCENE("pool4k.gltf"), BBC_CHAIN_T, harness_scale(40, 1),
                  (uint32_t)harness_scale(100, 125), &p, &acc, &t);
   report("pool4k T without remainder variables", &acc);
   CHECK(bbc_validation_failures(&acc) > 0);
@@ -322,8 +322,8 @@ static void compare_tracers(const char *path, bbc_chain chain, long stride, uint
 TEST(tracers_agree) {
   long compared = 0, verdicts = 0;
   compare_tracers(TEST_SCENE("flat-mirror.gltf"), BBC_CHAIN_R, 1, 50, &compared, &verdicts);
-  compare_tracers(SHARED_SCENE("plane1k.gltf"), BBC_CHAIN_R, 97, 20, &compared, &verdicts);
-  compare_tracers(SHARED_SCENE("pool4k.gltf"), BBC_CHAIN_T, 211, 20, &compared, &verdicts);
+  compare_tracers(TEST_SCENE("plane1k.gltf"), BBC_CHAIN_R, 97, 20, &compared, &verdicts);
+  compare_tracers(TEST_SCENE("pool4k.gltf"), BBC_CHAIN_T, 211, 20, &compared, &verdicts);
   fprintf(stderr, "tracers agree on %ld admissible paths\n", compared);
   CHECK(compared >= 300);
 }
@@ -334,7 +334,7 @@ TEST(tracers_agree) {
  * fed everything gives, as per-thread accumulators rely on. */
 TEST(merge_matches_one_accumulator) {
   bbc_scene *scene = NULL;
-  REQUIRE(bbc_scene_load(&scene, SHARED_SCENE("pool4k.gltf"), NULL) == BBC_OK);
+  REQUIRE(bbc_scene_load(&scene, TEST_SCENE("pool4k.gltf"), NULL) == BBC_OK);
   bbc_bounder *b = NULL;
   REQUIRE(bbc_bounder_create(&b) == BBC_OK);
   bbc_bound_params p;
