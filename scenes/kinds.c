@@ -558,6 +558,12 @@ static void add_gem(mesh *m, uint32_t k) {
 /* ------------------------------------------------------------------------------------ */
 /* Scenes. */
 
+/* The grid side of a receiver floor: one quad, or with --floor-size N a flat grid of
+ * about N triangles over the same rectangle (the same plane, the same uvs). */
+static uint32_t floor_side(const scene *s) {
+  return s->opts->floor_size ? square_grid_side(s->opts->floor_size) : 1;
+}
+
 static mesh *scene_add_mesh(scene *s, const char *name, material_kind material, role r) {
   mesh *m = &s->meshes[s->mesh_count++];
   *m = mesh_make(name, material, r, r == ROLE_RECEIVER);
@@ -588,13 +594,13 @@ static void gen_mirror_wall(scene *s, unsigned long size) {
     /* The analytic mirror test: the floor receives the light at (1,1,0) plus exactly
      * that of its mirror image at (-1,1,0); every floor point sees both. The camera
      * looks straight down so pixels map simply to floor points. */
-    add_plane(floor, 0, 4, -2, 2, 0, 1, 1);
+    add_plane(floor, 0, 4, -2, 2, 0, 1, floor_side(s));
     s->light = v3(1, 1, 0), s->intensity = 10;
     s->eye = v3(2, 6, 0), s->target = v3(2, 0, 0), s->up = v3(0, 0, -1);
   } else {
     /* The reflected light lands on x in about [0, 5]; the camera looks from beyond
      * the floor's far edge back at the wall, taking in the floor and the mirror. */
-    add_plane(floor, -0.5, 5, -3, 3, 0, 1, 1);
+    add_plane(floor, -0.5, 5, -3, 3, 0, 1, floor_side(s));
     s->light = v3(1.2, 1.2, 0), s->intensity = 20;
     s->eye = v3(7.5, 4.5, 0), s->target = v3(1.8, 0.55, 0);
   }
@@ -604,7 +610,7 @@ static void gen_glass_sphere(scene *s, unsigned long size) {
   mesh *ball = scene_add_mesh(s, "glass_sphere", MAT_GLASS, ROLE_CASTER);
   add_sphere(ball, sphere_frequency(size), v3(0, 1, 0), 1.0);
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -3, 3, -3, 3, 0, 1, 1);
+  add_plane(floor, -3, 3, -3, 3, 0, 1, floor_side(s));
   /* A fairly low light, so the ball's focus falls near the floor (a ball lens of
    * index 1.5 focuses about 1.5 radii beyond its centre for distant light). The
    * brightest part of the caustic lands around (-0.8, 0, 1.4), on the side away from
@@ -622,7 +628,7 @@ static void gen_glass_slab(scene *s, unsigned long size) {
   slab_params q = {box ? 0.0 : 0.06, 1.0, 0.8};
   add_slab(slab, slab_grid_side(size), &q);
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -3, 3, -3, 3, 0, 1, 1);
+  add_plane(floor, -3, 3, -3, 3, 0, 1, floor_side(s));
   /* The slab floats 0.5 above the floor and its caustic falls mostly under it, within
    * about 1.3 of the centre; a low camera off the corner sees it through the gap as
    * well as through the glass. */
@@ -635,7 +641,7 @@ static void gen_pool(scene *s, unsigned long size) {
   uint32_t n = square_grid_side(size);
   mesh_add_grid(water, n, n, pool_surface, NULL);
   mesh *floor = scene_add_mesh(s, "pool_floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -2.5, 2.5, -2.5, 2.5, -1.5, 1, 1);
+  add_plane(floor, -2.5, 2.5, -2.5, 2.5, -1.5, 1, floor_side(s));
   /* The camera looks straight down through the water at the pool floor. */
   s->light = v3(0.5, 3, 1), s->intensity = 30;
   s->eye = v3(0, 6, 0), s->target = v3(0, -1.5, 0), s->up = v3(0, 0, -1);
@@ -672,7 +678,7 @@ static void gen_corner(scene *s, unsigned long size) {
   mesh_add_grid(mirrors, n, n, rect_surface, &a);
   mesh_add_grid(mirrors, n, n, rect_surface, &b);
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, 0, 4, 0, 4, 0, 1, 1);
+  add_plane(floor, 0, 4, 0, 4, 0, 1, floor_side(s));
   s->light = v3(1.0, 1.0, 0.7), s->intensity = 10;
   s->eye = v3(2, 7, 2), s->target = v3(2, 0, 2), s->up = v3(0, 0, -1);
 }
@@ -690,7 +696,7 @@ static void gen_glass_pool(scene *s, unsigned long size) {
   mesh *ball = scene_add_mesh(s, "glass_ball", MAT_GLASS, ROLE_CASTER);
   add_sphere(ball, sphere_frequency(320), v3(3.1, 0.65, 0.3), 0.6);
   mesh *floor = scene_add_mesh(s, "pool_floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -2.0, 2.0, -2.0, 2.0, -1.5, 1, 1);
+  add_plane(floor, -2.0, 2.0, -2.0, 2.0, -1.5, 1, floor_side(s));
   /* The deck surrounds the pool ([-5, 5]^2 less the pool's [-2, 2]^2); the pool's
    * walls receive the water's caustic too. */
   mesh *deck = scene_add_mesh(s, "deck", MAT_DECK, ROLE_RECEIVER);
@@ -724,7 +730,7 @@ static void gen_wavy_plane(scene *s, unsigned long size) {
   uint32_t n = square_grid_side(size);
   mesh_add_grid(plane, n, n, wavy_plane_surface, NULL);
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -3, 3, -3, 3, 0, 1, 1);
+  add_plane(floor, -3, 3, -3, 3, 0, 1, floor_side(s));
   s->light = v3(3, 1, 4), s->intensity = 50;
   s->eye = v3(2.709, 4.605, 1.895), s->target = v3(0.981, 1.433, 0.177);
 }
@@ -734,7 +740,7 @@ static void gen_wavy_plane(scene *s, unsigned long size) {
  * 40 degrees. */
 static void add_research_floor(scene *s) {
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -3, 3, -3, 3, 0, 1, 1);
+  add_plane(floor, -3, 3, -3, 3, 0, 1, floor_side(s));
   s->intensity = 50;
   s->eye = v3(0, 6, 6), s->target = v3(0, 0, 0.8);
 }
@@ -788,7 +794,7 @@ static void gen_wide_pool(scene *s, unsigned long size) {
   uint32_t nz = round_at_least_1(size / (2.0 * nx));
   mesh_add_grid(water, nx, nz, heightfield_surface, &q);
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -8, 8, -8, 8, -2, 1, 1);
+  add_plane(floor, -8, 8, -8, 8, -2, 1, floor_side(s));
   s->light = v3(0.5, 4, 1), s->intensity = 50;
   s->eye = v3(0, 9, 12), s->target = v3(0, 0, 24.0 / 11.0);
   s->yfov = 0.87266462599716477;

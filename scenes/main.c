@@ -101,6 +101,9 @@ static void print_help(FILE *f) {
           "                        its target; adds a static second camera \"side\"\n"
           "\n"
           "Receiver:\n"
+          "  --floor-size N        the floor as a flat grid of about N triangles in the same\n"
+          "                        plane (default: 2, one quad; the pool floor and the\n"
+          "                        glass pool's floor too; not for floor)\n"
           "  --checker N           a base colour texture: an N x N checker of sand and blue\n"
           "                        (sRGB PNG in the buffer, NEAREST, REPEAT), texel (0, 0)\n"
           "                        light, over TEXCOORD_0 in [0, 1]\n"
@@ -126,7 +129,7 @@ static int usage_error(const char *fmt, ...) {
       "\nusage: " TOOL
       " KIND -o OUT.gltf [--size N] [--width W] [--height H]"
       " [--area-light SIDE | --sun E [--sun-angle DEG] | --spot OUTER] [--orbit N] [--checker N]"
-      " [--roughness R] [--metallic M] [--glb]\n"
+      " [--roughness R] [--metallic M] [--floor-size N] [--glb]\n"
       "Try '" TOOL " --help' for the kinds and options.\n");
   return 2;
 }
@@ -196,7 +199,7 @@ static int parse_args(int argc, char **argv, options *o) {
                 strcmp(name, "--sun") == 0 || strcmp(name, "--spot") == 0 ||
                 strcmp(name, "--sun-angle") == 0 || strcmp(name, "--orbit") == 0 ||
                 strcmp(name, "--checker") == 0 || strcmp(name, "--roughness") == 0 ||
-                strcmp(name, "--metallic") == 0;
+                strcmp(name, "--metallic") == 0 || strcmp(name, "--floor-size") == 0;
     if (!known) return usage_error("unknown option '%s'", arg);
     if (!value) {
       if (i + 1 >= argc) return usage_error("option %s needs a value", name);
@@ -236,6 +239,10 @@ static int parse_args(int argc, char **argv, options *o) {
           !(x >= 0 && x <= 1))
         return usage_error("%s wants a number from 0 to 1, not '%s'", name, value);
       *dst = x;
+    } else if (strcmp(name, "--floor-size") == 0) {
+      if (parse_count(value, 2, MAX_SIZE, &o->floor_size))
+        return usage_error("--floor-size wants a whole number from 2 to %lu, not '%s'", MAX_SIZE,
+                           value);
     } else if (strcmp(name, "--orbit") == 0) {
       if (parse_count(value, 2, 10000, &o->orbit))
         return usage_error("--orbit wants a whole number of keys from 2 to 10000, not '%s'", value);
@@ -249,6 +256,8 @@ static int parse_args(int argc, char **argv, options *o) {
   if ((o->area_side > 0) + (o->sun > 0) + (o->spot > 0) > 1)
     return usage_error("--area-light, --sun and --spot each replace the point light: give one");
   if (o->sun_angle > 0 && !(o->sun > 0)) return usage_error("--sun-angle needs --sun");
+  if (o->floor_size && o->kind == KIND_FLOOR)
+    return usage_error("--floor-size is for kinds with a caster; floor takes --size");
   if (!o->output) return usage_error("no output file given (-o OUT.gltf)");
   /* Loaders pick the parser by extension, so a name that says the other format would
    * make a file nothing can read back. */

@@ -120,6 +120,7 @@ typedef struct options {
   unsigned long orbit;        /* 0, or the keyframes of the camera's orbit animation */
   unsigned long checker;      /* 0, or the receiver's base colour texture: a checker of N x N */
   double roughness, metallic; /* the receiver's factors (default 1 and 0: Lambertian) */
+  unsigned long floor_size;   /* 0, or the floor's triangles (about): a flat grid */
   int glb;
 } options;
 

@@ -184,6 +184,40 @@ test_kind_glass_sphere() { check_kind glass-sphere; }
 test_kind_glass_slab() { check_kind glass-slab; }
 test_kind_pool() { check_kind pool; }
 test_kind_glass_pool() { check_kind glass-pool; }
+test_kind_ball() { check_kind ball; }
+test_kind_slab_sheets() { check_kind slab-sheets; }
+test_kind_diamond() { check_kind diamond; }
+test_kind_wide_pool() { check_kind wide-pool; }
+
+# The triangles of the mesh named $2 in the glTF file $1 and its positions' bounds.
+mesh_shape() {
+  python3 - "$1" "$2" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+m = next(m for m in d["meshes"] if m["name"] == sys.argv[2])
+p = m["primitives"][0]
+pos = d["accessors"][p["attributes"]["POSITION"]]
+print(d["accessors"][p["indices"]]["count"] // 3, pos["min"], pos["max"])
+PY
+}
+
+# --floor-size re-meshes the floor as a flat grid of about N triangles over the same
+# rectangle, and changes nothing else.
+test_floor_size() {
+  run wavy-mirror --size 50 -o "$tmp/two.gltf"
+  expect_status 0 "wavy-mirror"
+  run wavy-mirror --size 50 --floor-size 20000 -o "$tmp/grid.gltf"
+  expect_status 0 "--floor-size 20000"
+  two=$(mesh_shape "$tmp/two.gltf" floor) || fail "cannot read two.gltf"
+  grid=$(mesh_shape "$tmp/grid.gltf" floor) || fail "cannot read grid.gltf"
+  [ "${two%% *}" = 2 ] || fail "default floor: ${two%% *} triangles, expected 2"
+  [ "${grid%% *}" = 20000 ] || fail "--floor-size 20000: ${grid%% *} triangles"
+  [ "${two#* }" = "${grid#* }" ] || fail "the floor moved: ${two#* } against ${grid#* }"
+  [ "$(mesh_shape "$tmp/two.gltf" wavy_mirror)" = "$(mesh_shape "$tmp/grid.gltf" wavy_mirror)" ] ||
+    fail "the mirror changed"
+  expect_usage_error wavy-mirror --floor-size 1 -o "$tmp/out.gltf"
+  expect_usage_error floor --floor-size 100 -o "$tmp/out.gltf"
+}
 
 # The point light gives way to an emissive square when --area-light is given.
 test_area_light() {

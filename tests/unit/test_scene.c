@@ -1322,6 +1322,21 @@ TEST(invalid_corpus) {
   free_list(names);
 }
 
+/* A missing file is named whole, however long its name; only data URIs are cut short. */
+TEST(missing_buffer_named_whole) {
+  messages m;
+  bbc_result r;
+  bbc_scene *s = load(INVALID_DIR "/gltf--missing-buffer-long-name.gltf", &m, &r);
+  CHECK_INT(r, BBC_ERR_GLTF);
+  CHECK(s == NULL);
+  CHECK_STR_CONTAINS(m.error,
+                     "a_buffer_whose_name_is_longer_than_sixty_characters_like_TransmissionTest_"
+                     "binary.bin");
+  s = load(INVALID_DIR "/gltf--buffer-shorter-than-declared.gltf", &m, &r);
+  CHECK(s == NULL);
+  CHECK_STR_CONTAINS(m.error, "base64,AAAAAAAAAAAAAAAAAACAPwA...");
+}
+
 TEST(io_missing_file) {
   const char *path = INVALID_DIR "/io--does-not-exist.gltf";
   messages m;

@@ -168,21 +168,26 @@ bool keep_image(tinygltf::Image *image, const int index, std::string *, std::str
 }
 
 // tinygltf's messages may span several lines; the error callback gets exactly one.
-// They also quote whole data URIs, so any word longer than 60 characters is cut.
+// They also quote whole data URIs, so a word that is a data URI is cut after 60
+// characters; every other word (a file's path above all) is kept whole.
 std::string one_line(const std::string &text) {
   std::string out;
   size_t word = 0;
-  for (char c : text) {
+  bool data_uri = false;
+  for (size_t i = 0; i < text.size(); i++) {
+    char c = text[i];
     if (c == '\n' || c == '\r') {
       if (!out.empty() && out.back() != ' ') out += "; ";
       word = 0;
     } else if (c == ' ') {
       out += c;
       word = 0;
-    } else if (++word <= 60) {
-      out += c;
-    } else if (word == 61) {
-      out += "...";
+    } else {
+      if (word++ == 0) data_uri = text.compare(i, 5, "data:") == 0;
+      if (!data_uri || word <= 60)
+        out += c;
+      else if (word == 61)
+        out += "...";
     }
   }
   while (!out.empty() && (out.back() == ' ' || out.back() == ';')) out.pop_back();
