@@ -124,9 +124,11 @@ int cmd_diff(const char *path_a, const char *path_b) {
       snprintf(name, sizeof name, "receiver %u axis_v[%d]", r, k);
       DIFF_D(name, x->axis_v[k], y->axis_v[k]);
     }
+    /* A plane's triangles have no grid coordinates (spec 6.5). */
+    const uint32_t uvs = x->parameterisation == BBC_PARAM_PLANE ? 0 : x->triangle_count;
     if (differences == before && x->first_uv == y->first_uv &&
         memcmp(&ga->triangle_uv[6 * x->first_uv], &gb->triangle_uv[6 * y->first_uv],
-               6 * sizeof(float) * x->triangle_count) != 0)
+               6 * sizeof(float) * uvs) != 0)
       differ("receiver %u: the grid coordinates of its triangles differ", r);
     if (differences != before) grids_equal = 0;
   }

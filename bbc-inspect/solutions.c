@@ -75,18 +75,21 @@ int cmd_solutions(cli_args *a, const char *scene_path, const char *cache_path) {
         sample_point(t, i, b);
         const bbc_cache_entry *e;
         uint32_t n;
-        if ((r = bbc_cache_lookup(cur, t, b[0], b[1], &e, &n)) != BBC_OK) break;
+        bbc_vec3 p[3];
+        bbc_receiver_triangle(scene, t, p);
+        const double w0 = 1 - b[0] - b[1];
+        const bbc_vec3 xk = {w0 * p[0].x + b[0] * p[1].x + b[1] * p[2].x,
+                             w0 * p[0].y + b[0] * p[1].y + b[1] * p[2].y,
+                             w0 * p[0].z + b[0] * p[1].z + b[1] * p[2].z};
+        if ((r = bbc_cache_lookup(cur, t, b[0], b[1], &xk, &e, &n)) != BBC_OK) break;
         points++;
         for (uint32_t k = 0; k < n && r == BBC_OK; k++) {
           const bbc_tuple *u = &tuples[e[k].tuple];
-          if (u->receiver != t || (u->chain != BBC_CHAIN_R && u->chain != BBC_CHAIN_T)) continue;
+          if ((u->receiver != t && u->receiver != BBC_RECEIVER_PLANE(scene->triangle_mesh[t])) ||
+              (u->chain != BBC_CHAIN_R && u->chain != BBC_CHAIN_T))
+            continue;
           bbc_path_geometry pg;
           if ((r = bbc_path_geometry_init(&pg, scene, u)) != BBC_OK) break;
-          const bbc_vec3 *p = pg.receiver;
-          double w0 = 1 - b[0] - b[1];
-          bbc_vec3 xk = {w0 * p[0].x + b[0] * p[1].x + b[1] * p[2].x,
-                         w0 * p[0].y + b[0] * p[1].y + b[1] * p[2].y,
-                         w0 * p[0].z + b[0] * p[1].z + b[1] * p[2].z};
           size_t m = 0;
           if ((r = bbc_solver_single(&pg, xk, NULL, sol, BBC_SOLVER_MAX_SOLUTIONS, &m)) != BBC_OK)
             break;

@@ -41,7 +41,7 @@ test_area_lights_through_the_cache() {
   expect_status 0 "$PRECOMPUTE" "$BBC_TEST_SCENES/flat-mirror-area.gltf" -o "$TMP/area.bbc" \
     --max-level 5 --resolution 64 --no-progress --chains R --area-lights
   expect_status 0 "$INSPECT" info "$TMP/area.bbc"
-  grep -q "^format *1.5 " "$TMP/out" || fail "info: not format 1.5: $(cat "$TMP/out")"
+  grep -q "^format *1.6 " "$TMP/out" || fail "info: not format 1.6: $(cat "$TMP/out")"
   grep -q "^area lights *on, double scattering off, alpha 100$" "$TMP/out" ||
     fail "info: no area lights line: $(cat "$TMP/out")"
   grep -q "^  light 1: [1-9][0-9]* tuples (R [1-9]" "$TMP/out" || fail "info: $(cat "$TMP/out")"
@@ -58,7 +58,7 @@ test_area_lights_through_the_cache() {
 
 # Double scattering from area lights is opt-in: --area-lights alone caches the emitters'
 # R only whatever --chains holds; --area-double adds their RR, whose bounds check-bounds
-# finds clean (format 1.5 for both: area lights' ratio); --area-double or --alpha-area
+# finds clean (format 1.6 for both: a receiver plane); --area-double or --alpha-area
 # without --area-lights, or --area-double without a double-scattering chain type, is a
 # usage error.
 test_area_double_is_opt_in() {

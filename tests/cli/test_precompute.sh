@@ -199,12 +199,12 @@ test_refuses_a_grid_that_does_not_fit_in_memory() {
   [ ! -e "$TMP/m.bbc" ] || fail "an output was written"
 }
 
-# The same for the disk: 4096 cells need a file of at least 50,672 bytes; the shim reports
+# The same for the disk: 4096 cells need a file of at least 50,624 bytes; the shim reports
 # 1000 bytes free.
 test_refuses_a_cache_that_does_not_fit_on_disk() {
   expect_status 1 env LD_PRELOAD="$BBC_BIN/tests/libfull_disk_shim.so" BBC_DISK_FREE=1000 \
     ASAN_OPTIONS=verify_asan_link_order=0 "$PRECOMPUTE" "$MIRROR" -o "$TMP/d.bbc" --resolution 64 --no-progress
-  grep -q "at least 50672 bytes .* has 1000 bytes free" "$TMP/err" ||
+  grep -q "at least 50624 bytes .* has 1000 bytes free" "$TMP/err" ||
     fail "no disk estimate: $(cat "$TMP/err")"
   [ ! -e "$TMP/d.bbc" ] || fail "an output was written"
 }

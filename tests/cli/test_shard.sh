@@ -54,7 +54,7 @@ test_three_shards_merge_to_the_unsharded_cache() {
   pool -o "$TMP/s2.bbc" --shard=2/3
   for s in 0 1 2; do
     expect_status 0 "$INSPECT" validate "$TMP/s$s.bbc"
-    grep -q "valid (format 1.3, shard $s/3," "$TMP/out" || fail "validate: $(cat "$TMP/out")"
+    grep -q "valid (format 1.6, shard $s/3," "$TMP/out" || fail "validate: $(cat "$TMP/out")"
     expect_status 0 "$INSPECT" info "$TMP/s$s.bbc"
     grep -q "^shard        $s/3 of a sharded precompute" "$TMP/out" || fail "info lacks the shard"
     grep -q "SHRD  optional" "$TMP/out" || fail "info lacks the SHRD section"
@@ -65,7 +65,7 @@ test_three_shards_merge_to_the_unsharded_cache() {
   [ -s "$TMP/err" ] && fail "merge wrote to stderr: $(cat "$TMP/err")"
   cmp "$TMP/full.bbc" "$TMP/merged.bbc" >&2 || fail "merged cache differs from the unsharded one"
   expect_status 0 "$INSPECT" validate "$TMP/merged.bbc"
-  grep -q "valid (format 1.3, [0-9]* tuples" "$TMP/out" || fail "validate: $(cat "$TMP/out")"
+  grep -q "valid (format 1.6, [0-9]* tuples" "$TMP/out" || fail "validate: $(cat "$TMP/out")"
   expect_status 0 "$INSPECT" info "$TMP/merged.bbc"
   grep -q "SHRD" "$TMP/out" && fail "the merged cache has a SHRD section"
   # The shards hold every stored tuple once.
@@ -80,18 +80,18 @@ test_three_shards_merge_to_the_unsharded_cache() {
   return 0
 }
 
-# Without GEOM the files are the versions that need nothing newer: 1.1 for a shard,
-# 1.0 for the complete cache, and the merge is still the unsharded cache byte for byte.
+# Without GEOM the files are the versions that need nothing newer (1.6 here, for the
+# floor is a receiver plane), and the merge is still the unsharded cache byte for byte.
 test_shards_without_geometry() {
   pool -o "$TMP/full.bbc" --no-geometry
   pool -o "$TMP/s0.bbc" --shard 0/2 --no-geometry
   pool -o "$TMP/s1.bbc" --shard 1/2 --no-geometry
   expect_status 0 "$INSPECT" validate "$TMP/s1.bbc"
-  grep -q "valid (format 1.1, shard 1/2," "$TMP/out" || fail "validate: $(cat "$TMP/out")"
+  grep -q "valid (format 1.6, shard 1/2," "$TMP/out" || fail "validate: $(cat "$TMP/out")"
   expect_status 0 "$INSPECT" merge "$TMP/merged.bbc" "$TMP/s1.bbc" "$TMP/s0.bbc"
   cmp "$TMP/full.bbc" "$TMP/merged.bbc" >&2 || fail "merged cache differs from the unsharded one"
   expect_status 0 "$INSPECT" info "$TMP/merged.bbc"
-  grep -q "^format       1.0 " "$TMP/out" || fail "info: $(cat "$TMP/out")"
+  grep -q "^format       1.6 " "$TMP/out" || fail "info: $(cat "$TMP/out")"
   grep -q "GEOM" "$TMP/out" && fail "a cache written with --no-geometry has GEOM"
   return 0
 }

@@ -25,6 +25,7 @@
 
 #include "bbc/cache.h"
 #include "bbc/grid.h"
+#include "bbc/tuple.h"
 
 /* Lookups per input, so that one input stays fast. */
 #define FUZZ_MAX_LOOKUPS 20000
@@ -56,13 +57,16 @@ static bbc_result check_lookup(bbc_cache_cursor *cursor, bbc_cache_cursor *cell_
                                double b1, double b2) {
   const bbc_cache_entry *entries = NULL;
   uint32_t count = 0;
-  bbc_result r = bbc_cache_lookup(cursor, triangle, b1, b2, &entries, &count);
+  /* A position to go with them (it locates a receiver plane's triangles), junk too. */
+  const bbc_vec3 point = {b1, b2, b1 - b2};
+  bbc_result r = bbc_cache_lookup(cursor, triangle, b1, b2, &point, &entries, &count);
   if (r != BBC_OK) {
     FUZZ_ASSERT(entries == NULL && count == 0);
     FUZZ_ASSERT(fails_validation);
     const bbc_cache_entry *again = NULL;
     uint32_t again_count = 0;
-    FUZZ_ASSERT(bbc_cache_lookup(cursor, triangle, b1, b2, &again, &again_count) != BBC_OK);
+    FUZZ_ASSERT(bbc_cache_lookup(cursor, triangle, b1, b2, &point, &again, &again_count) !=
+                BBC_OK);
     FUZZ_ASSERT(again == NULL && again_count == 0);
     return r;
   }
@@ -73,7 +77,7 @@ static bbc_result check_lookup(bbc_cache_cursor *cursor, bbc_cache_cursor *cell_
     FUZZ_ASSERT(entries[k].bound >= 0.0f); /* false for NaN too */
   }
   bbc_cell cell;
-  if (!bbc_grid_locate(grid, triangle, b1, b2, &cell)) {
+  if (!bbc_grid_locate(grid, triangle, b1, b2, &point, &cell)) {
     FUZZ_ASSERT(count == 0);
     return r;
   }
@@ -115,15 +119,20 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
             check_lookup(cursor, cell_cursor, grid, info.tuple_count, t, points[p][0],
                          points[p][1]);
         }
+        /* A plane, by its plane triangle's barycentrics. */
+        for (size_t p = 0; rc->parameterisation == BBC_PARAM_PLANE && p < POINTS; p++, lookups++)
+          check_lookup(cursor, cell_cursor, grid, info.tuple_count, BBC_RECEIVER_PLANE(rc->mesh),
+                       points[p][0], points[p][1]);
       }
     }
     /* Triangles that are not receivers give nothing. */
     const bbc_cache_entry *entries = NULL;
     uint32_t count = 0;
-    FUZZ_ASSERT(bbc_cache_lookup(cursor, info.scene_triangle_count, 0.2, 0.2, &entries, &count) ==
-                    BBC_OK &&
+    FUZZ_ASSERT(bbc_cache_lookup(cursor, info.scene_triangle_count, 0.2, 0.2, NULL, &entries,
+                                 &count) == BBC_OK &&
                 count == 0);
-    FUZZ_ASSERT(bbc_cache_lookup(cursor, UINT32_MAX, 0.2, 0.2, &entries, &count) == BBC_OK &&
+    FUZZ_ASSERT(bbc_cache_lookup(cursor, UINT32_MAX, 0.2, 0.2, NULL, &entries, &count) ==
+                    BBC_OK &&
                 count == 0);
   }
   bbc_cache_cursor_free(cursor);

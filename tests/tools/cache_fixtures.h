@@ -29,8 +29,8 @@ static float fx_uvs[] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 1, 0, 1};
 static uint32_t fx_indices[] = {0, 1, 2, 3, 5, 4, 3, 6, 5};
 static uint32_t fx_triangle_mesh[] = {0, 1, 1};
 static bbc_mesh fx_meshes[] = {
-    {"mirror", 0, 3, 0, 1, 0, BBC_ROLE_CASTER, 1, 0, 0, 1},
-    {"floor", 3, 4, 1, 2, 1, BBC_ROLE_RECEIVER, 1, 1, 0, 1},
+    {"mirror", 0, 3, 0, 1, 0, BBC_ROLE_CASTER, 1, 0, 0, 1, 0, {{0, 0, 0}}},
+    {"floor", 3, 4, 1, 2, 1, BBC_ROLE_RECEIVER, 1, 1, 0, 1, 0, {{0, 0, 0}}},
 };
 static bbc_material fx_materials[] = {
     {"mirror", BBC_MATERIAL_MIRROR, {1, 1, 1}, 1.5f, {0, 0, 0}, 0, {0}, 0, 0, 0},
@@ -142,13 +142,17 @@ static bbc_result fx_synthetic_builder(bbc_cache_builder **out, const bbc_scene 
   uint32_t *receivers = malloc(sizeof(uint32_t) * scene->triangle_count);
   uint32_t nc = 0, nr = 0;
   for (uint32_t t = 0; t < scene->triangle_count; t++) {
-    bbc_role role = scene->meshes[scene->triangle_mesh[t]].role;
+    const uint32_t m = scene->triangle_mesh[t];
+    bbc_role role = scene->meshes[m].role;
     if (role == BBC_ROLE_CASTER) casters[nc++] = t;
-    if (role == BBC_ROLE_RECEIVER) receivers[nr++] = t;
+    /* A receiver plane's tuples end on the plane (tuple.h). */
+    if (role == BBC_ROLE_RECEIVER && !scene->meshes[m].plane) receivers[nr++] = t;
+    if (role == BBC_ROLE_RECEIVER && scene->meshes[m].plane && t == scene->meshes[m].first_triangle)
+      receivers[nr++] = BBC_RECEIVER_PLANE(m);
   }
   if (nc == 0) {
-    memcpy(casters, receivers, sizeof(uint32_t) * nr);
-    nc = nr;
+    for (uint32_t t = 0; t < scene->triangle_count; t++)
+      if (scene->meshes[scene->triangle_mesh[t]].role == BBC_ROLE_RECEIVER) casters[nc++] = t;
   }
   uint64_t state = seed;
   uint32_t tuples = nc * 2 < 3000 ? nc * 2 : 3000;

@@ -113,9 +113,21 @@ TEST(bound_quantisation_rounds_up) {
 
 /* ------------------------------------------------------------------ grids */
 
+/* The point of scene triangle t with barycentrics (b1, b2). */
+static bbc_vec3 point_on(const bbc_scene *s, uint32_t t, double b1, double b2) {
+  bbc_vec3 p[3];
+  REQUIRE(bbc_receiver_triangle(s, t, p));
+  const double b0 = 1 - b1 - b2;
+  return (bbc_vec3){b0 * p[0].x + b1 * p[1].x + b2 * p[2].x, b0 * p[0].y + b1 * p[1].y + b2 * p[2].y,
+                    b0 * p[0].z + b1 * p[1].z + b2 * p[2].z};
+}
+
 TEST(grid_texcoord_cells_follow_uvs) {
   bbc_scene *scene = load(TEST_SCENE("pool.gltf"));
   REQUIRE(scene);
+  /* The pool's floor is a receiver plane (Sec. 6.5); as a textured mesh of any shape
+   * it would take its uvs. */
+  for (uint32_t m = 0; m < scene->mesh_count; m++) scene->meshes[m].plane = 0;
   bbc_grid *g = NULL;
   REQUIRE(bbc_grid_create(&g, scene, 64, NULL, NULL) == BBC_OK);
   CHECK(g->receiver_count >= 1);
@@ -144,7 +156,7 @@ TEST(grid_texcoord_cells_follow_uvs) {
       /* Skip points within rounding distance of a cell border. */
       if (fabs(fx - floor(fx + 0.5)) < 1e-4 || fabs(fy - floor(fy + 0.5)) < 1e-4) continue;
       bbc_cell cell;
-      REQUIRE(bbc_grid_locate(g, t, b1, b2, &cell));
+      REQUIRE(bbc_grid_locate(g, t, b1, b2, NULL, &cell));
       uint32_t ex = fx >= 64 ? 63 : (uint32_t)fx, ey = fy >= 64 ? 63 : (uint32_t)fy;
       if (cell.receiver != ri || cell.x != ex || cell.y != ey) wrong++;
       checked++;
@@ -156,7 +168,7 @@ TEST(grid_texcoord_cells_follow_uvs) {
   bbc_cell cell;
   for (uint32_t t = 0; t < scene->triangle_count; t++)
     if (scene->meshes[scene->triangle_mesh[t]].role != BBC_ROLE_RECEIVER) {
-      CHECK(!bbc_grid_locate(g, t, 0.2, 0.2, &cell));
+      CHECK(!bbc_grid_locate(g, t, 0.2, 0.2, NULL, &cell));
       CHECK(bbc_grid_receiver_of(g, t) < 0);
       break;
     }
@@ -202,7 +214,7 @@ static void make_field(field_scene *f, int n, double width, double depth, double
       memcpy(&f->indices[3 * k], tri, sizeof tri);
       k += 2;
     }
-  f->mesh = (bbc_mesh){"field", 0, v, 0, t, 0, BBC_ROLE_RECEIVER, 1, 0, 0, 1};
+  f->mesh = (bbc_mesh){"field", 0, v, 0, t, 0, BBC_ROLE_RECEIVER, 1, 0, 0, 1, 0, {{0, 0, 0}}};
   f->material = (bbc_material){"floor", BBC_MATERIAL_DIFFUSE, {1, 1, 1}, 1.5f, {0, 0, 0}, 0, {0}, 0, 0, 0};
   f->light = (bbc_point_light){.position = {0, 5, 0}, .intensity = {1, 1, 1}};
   snprintf(f->s.path, sizeof f->s.path, "field");
@@ -287,7 +299,7 @@ TEST(grid_box_projection_for_curved_meshes) {
   int bad = 0;
   for (uint32_t t = 0; t < f.s.triangle_count; t++) {
     bbc_cell c;
-    REQUIRE(bbc_grid_locate(g, t, 1.0 / 3, 1.0 / 3, &c));
+    REQUIRE(bbc_grid_locate(g, t, 1.0 / 3, 1.0 / 3, NULL, &c));
     const uint32_t *idx = &f.indices[3 * t];
     double x = 0, z = 0;
     for (int k = 0; k < 3; k++) {
@@ -331,7 +343,7 @@ static void check_splats(const bbc_grid *g, uint32_t first, uint32_t count, uint
               p2 <= hi2))
           continue;
         bbc_cell cell;
-        if (!bbc_grid_locate(g, t, p1, p2, &cell)) continue;
+        if (!bbc_grid_locate(g, t, p1, p2, NULL, &cell)) continue;
         (*tested)++;
         if (!any || cell.receiver != range.receiver || cell.x < range.x0 || cell.x > range.x1 ||
             cell.y < range.y0 || cell.y > range.y1)
@@ -406,7 +418,7 @@ static void check_polygon_splats(const bbc_grid *g, uint32_t first, uint32_t cou
         }
         if (!inside) continue;
         bbc_cell cell;
-        if (!bbc_grid_locate(g, t, p1, p2, &cell)) continue;
+        if (!bbc_grid_locate(g, t, p1, p2, NULL, &cell)) continue;
         (*tested)++;
         if (!any || cell.receiver != range.receiver || cell.y < range.y0 || cell.y > range.y1 ||
             cell.x < x0[cell.y - range.y0] || cell.x > x1[cell.y - range.y0])
@@ -576,7 +588,7 @@ TEST(round_trip_file_and_memory) {
     bbc_cache_info info;
     bbc_cache_get_info(c, &info);
     CHECK_INT(info.version_major, 1);
-    CHECK_INT(info.version_minor, BBC__MINOR_GEOMETRY); /* GEOM, unless omitted */
+    CHECK_INT(info.version_minor, BBC__MINOR_PLANE); /* its floor is a receiver plane */
     CHECK_INT(info.tuple_count, tuples);
     CHECK_INT(info.entry_count, built_entries);
     CHECK(info.chunk_count > 10);
@@ -640,10 +652,11 @@ TEST(round_trip_file_and_memory) {
     uint32_t tri = r->first_triangle + (uint32_t)(fx_random(&state) * r->triangle_count);
     double b1 = fx_random(&state), b2 = fx_random(&state) * (1 - b1);
     bbc_cell cell;
-    REQUIRE(bbc_grid_locate(g, tri, b1, b2, &cell));
+    const bbc_vec3 point = point_on(scene, tri, b1, b2);
+    REQUIRE(bbc_grid_locate(g, tri, b1, b2, &point, &cell));
     const bbc_cache_entry *e;
     uint32_t n;
-    REQUIRE(bbc_cache_lookup(cur, tri, b1, b2, &e, &n) == BBC_OK);
+    REQUIRE(bbc_cache_lookup(cur, tri, b1, b2, &point, &e, &n) == BBC_OK);
     uint64_t index = bbc_grid_cell_index(g, cell);
     if (n != want[index].count) disagree++;
   }
@@ -694,17 +707,17 @@ TEST(max_bound_per_cell_and_tuple) {
   REQUIRE(bbc_cache_cursor_create(&cur, cache) == BBC_OK);
   const bbc_cache_entry *e;
   uint32_t n;
-  REQUIRE(bbc_cache_lookup(cur, 1, 0.3, 0.1, &e, &n) == BBC_OK);
+  REQUIRE(bbc_cache_lookup(cur, 1, 0.3, 0.1, NULL, &e, &n) == BBC_OK);
   REQUIRE(n == 2);
   CHECK_INT(e[0].tuple, 0);
   CHECK(e[0].bound == 3.0f); /* max(1, 3, 2), stored as given (m is the caller's) */
   CHECK_INT(e[1].tuple, 1);
   CHECK(e[1].bound == 0.5f);
-  REQUIRE(bbc_cache_lookup(cur, 1, 0.9, 0.05, &e, &n) == BBC_OK);
+  REQUIRE(bbc_cache_lookup(cur, 1, 0.9, 0.05, NULL, &e, &n) == BBC_OK);
   REQUIRE(n == 1);
   CHECK(e[0].bound == 100.0f);
   /* The caster triangle has no list. */
-  REQUIRE(bbc_cache_lookup(cur, 0, 0.3, 0.1, &e, &n) == BBC_OK);
+  REQUIRE(bbc_cache_lookup(cur, 0, 0.3, 0.1, NULL, &e, &n) == BBC_OK);
   CHECK_INT(n, 0);
   bbc_cache_cursor_free(cur);
   bbc_cache_close(cache);
@@ -1448,9 +1461,14 @@ static int shard_setup_init(shard_setup *s) {
   s->candidates = malloc(sizeof *s->candidates * sc->triangle_count * 4);
   for (uint32_t t = 0; t < sc->triangle_count && s->count < 120; t++) {
     if (sc->meshes[sc->triangle_mesh[t]].role != BBC_ROLE_CASTER) continue;
-    for (uint32_t r = 0; r < sc->triangle_count; r++)
-      if (sc->meshes[sc->triangle_mesh[r]].role == BBC_ROLE_RECEIVER)
-        s->candidates[s->count++] = (bbc_tuple){0, BBC_CHAIN_R, {t, BBC_NO_TRIANGLE}, r};
+    for (uint32_t r = 0; r < sc->triangle_count; r++) {
+      const uint32_t m = sc->triangle_mesh[r];
+      if (sc->meshes[m].role != BBC_ROLE_RECEIVER) continue;
+      /* A receiver plane's tuples end on the plane: one candidate per plane. */
+      if (sc->meshes[m].plane && r != sc->meshes[m].first_triangle) continue;
+      const uint32_t end = sc->meshes[m].plane ? BBC_RECEIVER_PLANE(m) : r;
+      s->candidates[s->count++] = (bbc_tuple){0, BBC_CHAIN_R, {t, BBC_NO_TRIANGLE}, end};
+    }
   }
   return s->count >= 120;
 }
@@ -1581,7 +1599,7 @@ TEST(shard_section_is_read_back) {
   REQUIRE(bbc_cache_open_memory(&f, full, full_size, NULL) == BBC_OK);
   bbc_cache_info in;
   bbc_cache_get_info(c, &in);
-  CHECK_INT(in.version_minor, BBC__MINOR_GEOMETRY); /* 1.1 without GEOM (cli_shard) */
+  CHECK_INT(in.version_minor, BBC__MINOR_PLANE); /* a receiver plane (1.1 without it) */
   bbc_cache_shard sh;
   CHECK_INT(bbc_cache_get_shard(c, &sh), 1);
   CHECK_INT(sh.index, 2);
@@ -1601,7 +1619,7 @@ TEST(shard_section_is_read_back) {
   CHECK_INT(in.tuple_count, expect);
   /* A complete cache has no SHRD. */
   bbc_cache_get_info(f, &in);
-  CHECK_INT(in.version_minor, BBC__MINOR_GEOMETRY);
+  CHECK_INT(in.version_minor, BBC__MINOR_PLANE);
   CHECK_INT(bbc_cache_get_shard(f, &sh), 0);
   CHECK(sh.candidates == NULL && sh.count == 0);
   CHECK_INT(bbc_cache_get_shard(f, NULL), 0);
@@ -1803,9 +1821,10 @@ TEST(merge_refuses_shards_that_do_not_belong_together) {
   /* Tuples valid for the sphere: its first caster and receiver triangles. */
   bbc_tuple t = {0, BBC_CHAIN_R, {0, BBC_NO_TRIANGLE}, 0};
   for (uint32_t k = 0; k < sphere->triangle_count; k++) {
-    bbc_role role = sphere->meshes[sphere->triangle_mesh[k]].role;
+    const uint32_t m = sphere->triangle_mesh[k];
+    bbc_role role = sphere->meshes[m].role;
     if (role == BBC_ROLE_CASTER) t.specular[0] = k;
-    if (role == BBC_ROLE_RECEIVER) t.receiver = k;
+    if (role == BBC_ROLE_RECEIVER) t.receiver = sphere->meshes[m].plane ? BBC_RECEIVER_PLANE(m) : k;
   }
   bbc_tuple list[6] = {t, t, t, t, t, t};
   s.candidates = list;

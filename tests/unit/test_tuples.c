@@ -95,7 +95,10 @@ static void trace_path(const bbc_scene *s, const bbc_accel *accel, uint32_t ligh
       if (length == 0) return;
       static const int two[2][2] = {{BBC_CHAIN_RR, BBC_CHAIN_RT}, {BBC_CHAIN_TR, BBC_CHAIN_TT}};
       int type = length == 1 ? (letters[0] ? BBC_CHAIN_T : BBC_CHAIN_R) : two[letters[0]][letters[1]];
-      bbc_tuple key = {light, (uint32_t)type, {specular[0], specular[1]}, h.triangle};
+      /* A receiver plane's tuples end on the plane (tuple.h). */
+      const uint32_t receiver =
+          mesh->plane ? BBC_RECEIVER_PLANE(s->triangle_mesh[h.triangle]) : h.triangle;
+      bbc_tuple key = {light, (uint32_t)type, {specular[0], specular[1]}, receiver};
       out->paths[key.chain]++;
       if (!bsearch(&key, sorted, count, sizeof key, compare_tuple)) out->missing++;
       return;

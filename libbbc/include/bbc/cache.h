@@ -313,11 +313,13 @@ BBC_API void bbc_cache_cursor_free(bbc_cache_cursor *cursor);
 BBC_API bbc_result bbc_cache_cell(bbc_cache_cursor *cursor, uint64_t cell,
                                   const bbc_cache_entry **entries, uint32_t *count);
 
-/* The list of the cell holding the point (b1, b2) of scene triangle `triangle`
- * (bbc_grid_locate on the cache's grid). A triangle that is not a receiver gives an
- * empty list and BBC_OK. */
+/* The list of the cell holding the point (b1, b2) of scene triangle `triangle` at
+ * position *point (bbc_grid_locate on the cache's grid: the position locates the
+ * points of a receiver plane's triangles; NULL gives them an empty list). A triangle
+ * that is not a receiver gives an empty list and BBC_OK. */
 BBC_API bbc_result bbc_cache_lookup(bbc_cache_cursor *cursor, uint32_t triangle, double b1,
-                                    double b2, const bbc_cache_entry **entries, uint32_t *count);
+                                    double b2, const bbc_vec3 *point,
+                                    const bbc_cache_entry **entries, uint32_t *count);
 
 /* ------------------------------------------------------------------ shards */
 

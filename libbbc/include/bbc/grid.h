@@ -21,7 +21,9 @@ extern "C" {
 typedef enum bbc_parameterisation {
   BBC_PARAM_TEXCOORD = 0, /* TEXCOORD_0 of the file */
   BBC_PARAM_PLANAR = 1,   /* projection on the plane of a planar mesh */
-  BBC_PARAM_BOX = 2       /* projection on the two longest bounding-box axes */
+  BBC_PARAM_BOX = 2,      /* projection on the two longest bounding-box axes */
+  BBC_PARAM_PLANE = 3     /* a receiver plane (bbc_mesh.plane): projection on the
+                             plane's two other axes; its tuples end on the plane */
 } bbc_parameterisation;
 
 /* One receiver mesh and its grid. */
@@ -32,9 +34,13 @@ typedef struct bbc_receiver {
   uint32_t triangle_count;     /*   [first_triangle, first_triangle + triangle_count) */
   uint32_t width, height;      /* cells along u and v */
   uint64_t first_cell;         /* global index of cell (0, 0) */
-  uint64_t first_uv;           /* index of the first triangle in triangle_uv */
+  uint64_t first_uv;           /* index of the first triangle in triangle_uv (planes:
+                                  the running count, with no entries of their own) */
   double domain[4];            /* u_min, v_min, u_max, v_max in parameter space */
   double axis_u[3], axis_v[3]; /* projection axes (zero for BBC_PARAM_TEXCOORD) */
+  /* BBC_PARAM_PLANE: the grid coordinates of the mesh's plane_triangle (spec Sec. 6.5),
+   * not clamped to the grid; zero otherwise. Not stored: derived from the above. */
+  float plane_uv[6];
 } bbc_receiver;
 
 typedef struct bbc_grid {
@@ -42,10 +48,11 @@ typedef struct bbc_grid {
   uint32_t receiver_count;
   const bbc_receiver *receivers; /* in increasing mesh (and triangle) order */
   uint64_t cell_count;           /* over all receivers */
-  uint64_t uv_triangle_count;    /* receiver triangles over all receivers */
-  /* 6 floats per receiver triangle: the grid coordinates (cell units) of its vertices
-   * 0, 1, 2, in [0, width] x [0, height]. Triangle t of receiver r is at index
-   * r.first_uv + (t - r.first_triangle). */
+  uint64_t uv_triangle_count;    /* triangles of the receivers that are not planes */
+  /* 6 floats per triangle of a receiver that is not a plane: the grid coordinates (cell
+   * units) of its vertices 0, 1, 2, in [0, width] x [0, height]. Triangle t of receiver
+   * r is at index r.first_uv + (t - r.first_triangle). A plane's triangles have none
+   * (they are located by the point, spec Sec. 6.5). */
   const float *triangle_uv;
 } bbc_grid;
 
@@ -74,15 +81,21 @@ BBC_API bbc_result bbc_grid_create(bbc_grid **out, const bbc_scene *scene, uint3
 BBC_API void bbc_grid_free(bbc_grid *grid);
 
 /* The receiver holding scene triangle `triangle`, or -1 if it is not a receiver
- * triangle. O(log receivers). */
+ * triangle. O(log receivers). Every function below that takes a triangle also takes
+ * the plane of a receiver, BBC_RECEIVER_PLANE(mesh) (tuple.h), with barycentrics of the
+ * mesh's plane_triangle; points of it off the grid's domain are off the mesh. */
 BBC_API int64_t bbc_grid_receiver_of(const bbc_grid *grid, uint32_t triangle);
 
 /* The cell of the point of receiver triangle `triangle` with barycentrics (b1, b2), the
- * weights of its vertices 1 and 2 (spec Sec. 6.4). Returns 1 and fills *out, or 0 when
- * the triangle is not a receiver triangle. Barycentrics slightly outside the triangle
- * are clamped to the grid, never rejected. */
+ * weights of its vertices 1 and 2 (spec Sec. 6.4), and position *point. The position is
+ * what locates a point of a triangle of a receiver plane (BBC_PARAM_PLANE, spec Sec.
+ * 6.5; it may be NULL for other receivers and for a plane's own triangle). Returns 1 and
+ * fills *out, or 0 when the triangle is not a receiver triangle, when a plane's triangle
+ * comes without its point, or for a plane's own triangle when the point lies past the
+ * grid (off the mesh). Points slightly outside the triangle are clamped to the grid,
+ * never rejected. */
 BBC_API int bbc_grid_locate(const bbc_grid *grid, uint32_t triangle, double b1, double b2,
-                            bbc_cell *out);
+                            const bbc_vec3 *point, bbc_cell *out);
 
 /* The cells that a position bound [b1_lo, b1_hi] x [b2_lo, b2_hi] (barycentrics of the
  * receiver triangle; it may reach outside the triangle, or be infinite) covers, by the

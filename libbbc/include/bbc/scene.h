@@ -78,6 +78,16 @@ typedef struct bbc_mesh {
    * of a closed mesh point out of it, -1 when in. An open mesh's outside is where its
    * vertex normals point. */
   int closed, outward;
+  /* Receivers whose every vertex has one same coordinate x, y or z (a floor, a wall or
+   * a table top as files store them): plane is 1 + that axis (1, 2 or 3), else 0.
+   * The tuples of such a receiver end on its plane, not on its triangles (tuple.h), so
+   * their number does not grow with its tessellation. plane_triangle is then a triangle
+   * of that plane holding the whole mesh, on which the bounds are taken: on the plane's
+   * two other axes a < b, with [lo_a, lo_a + La] x [lo_b, lo_b + Lb] the mesh's bounding
+   * rectangle and L = max(La, Lb), the points (lo_a, lo_b), (lo_a + 2L, lo_b) and
+   * (lo_a, lo_b + 2L) (format-spec Sec. 6.5). */
+  int plane;
+  bbc_vec3 plane_triangle[3];
 } bbc_mesh;
 
 /* How KHR_lights_punctual intensities are read. The glTF specification gives point and

@@ -4,6 +4,7 @@
 #define BBC_TUPLE_H
 
 #include "bbc/common.h"
+#include "bbc/scene.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -34,8 +35,27 @@ typedef struct bbc_tuple {
   uint32_t light;       /* index into scene->point_lights */
   uint32_t chain;       /* a bbc_chain */
   uint32_t specular[2]; /* T1 and T2 (BBC_NO_TRIANGLE for one bounce), scene triangles */
-  uint32_t receiver;    /* Tk, a scene triangle of a receiver mesh */
+  uint32_t receiver;    /* Tk: a scene triangle of a receiver mesh, or
+                           BBC_RECEIVER_PLANE(m), the plane of receiver mesh m */
 } bbc_tuple;
+
+/* A tuple of a receiver that lies in a plane (bbc_mesh.plane) ends on the plane,
+ * not on a triangle: its receiver field is BBC_RECEIVER_PLANE(mesh) and its bounds are
+ * taken on the mesh's plane_triangle, which holds every point of the mesh. Its number
+ * of tuples, and their cost, do not depend on how finely the plane is cut. */
+#define BBC_RECEIVER_PLANE_BIT 0x80000000u
+#define BBC_RECEIVER_PLANE(mesh) (BBC_RECEIVER_PLANE_BIT | (uint32_t)(mesh))
+static inline int bbc_receiver_is_plane(uint32_t receiver) {
+  return (receiver & BBC_RECEIVER_PLANE_BIT) != 0;
+}
+static inline uint32_t bbc_receiver_plane_mesh(uint32_t receiver) {
+  return receiver & ~BBC_RECEIVER_PLANE_BIT;
+}
+
+/* The triangle a tuple's receiver field names, the one its bounds are taken on: the
+ * scene triangle, or a plane's plane_triangle. Returns 0 when the field names neither a
+ * scene triangle nor the plane of a receiver. */
+BBC_API int bbc_receiver_triangle(const bbc_scene *scene, uint32_t receiver, bbc_vec3 out[3]);
 
 /* Number of specular vertices of a chain type (1 or 2). */
 static inline int bbc_chain_length(bbc_chain chain) {

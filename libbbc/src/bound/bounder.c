@@ -132,7 +132,6 @@ bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene
   const int64_t emitter = bbc_scene_light_emitter(scene, tuple->light);
   if ((tuple->light >= scene->point_light_count && emitter < 0) ||
       tuple->specular[0] >= scene->triangle_count ||
-      tuple->receiver >= scene->triangle_count ||
       (length == 2 && (tuple->specular[1] >= scene->triangle_count ||
                        tuple->specular[1] == tuple->specular[0])))
     return BBC_ERR_INVALID_ARGUMENT;
@@ -142,8 +141,7 @@ bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene
   g->light = light.position;
   g->light_model = light.model;
   g->length = length;
-  const uint32_t *b = scene->indices + 3 * (size_t)tuple->receiver;
-  for (int i = 0; i < 3; i++) g->r[i] = v3_load(scene->positions + 3 * (size_t)b[i]);
+  if (!bbc_receiver_triangle(scene, tuple->receiver, g->r)) return BBC_ERR_INVALID_ARGUMENT;
   const uint32_t *a = scene->indices + 3 * (size_t)tuple->specular[0];
   bbc_vec3 source =
       bbc__light_source(g->light, &g->light_model, v3_load(scene->positions + 3 * (size_t)a[0]));

@@ -348,7 +348,7 @@ bbc_result bbc_path_geometry_init(bbc_path_geometry *g, const bbc_scene *scene,
   const int64_t emitter = bbc_scene_light_emitter(scene, tuple->light);
   if (tuple->chain >= BBC_CHAIN_COUNT ||
       (tuple->light >= scene->point_light_count && emitter < 0) ||
-      tuple->receiver >= scene->triangle_count)
+      !bbc_receiver_triangle(scene, tuple->receiver, g->receiver))
     return BBC_ERR_INVALID_ARGUMENT;
   bbc_chain chain = (bbc_chain)tuple->chain;
   int length = bbc_chain_length(chain);
@@ -372,8 +372,6 @@ bbc_result bbc_path_geometry_init(bbc_path_geometry *g, const bbc_scene *scene,
     t->refract = bbc_chain_refracts(chain, i);
     t->ior = bbc_scene_triangle_material(scene, tuple->specular[i])->ior;
   }
-  const uint32_t *r = scene->indices + 3 * (size_t)tuple->receiver;
-  for (int j = 0; j < 3; j++) g->receiver[j] = v3_load(scene->positions + 3 * (size_t)r[j]);
 
   /* Two-sided mirrors: turn a reflecting triangle's normals toward the side its light
    * comes from, judged on its geometric plane (oriented by the vertex normals). */

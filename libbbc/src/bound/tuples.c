@@ -34,10 +34,13 @@ typedef struct bvh_node {
   uint32_t left, right;  /* inner node children (count == 0) */
 } bvh_node;
 
+/* A BVH over items: scene triangles, and for receivers the planes
+ * (BBC_RECEIVER_PLANE(mesh)) that stand for all the triangles of a receiver plane. */
 typedef struct bvh {
   bvh_node *nodes;
   uint32_t node_count;
   uint32_t *order;
+  double (*plane_box)[6]; /* per mesh: lo, hi of a plane's triangles (receivers) */
 } bvh;
 
 static void triangle_bounds(const bbc_scene *scene, uint32_t t, double lo[3], double hi[3]) {
@@ -54,6 +57,16 @@ static void triangle_bounds(const bbc_scene *scene, uint32_t t, double lo[3], do
   }
 }
 
+static void item_bounds(const bvh *b, const bbc_scene *scene, uint32_t item, double lo[3],
+                        double hi[3]) {
+  if (!bbc_receiver_is_plane(item)) {
+    triangle_bounds(scene, item, lo, hi);
+    return;
+  }
+  const double *box = b->plane_box[bbc_receiver_plane_mesh(item)];
+  for (int a = 0; a < 3; a++) lo[a] = box[a], hi[a] = box[3 + a];
+}
+
 /* Midpoint split on the longest axis of the node (supplement Sec. 4.1). */
 static uint32_t bvh_build(bvh *b, const bbc_scene *scene, uint32_t first, uint32_t count) {
   uint32_t index = b->node_count++;
@@ -65,7 +78,7 @@ static uint32_t bvh_build(bvh *b, const bbc_scene *scene, uint32_t first, uint32
   }
   for (uint32_t i = first; i < first + count; i++) {
     double lo[3], hi[3];
-    triangle_bounds(scene, b->order[i], lo, hi);
+    item_bounds(b, scene, b->order[i], lo, hi);
     for (int a = 0; a < 3; a++) {
       node.lo[a] = fmin(node.lo[a], lo[a]);
       node.hi[a] = fmax(node.hi[a], hi[a]);
@@ -79,7 +92,7 @@ static uint32_t bvh_build(bvh *b, const bbc_scene *scene, uint32_t first, uint32
   if (count > 4) {
     for (uint32_t i = first; i < first + count; i++) {
       double lo[3], hi[3];
-      triangle_bounds(scene, b->order[i], lo, hi);
+      item_bounds(b, scene, b->order[i], lo, hi);
       if (0.5 * (lo[axis] + hi[axis]) < mid) {
         uint32_t tmp = b->order[i];
         b->order[i] = b->order[split];
@@ -281,19 +294,44 @@ static bbc_result beam_hits(bbc_arena *arena, const beam *b, const triangle_plan
   return BBC_OK;
 }
 
-/* A BVH over the triangles of meshes with the given role. */
+/* A BVH over the triangles of meshes with the given role; a receiver plane
+ * (bbc_mesh.plane) is one item, its plane, boxed by its triangles. */
 static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role) {
   memset(b, 0, sizeof *b);
+  b->plane_box = malloc((scene->mesh_count ? scene->mesh_count : 1) * sizeof *b->plane_box);
+  if (!b->plane_box) return BBC_ERR_OUT_OF_MEMORY;
   uint32_t n = 0;
-  for (uint32_t t = 0; t < scene->triangle_count; t++)
-    if (scene->meshes[scene->triangle_mesh[t]].role == role) n++;
+  for (uint32_t m = 0; m < scene->mesh_count; m++) {
+    const bbc_mesh *mesh = &scene->meshes[m];
+    if (mesh->role != role) continue;
+    if (mesh->plane == 0) {
+      n += mesh->triangle_count;
+      continue;
+    }
+    double *box = b->plane_box[m];
+    for (int a = 0; a < 3; a++) box[a] = INFINITY, box[3 + a] = -INFINITY;
+    for (uint32_t t = mesh->first_triangle; t < mesh->first_triangle + mesh->triangle_count; t++) {
+      double lo[3], hi[3];
+      triangle_bounds(scene, t, lo, hi);
+      for (int a = 0; a < 3; a++) box[a] = fmin(box[a], lo[a]), box[3 + a] = fmax(box[3 + a], hi[a]);
+    }
+    n++;
+  }
   if (n == 0) return BBC_OK;
   b->order = malloc(n * sizeof *b->order);
   b->nodes = malloc(2 * (size_t)n * sizeof *b->nodes);
   if (!b->order || !b->nodes) return BBC_ERR_OUT_OF_MEMORY;
   n = 0;
-  for (uint32_t t = 0; t < scene->triangle_count; t++)
-    if (scene->meshes[scene->triangle_mesh[t]].role == role) b->order[n++] = t;
+  for (uint32_t m = 0; m < scene->mesh_count; m++) {
+    const bbc_mesh *mesh = &scene->meshes[m];
+    if (mesh->role != role) continue;
+    if (mesh->plane != 0) {
+      b->order[n++] = BBC_RECEIVER_PLANE(m);
+      continue;
+    }
+    for (uint32_t t = mesh->first_triangle; t < mesh->first_triangle + mesh->triangle_count; t++)
+      b->order[n++] = t;
+  }
   bvh_build(b, scene, 0, n);
   return BBC_OK;
 }
@@ -301,6 +339,7 @@ static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role) {
 static void bvh_free(bvh *b) {
   free(b->nodes);
   free(b->order);
+  free(b->plane_box);
 }
 
 /* The triangles of b the beam (x, d) can meet, sorted, into found; returns their number.
@@ -316,7 +355,7 @@ static uint32_t bvh_beam(const bvh *b, const bbc_scene *scene, const bbc_ivec3 *
     if (node->count) {
       for (uint32_t i = node->first; i < node->first + node->count; i++) {
         double lo[3], hi[3];
-        triangle_bounds(scene, b->order[i], lo, hi);
+        item_bounds(b, scene, b->order[i], lo, hi);
         if (beam_meets(x, d, lo, hi)) found[n++] = b->order[i];
       }
     } else {

@@ -23,6 +23,7 @@
 #include "cache_format_internal.h"
 #include "cache_shard_internal.h"
 #include "geometry_internal.h"
+#include "grid_internal.h"
 #include "report_internal.h"
 #include "scene_internal.h"
 
@@ -393,7 +394,7 @@ static bbc_result check_receivers(bbc_cache *c) {
     uint32_t longer = r->width > r->height ? r->width : r->height;
     /* A projection of vertices that all project to one point has a 1 x 1 grid (6.3). */
     int point = longer == 1 && r->domain[0] == r->domain[2] && r->domain[1] == r->domain[3];
-    if (r->parameterisation > BBC_PARAM_BOX || r->width < 1 || r->height < 1 || r->width > res ||
+    if (r->parameterisation > BBC_PARAM_PLANE || r->width < 1 || r->height < 1 || r->width > res ||
         r->height > res ||
         (r->parameterisation == BBC_PARAM_TEXCOORD ? (r->width != res || r->height != res)
                                                    : longer != res && !point))
@@ -409,7 +410,10 @@ static bbc_result check_receivers(bbc_cache *c) {
     int finite = 1;
     for (int k = 0; k < 4; k++) finite &= isfinite(r->domain[k]);
     for (int k = 0; k < 3; k++) finite &= isfinite(r->axis_u[k]) && isfinite(r->axis_v[k]);
-    if (!finite || !(r->domain[0] <= r->domain[2]) || !(r->domain[1] <= r->domain[3]))
+    /* A plane (6.5) has area: its domain has extent along both axes. */
+    const int plane = r->parameterisation == BBC_PARAM_PLANE;
+    if (!finite || !(r->domain[0] <= r->domain[2]) || !(r->domain[1] <= r->domain[3]) ||
+        (plane && !(r->domain[0] < r->domain[2] && r->domain[1] < r->domain[3])))
       return fail(c, BBC_ERR_CORRUPT, "RCVR", at + 40,
                   "receiver %llu: domain or axes not finite or inverted (R-RCV-4)",
                   (unsigned long long)i);
@@ -426,8 +430,9 @@ static bbc_result check_receivers(bbc_cache *c) {
     if (!all_zero(e + 120, 8))
       return fail(c, BBC_ERR_CORRUPT, "RCVR", at + 120,
                   "receiver %llu: reserved bytes not zero (R-FILE-2)", (unsigned long long)i);
+    bbc__grid_plane_coords(r);
     cells += (uint64_t)r->width * r->height;
-    uvs += r->triangle_count;
+    if (!plane) uvs += r->triangle_count; /* a plane has no TRUV (5.4) */
   }
   c->grid.resolution = res;
   c->grid.receiver_count = (uint32_t)count;
@@ -448,7 +453,8 @@ static bbc_result check_receivers(bbc_cache *c) {
   const float *uv = (const float *)(const void *)c->sec[K_TRUV];
   for (uint64_t i = 0; i < count; i++) {
     const bbc_receiver *r = &c->receivers[i];
-    for (uint64_t t = 0; t < r->triangle_count; t++) {
+    const uint64_t n = r->parameterisation == BBC_PARAM_PLANE ? 0 : r->triangle_count;
+    for (uint64_t t = 0; t < n; t++) {
       const float *g = uv + 6 * (r->first_uv + t);
       for (int k = 0; k < 6; k++) {
         float limit = (float)((k & 1) ? r->height : r->width);
@@ -482,7 +488,7 @@ static bbc_result check_tuples(bbc_cache *c) {
              (bbc_chain_length((bbc_chain)(u->chain < BBC_CHAIN_COUNT ? u->chain : 0)) == 1
                   ? u->specular[1] == BBC_NO_TRIANGLE
                   : u->specular[1] < triangles) &&
-             bbc_grid_receiver_of(&c->grid, u->receiver) >= 0;
+             bbc__grid_tuple_end(&c->grid, u->receiver);
     if (!ok)
       return fail(c, BBC_ERR_CORRUPT, "TUPL", c->sec_offset[K_TUPL] + BBC__TUPL_SIZE * i,
                   "tuple %llu (light %u, chain %u, triangles %u %u %u) invalid (R-TUP-1)",
@@ -1132,12 +1138,13 @@ bbc_result bbc_cache_cell(bbc_cache_cursor *cur, uint64_t cell, const bbc_cache_
 }
 
 bbc_result bbc_cache_lookup(bbc_cache_cursor *cur, uint32_t triangle, double b1, double b2,
-                            const bbc_cache_entry **entries, uint32_t *count) {
+                            const bbc_vec3 *point, const bbc_cache_entry **entries,
+                            uint32_t *count) {
   if (entries) *entries = NULL;
   if (count) *count = 0;
   if (!cur || !entries || !count) return BBC_ERR_INVALID_ARGUMENT;
   bbc_cell cell;
-  if (!bbc_grid_locate(&cur->c->grid, triangle, b1, b2, &cell)) return BBC_OK;
+  if (!bbc_grid_locate(&cur->c->grid, triangle, b1, b2, point, &cell)) return BBC_OK;
   return bbc_cache_cell(cur, bbc_grid_cell_index(&cur->c->grid, cell), entries, count);
 }
 

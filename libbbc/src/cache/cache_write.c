@@ -16,6 +16,7 @@
 #include "bbc/cache.h"
 #include "cache_format_internal.h"
 #include "cache_shard_internal.h"
+#include "grid_internal.h"
 #include "report_internal.h"
 #include "geometry_internal.h"
 #include "spill_internal.h"
@@ -199,7 +200,7 @@ bbc_result bbc_cache_builder_add_tuple(bbc_cache_builder *b, const bbc_tuple *t,
       (t->light >= b->scene_counts[4] && bbc_chain_length((bbc_chain)t->chain) != 1 &&
        !b->params.area_double) ||
       t->specular[0] >= triangles ||
-      bbc_grid_receiver_of(b->grid, t->receiver) < 0)
+      !bbc__grid_tuple_end(b->grid, t->receiver))
     return BBC_ERR_INVALID_ARGUMENT;
   if (bbc_chain_length((bbc_chain)t->chain) == 1 ? t->specular[1] != BBC_NO_TRIANGLE
                                                  : t->specular[1] >= triangles)
@@ -1070,7 +1071,11 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   memcpy(header, BBC__MAGIC, 8);
   bbc__st16(header + 8, BBC_FORMAT_VERSION_MAJOR);
   /* The smallest minor version whose features the file uses (R-HDR-3). */
-  bbc__st16(header + 10, b->params.area_lights && b->params.alpha_area != 0 ? BBC__MINOR_AREA_ALPHA
+  int planes = 0;
+  for (uint32_t i = 0; i < b->grid->receiver_count; i++)
+    planes |= b->grid->receivers[i].parameterisation == BBC_PARAM_PLANE;
+  bbc__st16(header + 10, planes ? BBC__MINOR_PLANE
+                         : b->params.area_lights && b->params.alpha_area != 0 ? BBC__MINOR_AREA_ALPHA
                          : b->params.area_double  ? BBC__MINOR_AREA_DOUBLE
                          : geom                    ? BBC__MINOR_GEOMETRY
                          : b->params.area_lights ? BBC__MINOR_AREA

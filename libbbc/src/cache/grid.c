@@ -1,11 +1,13 @@
 /* Receiver grids (format-spec/bbc-format.md Sec. 6): parameterisations, grid
  * coordinates of receiver triangles, point location and conservative splats. */
 #include "bbc/grid.h"
+#include "bbc/tuple.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "grid_internal.h"
 #include "report_internal.h"
 
 const char *bbc_parameterisation_name(uint32_t parameterisation) {
@@ -16,6 +18,8 @@ const char *bbc_parameterisation_name(uint32_t parameterisation) {
       return "planar";
     case BBC_PARAM_BOX:
       return "box";
+    case BBC_PARAM_PLANE:
+      return "plane";
   }
   return "unknown";
 }
@@ -108,7 +112,13 @@ static void choose_parameterisation(const bbc_scene *scene, const bbc_mesh *mesh
   double n[3];
   memset(r->axis_u, 0, sizeof r->axis_u);
   memset(r->axis_v, 0, sizeof r->axis_v);
-  if (uvs_usable(scene, mesh)) {
+  if (mesh->plane != 0) {
+    /* Sec. 6.5: the plane's two other axes, a < b. */
+    const int axis = mesh->plane - 1;
+    r->parameterisation = BBC_PARAM_PLANE;
+    r->axis_u[axis == 0 ? 1 : 0] = 1;
+    r->axis_v[axis == 2 ? 1 : 2] = 1;
+  } else if (uvs_usable(scene, mesh)) {
     r->parameterisation = BBC_PARAM_TEXCOORD;
   } else if (planar_normal(scene, mesh, n)) {
     r->parameterisation = BBC_PARAM_PLANAR;
@@ -188,7 +198,7 @@ bbc_result bbc_grid_create(bbc_grid **out, const bbc_scene *scene, uint32_t reso
                          scene->path, m);
     last_end = mesh->first_triangle + mesh->triangle_count;
     count++;
-    uv_count += mesh->triangle_count;
+    if (!mesh->plane) uv_count += mesh->triangle_count; /* Sec. 5.4: a plane has none */
   }
 
   bbc_grid *g = calloc(1, sizeof *g);
@@ -249,9 +259,11 @@ bbc_result bbc_grid_create(bbc_grid **out, const bbc_scene *scene, uint32_t reso
     r->first_cell = first_cell;
     r->first_uv = first_uv;
     first_cell += (uint64_t)r->width * r->height;
+    bbc__grid_plane_coords(r);
 
     double su = lu > 0 ? (double)r->width / lu : 0.0;
     double sv = lv > 0 ? (double)r->height / lv : 0.0;
+    if (r->parameterisation == BBC_PARAM_PLANE) continue; /* located by the point */
     for (uint32_t t = 0; t < mesh->triangle_count; t++) {
       const uint32_t *idx = &scene->indices[3 * (size_t)(mesh->first_triangle + t)];
       float *dst = &uv[6 * (first_uv + t)];
@@ -282,7 +294,35 @@ void bbc_grid_free(bbc_grid *grid) {
   free(grid);
 }
 
+void bbc__grid_plane_coords(bbc_receiver *r) {
+  memset(r->plane_uv, 0, sizeof r->plane_uv);
+  if (r->parameterisation != BBC_PARAM_PLANE) return;
+  const double lu = r->domain[2] - r->domain[0], lv = r->domain[3] - r->domain[1];
+  const double L = lu > lv ? lu : lv;
+  const double su = lu > 0 ? (double)r->width / lu : 0.0;
+  const double sv = lv > 0 ? (double)r->height / lv : 0.0;
+  r->plane_uv[2] = (float)(2 * L * su);
+  r->plane_uv[5] = (float)(2 * L * sv);
+}
+
+/* The receiver of the plane of mesh m, or -1. */
+static int64_t plane_receiver(const bbc_grid *grid, uint32_t m) {
+  uint32_t lo = 0, hi = grid->receiver_count;
+  while (lo < hi) {
+    uint32_t mid = lo + (hi - lo) / 2;
+    if (grid->receivers[mid].mesh < m)
+      lo = mid + 1;
+    else
+      hi = mid;
+  }
+  if (lo == grid->receiver_count || grid->receivers[lo].mesh != m ||
+      grid->receivers[lo].parameterisation != BBC_PARAM_PLANE)
+    return -1;
+  return (int64_t)lo;
+}
+
 int64_t bbc_grid_receiver_of(const bbc_grid *grid, uint32_t triangle) {
+  if (bbc_receiver_is_plane(triangle)) return plane_receiver(grid, bbc_receiver_plane_mesh(triangle));
   uint32_t lo = 0, hi = grid->receiver_count;
   /* The last receiver whose range starts at or before the triangle. */
   while (lo < hi) {
@@ -307,6 +347,7 @@ static uint32_t cell_of(double g, uint32_t cells) {
 
 static const float *triangle_coords(const bbc_grid *grid, const bbc_receiver *r,
                                     uint32_t triangle) {
+  if (bbc_receiver_is_plane(triangle)) return r->plane_uv;
   return &grid->triangle_uv[6 * (r->first_uv + (triangle - r->first_triangle))];
 }
 
@@ -317,14 +358,45 @@ static double affine(const float *g, int axis, double b1, double b2) {
   return g0 + b1 * (g1 - g0) + b2 * (g2 - g0);
 }
 
-int bbc_grid_locate(const bbc_grid *grid, uint32_t triangle, double b1, double b2, bbc_cell *out) {
+int bbc__grid_tuple_end(const bbc_grid *grid, uint32_t receiver) {
+  const int64_t ri = bbc_grid_receiver_of(grid, receiver);
+  return ri >= 0 && (bbc_receiver_is_plane(receiver) ||
+                     grid->receivers[ri].parameterisation != BBC_PARAM_PLANE);
+}
+
+/* Margin of Sec. 6.4: far above the few-ulp rounding of `affine` at any coordinate up
+ * to 65536 cells, far below a cell. A plane's splat (Sec. 6.5) is looked up through the
+ * coordinates of the mesh's own triangles, another rounding of the same map: 2^-20
+ * covers both (each within a few 2^-24 of the coordinates' size). */
+static double splat_margin(uint32_t triangle, double gmax) {
+  return ldexp(1.0, bbc_receiver_is_plane(triangle) ? -20 : -30) * (1.0 + gmax);
+}
+
+int bbc_grid_locate(const bbc_grid *grid, uint32_t triangle, double b1, double b2,
+                    const bbc_vec3 *point, bbc_cell *out) {
   int64_t ri = bbc_grid_receiver_of(grid, triangle);
   if (ri < 0) return 0;
   const bbc_receiver *r = &grid->receivers[ri];
+  if (r->parameterisation == BBC_PARAM_PLANE && !bbc_receiver_is_plane(triangle)) {
+    /* Sec. 6.5: a plane's triangles are located by the point's projection. */
+    if (!point) return 0;
+    const double lu = r->domain[2] - r->domain[0], lv = r->domain[3] - r->domain[1];
+    const double p[3] = {point->x, point->y, point->z};
+    out->receiver = (uint32_t)ri;
+    out->x = cell_of((dot3(p, r->axis_u) - r->domain[0]) * ((double)r->width / lu), r->width);
+    out->y = cell_of((dot3(p, r->axis_v) - r->domain[1]) * ((double)r->height / lv), r->height);
+    return 1;
+  }
   const float *g = triangle_coords(grid, r, triangle);
+  const double gx = affine(g, 0, b1, b2), gy = affine(g, 1, b1, b2);
+  if (bbc_receiver_is_plane(triangle)) {
+    /* Off the grid, by the rule of the splats: off the mesh. */
+    const double margin = splat_margin(triangle, fmax(g[2], g[5]));
+    if (gx - margin >= (double)r->width || gy - margin >= (double)r->height) return 0;
+  }
   out->receiver = (uint32_t)ri;
-  out->x = cell_of(affine(g, 0, b1, b2), r->width);
-  out->y = cell_of(affine(g, 1, b1, b2), r->height);
+  out->x = cell_of(gx, r->width);
+  out->y = cell_of(gy, r->height);
   return 1;
 }
 
@@ -333,6 +405,8 @@ int bbc_grid_splat_range(const bbc_grid *grid, uint32_t triangle, double b1_lo, 
   int64_t ri = bbc_grid_receiver_of(grid, triangle);
   if (ri < 0) return 0;
   const bbc_receiver *r = &grid->receivers[ri];
+  /* A plane's triangles end no tuple: its tuples end on the plane (Sec. 6.5). */
+  if (r->parameterisation == BBC_PARAM_PLANE && !bbc_receiver_is_plane(triangle)) return 0;
   const float *g = triangle_coords(grid, r, triangle);
 
   /* Unknown ends are unbounded; true points lie in the triangle, so clipping the box
@@ -347,9 +421,7 @@ int bbc_grid_splat_range(const bbc_grid *grid, uint32_t triangle, double b1_lo, 
   double gmax = 0;
   for (int k = 0; k < 6; k++)
     if (fabs(g[k]) > gmax) gmax = fabs(g[k]);
-  /* Margin of Sec. 6.4: far above the few-ulp rounding of `affine` at any coordinate up
-   * to 65536 cells, far below a cell. */
-  const double margin = ldexp(1.0, -30) * (1.0 + gmax);
+  const double margin = splat_margin(triangle, gmax);
 
   uint32_t lo_cell[2], hi_cell[2];
   const uint32_t cells[2] = {r->width, r->height};
@@ -376,6 +448,8 @@ int bbc_grid_splat_range(const bbc_grid *grid, uint32_t triangle, double b1_lo, 
       lo = hi;
       hi = t;
     }
+    /* A plane's triangle reaches past the grid: what lands there is off the mesh. */
+    if (lo - margin >= (double)cells[axis]) return 0;
     lo_cell[axis] = cell_of(lo - margin, cells[axis]);
     hi_cell[axis] = cell_of(hi + margin, cells[axis]);
   }
@@ -506,7 +580,7 @@ int bbc_grid_splat_polygon(const bbc_grid *grid, uint32_t triangle, const double
   double gmax = 0;
   for (int k = 0; k < 6; k++)
     if (fabs(g[k]) > gmax) gmax = fabs(g[k]);
-  const double margin = ldexp(1.0, -30) * (1.0 + gmax);
+  const double margin = splat_margin(triangle, gmax);
   double px[POLYGON_MAX], py[POLYGON_MAX], ylo = INFINITY, yhi = -INFINITY;
   for (int i = 0; i < n; i++) {
     px[i] = affine(g, 0, poly[i][0], poly[i][1]);

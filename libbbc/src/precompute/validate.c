@@ -416,6 +416,12 @@ bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *c
       pgi.light = bbc__area_point(&pg.light_model, ab[0], ab[1]);
     }
     if (!admissible_path(&pgi, o, u1, &path)) continue;
+    /* A path to a receiver's plane past its grid misses the mesh: no path. */
+    bbc_cell cell;
+    if (bbc_receiver_is_plane(tuple->receiver) &&
+        !bbc_grid_locate(bbc_cache_grid(cache), tuple->receiver, path.uk[0], path.uk[1], NULL,
+                         &cell))
+      continue;
     local.admissible++;
     if (tuple_id < 0) {
       /* The precompute proved this tuple empty and stored nothing. */
@@ -425,7 +431,8 @@ bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *c
     }
     const bbc_cache_entry *entries = NULL;
     uint32_t n = 0;
-    if ((r = bbc_cache_lookup(cursor, tuple->receiver, path.uk[0], path.uk[1], &entries, &n)) !=
+    if ((r = bbc_cache_lookup(cursor, tuple->receiver, path.uk[0], path.uk[1], &path.xk, &entries,
+                              &n)) !=
         BBC_OK)
       return r;
     const bbc_cache_entry *found = NULL;

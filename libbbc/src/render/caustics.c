@@ -433,7 +433,7 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
   double t0 = clock_if(timed);
   const bbc_cache_entry *entries = NULL;
   uint32_t n = 0;
-  bbc_result looked = bbc_cache_lookup(t->cursor, triangle, b1, b2, &entries, &n);
+  bbc_result looked = bbc_cache_lookup(t->cursor, triangle, b1, b2, &p, &entries, &n);
   if (looked != BBC_OK || n == 0) {
     t->damage = looked;
     t->decoding_seconds += TIMING_STRIDE * (clock_if(timed) - t0);
@@ -442,8 +442,10 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
   double t1 = clock_if(timed);
   t->decoding_seconds += TIMING_STRIDE * (t1 - t0);
   t->lookups++;
-  /* U: the cell's tuples that end on this very triangle (a cell may span several), of
-   * the chain types asked for and short enough for the depth limit. */
+  /* U: the cell's tuples that end on this very triangle or on its plane (a cell may
+   * span several receivers' triangles), of the chain types asked for and short enough
+   * for the depth limit. */
+  const uint32_t plane = BBC_RECEIVER_PLANE(c->scene->triangle_mesh[triangle]);
   if (n > t->candidate_capacity) {
     uint32_t capacity = t->candidate_capacity ? t->candidate_capacity : 64;
     while (capacity < n) capacity *= 2;
@@ -455,7 +457,7 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
   uint32_t m = 0;
   for (uint32_t i = 0; i < n; i++) {
     const bbc_tuple *tuple = &c->tuples[entries[i].tuple];
-    if (tuple->receiver == triangle && (c->chains & (1u << tuple->chain)) &&
+    if ((tuple->receiver == triangle || tuple->receiver == plane) && (c->chains & (1u << tuple->chain)) &&
         bbc_chain_length((bbc_chain)tuple->chain) <= max_vertices)
       t->candidates[m++] = entries[i];
   }

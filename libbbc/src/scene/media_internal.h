@@ -22,6 +22,9 @@
 /* Fills every mesh's closed/outward and every point light's medium. */
 bbc_result bbc__scene_media(bbc_scene *scene);
 
+/* Fills every mesh's plane and plane_triangle (receiver_plane.c). */
+void bbc__scene_planes(bbc_scene *scene);
+
 /* The side of dielectric triangle t's plane point q lies on: +1 front (outside), -1
  * behind (inside), 0 in the plane. */
 int bbc__media_side(const bbc_scene *scene, uint32_t t, bbc_vec3 q);

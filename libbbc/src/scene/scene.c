@@ -942,6 +942,7 @@ static bbc_result build(bbc_scene **out, const loader *ld, const bbc__gltf_data 
   if (r == BBC_OK) r = load_lights(ld, g, s);
   if (r == BBC_OK) r = load_cameras(ld, g, s);
   if (r == BBC_OK) r = bbc__scene_media(s);
+  if (r == BBC_OK) bbc__scene_planes(s);
   if (r == BBC_OK) volume_warnings(ld, g, s);
   for (uint32_t i = 0; r == BBC_OK && i < g->note_count; i++) warn(ld, "%s", g->notes[i]);
   if (r != BBC_OK) {
@@ -1001,7 +1002,9 @@ bbc_result bbc__scene_adopt_geometry(bbc_scene *s, float *positions, float *norm
   s->uvs = uvs;
   s->indices = indices;
   bbc_result r = find_emitters(s);
-  return r == BBC_OK ? bbc__scene_media(s) : r;
+  if (r == BBC_OK) r = bbc__scene_media(s);
+  if (r == BBC_OK) bbc__scene_planes(s);
+  return r;
 }
 
 void bbc_scene_free(bbc_scene *scene) {
