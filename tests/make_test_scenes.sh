@@ -101,3 +101,10 @@ for n in 80 320 1280 5120; do
 done
 scene slab-sheets --size 10000 -o "$out/slab10k.gltf"
 scene diamond -o "$out/diamond.gltf"
+# Receiver planes: the same casters over their two-triangle floor and over that floor cut
+# into about 3,000 triangles in the same plane (R, T, TT).
+for spec in "wavy-mirror 200" "pool 200" "glass-sphere 80"; do
+  set -- $spec
+  scene "$1" --size "$2" -o "$out/plane-$1.gltf"
+  scene "$1" --size "$2" --floor-size 3000 -o "$out/plane-$1-3k.gltf"
+done

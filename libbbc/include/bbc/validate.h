@@ -124,7 +124,9 @@ BBC_API bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *sce
 
 /* Validates what a cache stores for one single-scattering tuple of its scene: for each
  * of `samples` true paths (drawn and judged admissible as by bbc_validate_tuple), the
- * path's cell (bbc_cache_lookup at its u_k) must list the tuple with a bound of at
+ * path's cell (bbc_cache_lookup at its u_k; for a receiver plane, at its position, as
+ * the renderer looks up any triangle of the plane, and only for paths landing on the
+ * plane's grid: the others miss the mesh) must list the tuple with a bound of at
  * least the path's irradiance times the light's brightest channel and the cache's m.
  * tuple_id is the tuple's id in the cache, or -1 for a candidate tuple the precompute
  * did not store, which must then have no admissible path at all. A missing entry counts

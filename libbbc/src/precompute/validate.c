@@ -429,11 +429,14 @@ bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *c
       record_failure(&local, tuple, i, BBC_VALIDATION_DISCARDED, &path, NULL);
       continue;
     }
+    /* The renderer's lookup: a plane's point is located by its position, whichever of
+     * the plane's triangles it lies on. */
+    const uint32_t at = bbc_receiver_is_plane(tuple->receiver)
+                            ? scene->meshes[bbc_receiver_plane_mesh(tuple->receiver)].first_triangle
+                            : tuple->receiver;
     const bbc_cache_entry *entries = NULL;
     uint32_t n = 0;
-    if ((r = bbc_cache_lookup(cursor, tuple->receiver, path.uk[0], path.uk[1], &path.xk, &entries,
-                              &n)) !=
-        BBC_OK)
+    if ((r = bbc_cache_lookup(cursor, at, path.uk[0], path.uk[1], &path.xk, &entries, &n)) != BBC_OK)
       return r;
     const bbc_cache_entry *found = NULL;
     for (uint32_t k = 0; k < n && !found; k++)
