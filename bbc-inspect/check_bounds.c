@@ -17,10 +17,12 @@
 
 static void print_failure(const char *label, const bbc_validation_failure *f, FILE *out) {
   static const char *const kinds[] = {"position", "upper", "lower", "discarded", "uncovered"};
+  char receiver[24];
   fprintf(out,
-          "%s: first failure: tuple (light %u, T1 %u, receiver %u), sample %u, u1 (%.9g, %.9g), "
+          "%s: first failure: tuple (light %u, T1 %u, receiver %s), sample %u, u1 (%.9g, %.9g), "
           "uk (%.9g, %.9g), irradiance %.9g, kinds",
-          label, f->tuple.light, f->tuple.specular[0], f->tuple.receiver, f->sample, f->u1[0],
+          label, f->tuple.light, f->tuple.specular[0],
+          inspect_receiver_text(f->tuple.receiver, receiver, sizeof receiver), f->sample, f->u1[0],
           f->u1[1], f->uk[0], f->uk[1], f->irradiance);
   int n = 0;
   for (int k = 0; k < 5; k++)

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "inspect.h"
+#include "bbc/tuple.h"
 
 bbc_cache *inspect_open_cache(const char *path) {
   bbc_cache_options o = {cli_print_first_message, NULL, 0};
@@ -56,4 +57,12 @@ int inspect_is_cache(const char *path) {
   size_t n = fread(head, 1, sizeof head, f);
   fclose(f);
   return n == sizeof head && memcmp(head, magic, sizeof head) == 0;
+}
+
+const char *inspect_receiver_text(uint32_t receiver, char *out, size_t size) {
+  if (bbc_receiver_is_plane(receiver))
+    snprintf(out, size, "plane:%u", bbc_receiver_plane_mesh(receiver));
+  else
+    snprintf(out, size, "%u", receiver);
+  return out;
 }

@@ -50,13 +50,14 @@ int cmd_dump(cli_args *a, const char *path) {
   printf("# tuple chain light T1 T2 receiver bound\n");
   for (uint32_t i = 0; i < n; i++) {
     const bbc_tuple *u = &t[e[i].tuple];
-    char t2[16];
+    char t2[16], receiver[24];
     if (u->specular[1] == BBC_NO_TRIANGLE)
       snprintf(t2, sizeof t2, "-");
     else
       snprintf(t2, sizeof t2, "%u", u->specular[1]);
-    printf("%u %s %u %u %s %u %.9g\n", e[i].tuple, bbc_chain_name((bbc_chain)u->chain), u->light,
-           u->specular[0], t2, u->receiver, (double)e[i].bound);
+    printf("%u %s %u %u %s %s %.9g\n", e[i].tuple, bbc_chain_name((bbc_chain)u->chain), u->light,
+           u->specular[0], t2, inspect_receiver_text(u->receiver, receiver, sizeof receiver),
+           (double)e[i].bound);
   }
   bbc_cache_cursor_free(cur);
   bbc_cache_close(c);

@@ -24,6 +24,9 @@ const char *inspect_chains_text(uint32_t mask, char *out, size_t size);
 int inspect_is_cache(const char *path);
 /* --threads N, when given. */
 void inspect_set_threads(const cli_args *a, const char *text);
+/* A tuple's receiver field as text: the triangle's index, or "plane:M" for the plane
+ * of receiver mesh M. */
+const char *inspect_receiver_text(uint32_t receiver, char *out, size_t size);
 /* --receiver R of the cache's grid. */
 uint32_t inspect_parse_receiver(const cli_args *a, const char *text, const bbc_grid *g);
 
