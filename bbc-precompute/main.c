@@ -1,5 +1,8 @@
 /* bbc-precompute: bounds the caustics of a glTF scene into a .bbc cache. */
 #define _POSIX_C_SOURCE 200809L
+#include <math.h>
+#include <omp.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -9,6 +12,7 @@
 
 #include "bbc/bbc.h"
 #include "bbc/precompute.h"
+#include "budget.h"
 #include "cli.h"
 
 static const char usage[] =
@@ -77,6 +81,15 @@ static const char help[] =
     "Execution:\n"
     "  --threads N           worker threads (default: every core); the cache is\n"
     "                        byte-identical for any thread count\n"
+    "  --memory MB           the memory budget (default: 3/4 of the memory available when\n"
+    "                        the run starts: MemAvailable, or the cgroup's memory limit\n"
+    "                        if lower). The address space is limited to it plus what\n"
+    "                        the program maps itself (libraries; per thread a stack, a\n"
+    "                        malloc heap and the bounder's 256 MB workspace; see\n"
+    "                        --stats), so that going beyond it fails with one line\n"
+    "                        (exit 1, no output) instead of the kernel killing the run.\n"
+    "                        A grid whose least memory exceeds it is refused before any\n"
+    "                        work; a lower ulimit -v is kept\n"
     "  --entry-memory MB     memory for grid entries (default 8); beyond it they are\n"
     "                        spilled to a temporary file in $TMPDIR (or /tmp), deleted\n"
     "                        on any exit; the cache does not depend on it\n"
@@ -90,8 +103,8 @@ static const char help[] =
     "  --version             print versions and exit\n"
     "  -h, --help            print this help and exit\n"
     "\n"
-    "Exit status: 0 on success, 1 on a runtime failure (bad scene, I/O), 2 on bad usage,\n"
-    "130 when interrupted (no output is left behind).\n";
+    "Exit status: 0 on success, 1 on a runtime failure (bad scene, I/O, out of memory\n"
+    "within the budget), 2 on bad usage, 130 when interrupted (no output is left behind).\n";
 
 static int on_progress(void *user, uint64_t done, uint64_t total) {
   char detail[64];
@@ -123,6 +136,44 @@ static void parse_shard(const char *text, uint32_t *index, uint32_t *count) {
                     v[1] - 1);
   *index = (uint32_t)v[0];
   *count = (uint32_t)v[1];
+}
+
+/* --memory MB: a number from 1 to BUDGET_MAX_MB; anything else is a usage error. */
+static double parse_memory(const cli_args *a, const char *text) {
+  const double mb = cli_parse_double(a, "--memory", text, -HUGE_VAL, HUGE_VAL);
+  if (mb < 1) cli_usage_error(usage, "--memory: %s MB is too small a budget (at least 1)", text);
+  if (mb > BUDGET_MAX_MB)
+    cli_usage_error(usage, "--memory: %s MB is beyond any machine's memory (at most %.0f, 1 PiB)",
+                    text, BUDGET_MAX_MB);
+  return mb;
+}
+
+/* What the line of a failure needs to know about the run. */
+typedef struct run_context {
+  const budget *memory;
+  const char *scene, *output;
+  const char *phase; /* "while precomputing" etc.; NULL for the up-front check */
+} run_context;
+
+/* libbbc's messages, one line each. Running out of memory is the budget's doing (the
+ * address-space limit makes the allocation past it fail), so that line says the budget
+ * was exceeded and how to change it, once, whichever thread met it first. */
+static void on_error(void *user, bbc_result code, const char *message) {
+  static atomic_flag said = ATOMIC_FLAG_INIT;
+  const run_context *run = user;
+  if (code != BBC_ERR_OUT_OF_MEMORY) {
+    cli_print_message(NULL, code, message);
+    return;
+  }
+  if (atomic_flag_test_and_set(&said)) return;
+  const char *option = run->memory->kept ? "ulimit -v" : "--memory";
+  if (!run->phase)
+    fprintf(stderr, "%s: %s (%s)\n", cli_tool, message, option);
+  else
+    fprintf(stderr,
+            "%s: %s: out of memory within the budget of %.0f MB (%s) %s; %s was not "
+            "written\n",
+            cli_tool, run->scene, run->memory->mb, option, run->phase, run->output);
 }
 
 static int has_caster(const bbc_scene *scene) {
@@ -200,6 +251,7 @@ int main(int argc, char **argv) {
   memset(&options, 0, sizeof options);
   bbc_precompute_params_default(&options.params);
   int progress = -1, stats = 0, allow_empty = 0, no_geometry = 0, alpha_area_given = 0;
+  double memory_mb = 0; /* --memory; 0: the default */
   bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
 
   while (a.i < argc) {
@@ -259,6 +311,8 @@ int main(int argc, char **argv) {
       light_units = cli_parse_light_units(&a, "--light-units", value);
     } else if (cli_option(&a, "--threads", &value)) {
       options.threads = (int)cli_parse_int(&a, "--threads", value, 1, 1024);
+    } else if (cli_option(&a, "--memory", &value)) {
+      memory_mb = parse_memory(&a, value);
     } else if (cli_option(&a, "--entry-memory", &value)) {
       double mb = cli_parse_double(&a, "--entry-memory", value, 1e-6, 1e6);
       options.entry_memory = (size_t)(mb * 1048576.0);
@@ -286,14 +340,23 @@ int main(int argc, char **argv) {
   if (options.params.area_double && !(options.params.chains & BBC_CHAIN_MASK_DOUBLE))
     cli_usage_error(usage, "--area-double needs a double-scattering chain type in --chains");
 
+  /* The budget holds from here on, the scene's loading included. */
+  budget memory = {0};
+  memory.source = memory_mb > 0 ? "--memory" : "default";
+  memory.requested_mb = memory.mb = memory_mb > 0 ? memory_mb : budget_default_mb(&memory.basis);
+  budget_allowances(&memory, options.threads > 0 ? options.threads : omp_get_max_threads());
+  if (budget_enforce(&memory) != 0) return 1;
+  run_context run = {&memory, scene_path, output, "while loading the scene"};
+
   cli_catch_interrupts();
 
   double start = cli_now();
-  bbc_scene_options scene_options = {cli_print_message, cli_print_warning, NULL, light_units};
+  bbc_scene_options scene_options = {on_error, cli_print_warning, &run, light_units};
   bbc_scene *scene = NULL;
   if (bbc_scene_load(&scene, scene_path, &scene_options) != BBC_OK) return 1;
-  if (bbc_cache_check_resources(scene, &options.params, output, cli_print_message, NULL) !=
-      BBC_OK) {
+  run.phase = NULL;
+  if (bbc_cache_check_resources(scene, &options.params, output, (uint64_t)(memory.mb * 1048576.0),
+                                on_error, &run) != BBC_OK) {
     bbc_scene_free(scene);
     return 1;
   }
@@ -302,7 +365,9 @@ int main(int argc, char **argv) {
   cli_progress_begin(&bar, "bounding", progress);
   options.progress = on_progress;
   options.progress_user = &bar;
-  options.error_fn = cli_print_message;
+  options.error_fn = on_error;
+  options.user = &run;
+  run.phase = "while precomputing";
   bbc_cache_builder *builder = NULL;
   bbc_precompute_stats st;
   bbc_result r = bbc_precompute(&builder, scene, &options, &st);
@@ -334,10 +399,13 @@ int main(int argc, char **argv) {
     fprintf(stderr, "bbc-precompute: warning: %s: %s; the cache holds no tuples\n", scene_path,
             empty);
   }
+  budget_enter_writing(&memory);
   double w0 = cli_now();
   bbc_cache_write_options write_options;
   memset(&write_options, 0, sizeof write_options);
-  write_options.error_fn = cli_print_message;
+  write_options.error_fn = on_error;
+  write_options.user = &run;
+  run.phase = "while writing the cache";
   write_options.progress_fn = cli_poll_interrupt;
   write_options.omit_geometry = no_geometry;
   r = bbc_cache_builder_write(builder, output, &write_options);
@@ -383,6 +451,24 @@ int main(int argc, char **argv) {
     used = strlen(per_chain);
     snprintf(per_chain + used, sizeof per_chain - used, "%s%s %llu", used ? ", " : "", name, n);
   }
+  /* The budget, and the address-space limit that enforced it (or the user's, kept). */
+  char budget_text[320], asked[96];
+  if (memory.basis)
+    snprintf(asked, sizeof asked, "default: 3/4 of %s", memory.basis);
+  else
+    snprintf(asked, sizeof asked, "--memory");
+  if (memory.kept)
+    snprintf(budget_text, sizeof budget_text,
+             "%.0f MB: the address-space limit of %.0f MB (ulimit -v) was kept, lower than "
+             "the %.0f MB asked (%s) plus %.0f MB for the program's own mappings",
+             memory.mb, memory.limit_mb, memory.requested_mb, asked, memory.allowance_mb);
+  else if (memory.limit_mb > 0)
+    snprintf(budget_text, sizeof budget_text,
+             "%.0f MB (%s); address space limited to %.0f MB: that plus %.0f MB for the "
+             "program's own mappings (%.0f MB while writing)",
+             memory.mb, asked, memory.limit_mb, memory.allowance_mb, memory.writing_mb);
+  else
+    snprintf(budget_text, sizeof budget_text, "%.0f MB (%s), not enforced", memory.mb, asked);
   if (stats) {
     fprintf(stderr,
             "time              %.3f s total: tuples %.3f s, bounding %.3f s (position %.0f%%, "
@@ -394,6 +480,7 @@ int main(int argc, char **argv) {
             "pieces per tuple  position %.2f, irradiance %.2f, kept %.2f\n"
             "grid entries      %llu (%u runs, %.1f MB spilled to a temporary file)\n"
             "file              %lld bytes (%.2f MB)\n"
+            "memory budget     %s\n"
             "peak memory       %.1f MB\n",
             total, st.construction_seconds, st.bounding_seconds, 100 * pos_share,
             100 * (1 - pos_share), st.recording_seconds, write_seconds, st.threads,
@@ -401,9 +488,9 @@ int main(int argc, char **argv) {
             100 * (1 - pos_share) * st.bounding_seconds / bound_total,
             100 * st.recording_seconds / bound_total, (unsigned long long)st.tuples,
             (unsigned long long)st.candidate_tuples, per_chain, shard_text, st.second_per_first,
-            st.position_pieces / tuples,
-            st.irradiance_pieces / tuples, st.kept_pieces / tuples, (unsigned long long)st.entries,
-            st.spill_runs, st.spill_bytes / 1e6, file_size, file_size / 1e6, peak_mb);
+            st.position_pieces / tuples, st.irradiance_pieces / tuples, st.kept_pieces / tuples,
+            (unsigned long long)st.entries, st.spill_runs, st.spill_bytes / 1e6, file_size,
+            file_size / 1e6, budget_text, peak_mb);
   }
   if (json) {
     FILE *f = fopen(json, "w");
@@ -418,13 +505,15 @@ int main(int argc, char **argv) {
             "  \"tuples\": %llu,\n%s  \"second_per_first\": %.4f,\n"
             "  \"position_pieces_per_tuple\": %.4f,\n  \"irradiance_pieces_per_tuple\": %.4f,\n"
             "  \"entries\": %llu,\n  \"spill_bytes\": %llu,\n  \"file_bytes\": %lld,\n"
-            "  \"process_cpu_seconds\": %.3f,\n  \"peak_memory_mb\": %.1f\n}\n",
+            "  \"process_cpu_seconds\": %.3f,\n  \"memory_budget_mb\": %.1f,\n"
+            "  \"memory_budget_source\": \"%s\",\n  \"memory_allowance_mb\": %.1f,\n"
+            "  \"address_space_limit_mb\": %.1f,\n  \"peak_memory_mb\": %.1f\n}\n",
             total, st.construction_seconds, st.bounding_seconds, st.position_cpu_seconds,
             st.irradiance_cpu_seconds, st.recording_seconds, write_seconds, st.threads,
             (unsigned long long)st.candidate_tuples, (unsigned long long)st.tuples, json_chains,
-            st.second_per_first, st.position_pieces / tuples,
-            st.irradiance_pieces / tuples, (unsigned long long)st.entries,
-            (unsigned long long)st.spill_bytes, file_size, process_cpu, peak_mb);
+            st.second_per_first, st.position_pieces / tuples, st.irradiance_pieces / tuples,
+            (unsigned long long)st.entries, (unsigned long long)st.spill_bytes, file_size,
+            process_cpu, memory.mb, memory.source, memory.allowance_mb, memory.limit_mb, peak_mb);
     if (fclose(f) != 0) cli_fail("%s: cannot write the statistics", json);
   }
   return 0;

@@ -24,7 +24,7 @@ test_degenerate_receiver_cache_is_valid() {
 test_help_documents_every_flag() {
   expect_status 0 "$PRECOMPUTE" --help
   for flag in --output --stats --json --chains --max-level --sigma --alpha --alpha2 --alpha-area --m --resolution \
-              --no-remainder --jacobian --threads --entry-memory --progress --no-progress \
+              --no-remainder --jacobian --threads --memory --entry-memory --progress --no-progress \
               --version --help --allow-empty --light-units; do
     grep -q -- "$flag" "$TMP/out" || fail "--help does not mention $flag"
   done
@@ -75,10 +75,11 @@ test_writes_cache_with_stats_and_json() {
     --no-progress --max-level 6
   [ -s "$TMP/m.bbc" ] || fail "no cache"
   head -c 4 "$TMP/m.bbc" | grep -q "BBC" || fail "no magic"
-  for word in tuples pieces file memory; do
+  for word in tuples pieces file "memory budget" "peak memory"; do
     grep -q "$word" "$TMP/err" || fail "--stats lacks $word"
   done
   grep -q '"tuples"' "$TMP/m.json" || fail "JSON lacks tuples"
+  grep -q '"memory_budget_mb"' "$TMP/m.json" || fail "JSON lacks the memory budget"
   [ -s "$TMP/out" ] && fail "stdout is not empty"
   ls "$TMP" | grep -q tmp && fail "a temporary file was left behind"
   return 0
@@ -223,7 +224,79 @@ test_full_disk_during_write_leaves_no_file() {
   [ -s "$TMP/f.bbc" ] || fail "control: no cache written"
 }
 
-"test_$1"
+# The memory budget (--memory): a grid whose least memory (28 bytes per cell: 512 x 512
+# cells of the mirror's floor, 7.0 MiB) exceeds it is refused before any work, in one
+# line with the estimate; a budget above it (the control) lets the precompute run.
+test_memory_budget_below_the_estimate_is_refused() {
+  expect_status 1 "$PRECOMPUTE" "$MIRROR" -o "$TMP/m.bbc" --memory 4 --no-progress
+  grep -q "262144 cells at grid resolution 512 need at least 7.0 MiB of memory .*more than the memory budget of 4.0 MiB.*(--memory)$" \
+    "$TMP/err" || fail "message: $(cat "$TMP/err")"
+  [ "$(wc -l <"$TMP/err")" -eq 1 ] || fail "more than one line: $(cat "$TMP/err")"
+  [ "$(ls "$TMP" | tr '\n' ' ')" = "err out " ] || fail "files left behind: $(ls "$TMP")"
+  expect_status 0 "$PRECOMPUTE" "$MIRROR" -o "$TMP/m.bbc" --memory 16 --max-level 4 --no-progress
+  [ -s "$TMP/m.bbc" ] || fail "control: no cache written"
+}
+
+# AddressSanitizer reserves its shadow and its heap's address space when it starts, so
+# RLIMIT_AS does not limit its allocations and a ulimit -v stops it from starting: the
+# budget is not enforced in a sanitizer build, whose runs skip the checks that need it.
+sanitized() { ASAN_OPTIONS=help=1 "$PRECOMPUTE" --version 2>&1 | grep -q AddressSanitizer; }
+
+# An allocation beyond the budget fails inside the process (RLIMIT_AS) instead of the
+# kernel's OOM killer ending it: one line naming the budget and --memory, exit 1, no
+# file. plane1k at resolution 768 passes the up-front check (590k cells, 16 MiB) but
+# keeps its 25 million entries in memory (--entry-memory 1000), about 270 MB. One
+# OpenMP thread, so that the allowance for the program's own mappings (a stack and a
+# malloc heap per core) leaves the same room whatever the machine's cores.
+test_memory_budget_exceeded_fails_in_one_line() {
+  sanitized && return 0
+  expect_status 1 env OMP_NUM_THREADS=1 "$PRECOMPUTE" "$BBC_TEST_SCENES/plane1k.gltf" \
+    -o "$TMP/p.bbc" --chains R --max-level 3 --resolution 768 --threads 1 \
+    --entry-memory 1000 --memory 64 --no-progress
+  grep -q "^bbc-precompute: .*plane1k.gltf: out of memory within the budget of 64 MB (--memory) while precomputing; $TMP/p.bbc was not written$" \
+    "$TMP/err" || fail "message: $(cat "$TMP/err")"
+  [ "$(wc -l <"$TMP/err")" -eq 1 ] || fail "more than one line: $(cat "$TMP/err")"
+  [ "$(ls "$TMP" | tr '\n' ' ')" = "err out " ] || fail "files left behind: $(ls "$TMP")"
+}
+
+test_memory_budget_bad_values_exit_2() {
+  for bad in 0 -5 0.5 abc 12MB "" nan inf 1e30 2000000000; do
+    expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --memory "$bad"
+    grep -q "^bbc-precompute: --memory: " "$TMP/err" || fail "'$bad': $(cat "$TMP/err")"
+  done
+  expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --memory
+  [ -e "$TMP/x.bbc" ] && fail "an output was written"
+  return 0
+}
+
+# A lower address-space limit (ulimit -v) is kept, and --stats and --json say so: the
+# budget is what it leaves beside the program's own mappings (memory_allowance_mb of a
+# first run), 200 MB here; a limit below those mappings is refused in one line.
+test_memory_budget_keeps_a_lower_ulimit() {
+  expect_status 0 "$PRECOMPUTE" "$MIRROR" -o "$TMP/a.bbc" --max-level 4 --no-progress \
+    --memory 64 --stats --json "$TMP/a.json"
+  grep -q "^memory budget  *64 MB (--memory); address space limited to" "$TMP/err" ||
+    fail "--stats: $(grep budget "$TMP/err")"
+  grep -q '"memory_budget_mb": 64.0,' "$TMP/a.json" || fail "JSON: $(cat "$TMP/a.json")"
+  grep -q '"memory_budget_source": "--memory",' "$TMP/a.json" || fail "JSON: $(cat "$TMP/a.json")"
+  allowance=$(sed -n 's/.*"memory_allowance_mb": \([0-9]*\).*/\1/p' "$TMP/a.json")
+  [ -n "$allowance" ] || fail "no allowance in the JSON: $(cat "$TMP/a.json")"
+  sanitized && return 0
+  (ulimit -v $(((allowance + 200) * 1024)) && "$PRECOMPUTE" "$MIRROR" -o "$TMP/b.bbc" \
+    --max-level 4 --no-progress --memory 100000 --stats --json "$TMP/b.json" \
+    >"$TMP/out" 2>"$TMP/err") || fail "under ulimit -v: $(cat "$TMP/err")"
+  grep -Eq "^memory budget +(19[0-9]|20[0-9]) MB: the address-space limit of $((allowance + 200)) MB \(ulimit -v\) was kept" \
+    "$TMP/err" || fail "--stats: $(grep budget "$TMP/err")"
+  grep -q '"memory_budget_source": "ulimit -v",' "$TMP/b.json" || fail "JSON: $(cat "$TMP/b.json")"
+  (ulimit -v $((allowance / 2 * 1024)) && "$PRECOMPUTE" "$MIRROR" -o "$TMP/c.bbc" \
+    --no-progress >"$TMP/out" 2>"$TMP/err")
+  status=$?
+  [ "$status" -eq 1 ] || fail "exit status $status under a tiny ulimit: $(cat "$TMP/err")"
+  grep -q "^bbc-precompute: the address-space limit of .* MB (ulimit -v) leaves no room" "$TMP/err" ||
+    fail "message: $(cat "$TMP/err")"
+  [ -e "$TMP/c.bbc" ] && fail "an output was written"
+  return 0
+}
 
 # A scene re-exported with float noise and another triangle order still renders from
 # its cache, with a note, and exactly as the original scene does (the cache's geometry is
@@ -247,3 +320,5 @@ test_noisy_reexport_renders_from_the_cache() {
   [ -e "$TMP/m.exr" ] && fail "an image was written for a changed scene"
   return 0
 }
+
+"test_$1"

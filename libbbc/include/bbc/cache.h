@@ -128,16 +128,16 @@ BBC_API uint64_t bbc_cache_builder_entry_count(bbc_cache_builder *b);
 
 /* Refuses, before anything large is allocated, a precompute of `scene` with `params`
  * whose cache cannot fit: the least memory it needs (the builder's list head per cell
- * and the writer's cell index, 12 bytes per cell, whatever the tuples) against the
- * machine's physical memory, and the least file size (the sections without any cell
- * list; the cell index alone is 12 bytes per cell) against the free space of the
- * directory of `output` (skipped when output is NULL). One line with the estimates
- * through error_fn; BBC_ERR_OUT_OF_MEMORY or BBC_ERR_IO. The actual need grows with
- * the entries, so passing is no guarantee. */
+ * and the writer's cell index, 12 bytes per cell, whatever the tuples) against
+ * `memory_budget` bytes (0: the machine's physical memory), and the least file size
+ * (the sections without any cell list; the cell index alone is 12 bytes per cell)
+ * against the free space of the directory of `output` (skipped when output is NULL).
+ * One line with the estimates through error_fn; BBC_ERR_OUT_OF_MEMORY or BBC_ERR_IO.
+ * The actual need grows with the entries, so passing is no guarantee. */
 BBC_API bbc_result bbc_cache_check_resources(const bbc_scene *scene,
                                              const bbc_precompute_params *params,
-                                             const char *output, bbc_message_fn error_fn,
-                                             void *user);
+                                             const char *output, uint64_t memory_budget,
+                                             bbc_message_fn error_fn, void *user);
 
 typedef struct bbc_cache_write_options {
   bbc_message_fn error_fn; /* optional: details of a failure */

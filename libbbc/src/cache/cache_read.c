@@ -708,7 +708,10 @@ bbc_result bbc_cache_open(bbc_cache **out, const char *path, const bbc_cache_opt
       int e = errno;
       close(fd);
       bbc_cache_close(c);
-      return bbc__report(fn, user, BBC_ERR_IO, "%s: cannot map: %s", path, strerror(e));
+      /* ENOMEM: the address space is full (an RLIMIT_AS such as bbc-precompute's
+       * --memory), which is no fault of the file. */
+      return bbc__report(fn, user, e == ENOMEM ? BBC_ERR_OUT_OF_MEMORY : BBC_ERR_IO,
+                         "%s: cannot map: %s", path, strerror(e));
     }
     c->map = m;
     c->map_size = (size_t)st.st_size;

@@ -1,6 +1,7 @@
 /* Resource limits of a precompute, checked before anything large is allocated: the
  * least memory and file size a cache of the scene's receiver grids needs, whatever its
- * tuples, against the machine's physical memory and the output directory's free space. */
+ * tuples, against the caller's memory budget (or the machine's physical memory) and the
+ * output directory's free space. */
 #define _POSIX_C_SOURCE 200809L
 #include <stdio.h>
 #include <string.h>
@@ -40,7 +41,8 @@ static double free_bytes_beside(const char *path) {
 }
 
 bbc_result bbc_cache_check_resources(const bbc_scene *scene, const bbc_precompute_params *params,
-                                     const char *output, bbc_message_fn error_fn, void *user) {
+                                     const char *output, uint64_t memory_budget,
+                                     bbc_message_fn error_fn, void *user) {
   if (!scene || !params) return BBC_ERR_INVALID_ARGUMENT;
   bbc_grid *grid = NULL;
   bbc_result r = bbc_grid_create(&grid, scene, params->grid_resolution, error_fn, user);
@@ -55,7 +57,14 @@ bbc_result bbc_cache_check_resources(const bbc_scene *scene, const bbc_precomput
   long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
   double physical = pages > 0 && page > 0 ? (double)pages * (double)page : -1;
   char a[32], b[32];
-  if (physical > 0 && memory > physical)
+  if (memory_budget > 0 && memory > (double)memory_budget)
+    return bbc__report(error_fn, user, BBC_ERR_OUT_OF_MEMORY,
+                       "%s: %.0f cells at grid resolution %u need at least %s of memory "
+                       "(%.0f bytes per cell before any entry), more than the memory budget "
+                       "of %s: lower the resolution or raise the budget",
+                       scene->path, cells, params->grid_resolution, human(memory, a), per_cell,
+                       human((double)memory_budget, b));
+  if (memory_budget == 0 && physical > 0 && memory > physical)
     return bbc__report(error_fn, user, BBC_ERR_OUT_OF_MEMORY,
                        "%s: %.0f cells at grid resolution %u need at least %s of memory "
                        "(%.0f bytes per cell before any entry); this machine has %s: "

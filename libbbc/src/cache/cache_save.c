@@ -19,14 +19,19 @@ typedef struct relay {
   int said;
 } relay;
 
-/* The validator's first line, as a writer bug about the target path. */
+/* The validator's first line, as a writer bug about the target path (running out of
+ * memory to check the file is not one). */
 static void relay_message(void *user, bbc_result code, const char *message) {
   relay *r = user;
   const bbc_cache_write_options *o = r->job->o;
   if (r->said++ || !o || !o->error_fn) return;
-  bbc__report(o->error_fn, o->user, code,
-              "%s: not written: the cache fails its own validation (a bug in bbc): %s",
-              r->job->path, message);
+  if (code == BBC_ERR_OUT_OF_MEMORY)
+    bbc__report(o->error_fn, o->user, code, "%s: not written: out of memory to check it: %s",
+                r->job->path, message);
+  else
+    bbc__report(o->error_fn, o->user, code,
+                "%s: not written: the cache fails its own validation (a bug in bbc): %s",
+                r->job->path, message);
 }
 
 static bbc_result save_file(void *ctx, const char *tmp_path) {
