@@ -40,7 +40,7 @@ typedef struct bvh {
   bvh_node *nodes;
   uint32_t node_count;
   uint32_t *order;
-  double (*plane_box)[6]; /* per mesh: lo, hi of a plane's triangles (receivers) */
+  double (*mesh_box)[6]; /* per mesh: lo, hi of its triangles */
 } bvh;
 
 static void triangle_bounds(const bbc_scene *scene, uint32_t t, double lo[3], double hi[3]) {
@@ -63,7 +63,7 @@ static void item_bounds(const bvh *b, const bbc_scene *scene, uint32_t item, dou
     triangle_bounds(scene, item, lo, hi);
     return;
   }
-  const double *box = b->plane_box[bbc_receiver_plane_mesh(item)];
+  const double *box = b->mesh_box[bbc_receiver_plane_mesh(item)];
   for (int a = 0; a < 3; a++) lo[a] = box[a], hi[a] = box[3 + a];
 }
 
@@ -298,24 +298,19 @@ static bbc_result beam_hits(bbc_arena *arena, const beam *b, const triangle_plan
  * (bbc_mesh.plane) is one item, its plane, boxed by its triangles. */
 static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role) {
   memset(b, 0, sizeof *b);
-  b->plane_box = malloc((scene->mesh_count ? scene->mesh_count : 1) * sizeof *b->plane_box);
-  if (!b->plane_box) return BBC_ERR_OUT_OF_MEMORY;
+  b->mesh_box = malloc((scene->mesh_count ? scene->mesh_count : 1) * sizeof *b->mesh_box);
+  if (!b->mesh_box) return BBC_ERR_OUT_OF_MEMORY;
   uint32_t n = 0;
   for (uint32_t m = 0; m < scene->mesh_count; m++) {
     const bbc_mesh *mesh = &scene->meshes[m];
-    if (mesh->role != role) continue;
-    if (mesh->plane == 0) {
-      n += mesh->triangle_count;
-      continue;
-    }
-    double *box = b->plane_box[m];
+    double *box = b->mesh_box[m];
     for (int a = 0; a < 3; a++) box[a] = INFINITY, box[3 + a] = -INFINITY;
     for (uint32_t t = mesh->first_triangle; t < mesh->first_triangle + mesh->triangle_count; t++) {
       double lo[3], hi[3];
       triangle_bounds(scene, t, lo, hi);
       for (int a = 0; a < 3; a++) box[a] = fmin(box[a], lo[a]), box[3 + a] = fmax(box[3 + a], hi[a]);
     }
-    n++;
+    if (mesh->role == role) n += mesh->plane ? 1 : mesh->triangle_count;
   }
   if (n == 0) return BBC_OK;
   b->order = malloc(n * sizeof *b->order);
@@ -339,7 +334,7 @@ static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role) {
 static void bvh_free(bvh *b) {
   free(b->nodes);
   free(b->order);
-  free(b->plane_box);
+  free(b->mesh_box);
 }
 
 /* The triangles of b the beam (x, d) can meet, sorted, into found; returns their number.
@@ -365,6 +360,21 @@ static uint32_t bvh_beam(const bvh *b, const bbc_scene *scene, const bbc_ivec3 *
   }
   qsort(found, n, sizeof *found, compare_u32);
   return n;
+}
+
+/* Whether light travelling in `medium` (0 air, m + 1 inside mesh m) after the last
+ * specular vertex can reach receiver item r. Inside a closed mesh it reaches only what
+ * may lie inside: a receiver whose box misses the mesh's box lies wholly outside, and
+ * every segment to it crosses the mesh, a specular vertex more than the chain has (the
+ * medium rule, media_internal.h). Exact on the float data. */
+static int medium_reaches(const bvh *b, const bbc_scene *scene, uint32_t medium, uint32_t r) {
+  if (medium == 0 || !scene->meshes[medium - 1].closed) return 1;
+  double lo[3], hi[3];
+  item_bounds(b, scene, r, lo, hi);
+  const double *box = b->mesh_box[medium - 1];
+  for (int a = 0; a < 3; a++)
+    if (hi[a] < box[a] || lo[a] > box[3 + a]) return 0;
+  return 1;
 }
 
 /* The chain letter of a specular material: 0 mirror (R), 1 dielectric (T), -1 neither. */
@@ -592,6 +602,7 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const b
   if (chains & (1u << single)) {
     uint32_t n = bvh_beam(receivers, scene, &whole_beam.x, &whole_beam.d, s->stack, s->found);
     for (uint32_t i = 0; i < n && result == BBC_OK; i++) {
+      if (!medium_reaches(receivers, scene, medium, s->found[i])) continue;
       tuple.receiver = s->found[i];
       if (!tuple_push(list, &tuple)) result = BBC_ERR_OUT_OF_MEMORY;
     }
@@ -672,8 +683,12 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const b
     if ((result = bbc_tuple_geometry_init(&g2, scene, &pair)) != BBC_OK) break;
     bbc_ivec3 x2, d2;
     if (!second_beam(&g2, &s->reach[t2], &x2, &d2)) continue;
+    /* The medium after T2: a refraction enters T2's mesh from air or leaves it into
+     * air (second_refraction_possible), a reflection keeps the medium. */
+    const uint32_t last = second == 0 ? medium : medium == 0 ? scene->triangle_mesh[t2] + 1 : 0;
     uint32_t n = bvh_beam(receivers, scene, &x2, &d2, s->stack, s->found);
     for (uint32_t i = 0; i < n && result == BBC_OK; i++) {
+      if (!medium_reaches(receivers, scene, last, s->found[i])) continue;
       pair.receiver = s->found[i];
       if (!tuple_push(list, &pair)) result = BBC_ERR_OUT_OF_MEMORY;
     }
