@@ -1,0 +1,239 @@
+#!/bin/sh
+# bbc on public sample assets, as a user would try them: the Khronos glTF sample assets
+# TransmissionTest and GlassVaseFlowers in the shared scenes' real/ folder, lit as
+# real/README.md says they were when first tried. bench/real-assets-scenes.py writes a
+# new .gltf per asset into bench/work/real-assets/ that references the original .bin
+# files and images by relative URI (nothing is copied or changed) and adds a point light
+# as Blender's exporter writes a lamp of P watts (P / (4 pi) * 683 cd, photometric): 100 W
+# at (0.4, 0.9, 1.0) for TransmissionTest; for GlassVaseFlowers 20 W at (-0.13, 0.45,
+# 0.15) over a 1.2 m square floor of albedo 0.8 at y = 0 centred under it, and a camera
+# looking down at the vase with KHR_materials_volume.
+#
+#   sh bench/real-assets.sh [--runs "R T TT all"] [--probe-runs "TT"] [--memory-gb G]
+#                           [--timeout S] [--spp N] [SHARED_SCENES_DIR]
+#
+# SHARED_SCENES_DIR is the folder holding real/; by default $BBC_SHARED_DIR/scenes
+# (BBC_SHARED_DIR: the folder holding scenes/), else ../shared/scenes beside the
+# repository. Without it the script says so in one line and exits 0.
+#
+# Each asset is precomputed once per entry of --runs: a chain type (bbc-precompute
+# --chains R, T, TT, ...) or "all", the defaults (every chain type), one at a time, with
+# --threads 2, under `ulimit -v` of --memory-gb (default 8) and stopped after --timeout
+# seconds (default 600; then SIGKILL 30 s later if it has not stopped). A run that does
+# not finish is reported as such, with what it had used and how far it got (its progress
+# bar, forced on into its log: candidate tuples bounded of all; no bar means it stopped
+# while finding the candidates, before the first was bounded). A probe,
+# GlassVaseFlowers-floor, is the vase scene with the floor as its only receiver (the
+# flowers and the alpha-blended vase get role none), run for --probe-runs (default TT):
+# what the curved receivers cost. Each cache that is
+# written is rendered at 320x240 with --spp (default 4), --threads 2, under the same
+# limits, with a PNG preview beside it in bench/work/real-assets/. CPU-s are user + sys
+# of the whole process (/usr/bin/time). Writes bench/results/real-assets.md.
+set -eu
+root=$(cd "$(dirname "$0")/.." && pwd)
+runs="R T TT all"
+probe_runs="TT"
+memory_gb=8
+timeout=600
+spp=4
+scenes=""
+usage="usage: sh bench/real-assets.sh [--runs \"R T TT all\"] [--probe-runs \"TT\"] [--memory-gb G] [--timeout S] [--spp N] [SHARED_SCENES_DIR]"
+while [ $# -gt 0 ]; do
+  case $1 in
+    --runs) runs=$2; shift 2 ;;
+    --probe-runs) probe_runs=$2; shift 2 ;;
+    --memory-gb) memory_gb=$2; shift 2 ;;
+    --timeout) timeout=$2; shift 2 ;;
+    --spp) spp=$2; shift 2 ;;
+    -*) echo "$usage" >&2; exit 2 ;;
+    *) scenes=$1; shift ;;
+  esac
+done
+if [ "$memory_gb" -gt 8 ]; then
+  echo "real-assets.sh: --memory-gb $memory_gb: at most 8 on a shared machine" >&2
+  exit 2
+fi
+tool=real-assets.sh
+scale=1
+work=$root/bench/work/real-assets
+out=$root/bench/results
+. "$root/bench/lib.sh"
+scenes=$(shared_scenes "$scenes" real/README.md real/TransmissionTest/TransmissionTest.gltf \
+  real/GlassVaseFlowers/GlassVaseFlowers.gltf) || exit 0
+command -v /usr/bin/time > /dev/null || { echo "$tool: /usr/bin/time is missing" >&2; exit 1; }
+build_release "$root"
+pre=$root/build/bbc-precompute/bbc-precompute
+ren=$root/build/bbc-render/bbc-render
+mkdir -p "$work" "$out"
+commit=$(git -C "$root" rev-parse --short HEAD 2> /dev/null || echo unknown)
+changed=$(git -C "$root" status --porcelain --untracked-files=no -- . ':(exclude)bench' 2> /dev/null |
+  wc -l)
+[ "$changed" -eq 0 ] || commit="$commit (uncommitted changes in $changed files outside bench/)"
+load_start=$(cut -d' ' -f1-3 /proc/loadavg)
+python3 "$root/bench/real-assets-scenes.py" "$scenes/real" "$work" > /dev/null
+assets="TransmissionTest GlassVaseFlowers GlassVaseFlowers-floor"
+# runs_of ASSET: the runs of that asset.
+runs_of() { if [ "$1" = GlassVaseFlowers-floor ]; then echo "$probe_runs"; else echo "$runs"; fi; }
+limit_kb=$((memory_gb * 1024 * 1024))
+
+# field JSON KEY: a number of a --json statistics file.
+field() { sed -n "s/^ *\"$2\": \([0-9.e+-]*\),\{0,1\}$/\1/p" "$1"; }
+
+# limited TIMEFILE LOG CMD...: runs CMD under `ulimit -v` and the timeout, stdout and
+# stderr to LOG, "user sys wall maxrss-KB" to TIMEFILE; prints its status: ok,
+# "timeout S s", "out of memory (G GB)" or "failed (...)".
+limited() {
+  tf=$1
+  lg=$2
+  shift 2
+  if (ulimit -v "$limit_kb" &&
+    exec /usr/bin/time -f '%U %S %e %M' -o "$tf" timeout -k 30 "$timeout" "$@") > "$lg" 2>&1; then
+    echo ok
+  elif grep -Eq "Command exited with non-zero status (124|137)" "$tf"; then
+    echo "timeout ${timeout} s"
+  elif grep -qi "out of memory\|bad_alloc\|cannot allocate" "$lg"; then
+    echo "out of memory (${memory_gb} GB)"
+  elif grep -q "the cache would hold no tuple" "$lg"; then
+    echo "no tuple: $(sed -n 's/.*the cache would hold no tuple: \([^;]*\);.*/\1/p' "$lg" | head -1)"
+  else
+    echo "failed ($(grep -v '^Command' "$tf" | head -1 | sed 's/^Command //'; tr '\r' '\n' < "$lg" |
+      grep -v '^bounding \[' | grep -v warning | tail -1 | cut -c1-120))"
+  fi
+}
+
+# times TIMEFILE: "CPU-s wall-s RSS-MB" of a limited run.
+times_of() {
+  grep -v '^Command' "$1" | tail -1 |
+    awk '{ printf "%.2f %.1f %.0f", $1 + $2, $3, $4 / 1024 }'
+}
+
+# progress LOG: the last state of the progress bar ("42% 1234/5678 tuples, 1m20s"),
+# empty if bounding had not begun.
+progress() {
+  tr '\r' '\n' < "$1" | sed 's/\x1b\[K//g' | grep '^bounding \[' | tail -1 |
+    sed -n 's/^bounding \[[#.]*\] *\([0-9]*%\) *\([^ ]*\) elapsed.*  \([0-9]*\/[0-9]*\) tuples.*/\1, \3 candidate tuples bounded after \2/p'
+}
+
+rows=$work/rows
+notes=$work/notes
+: > "$rows"
+: > "$notes"
+for asset in $assets; do
+  scene=$work/$asset-lit.gltf
+  for run in $(runs_of "$asset"); do
+    name=$asset-$run
+    if [ "$run" = all ]; then chains=""; label="all (default)"; else chains="--chains $run"; label=$run; fi
+    echo "$tool: $asset, $label: precompute (at most ${timeout} s, ${memory_gb} GB)" >&2
+    rm -f "$work/$name.bbc" "$work/$name.json" "$work/$name.exr" "$work/$name.png"
+    # shellcheck disable=SC2086
+    status=$(limited "$work/$name.time" "$work/$name.log" "$pre" "$scene" -o "$work/$name.bbc" \
+      --threads 2 --progress --json "$work/$name.json" $chains)
+    # shellcheck disable=SC2046 # split into fields on purpose
+    set -- $(times_of "$work/$name.time")
+    cpu=$1 wall=$2 rss=$3
+    candidates=- tuples=- mb=- render=- note=
+    if [ "$status" = ok ] && [ -f "$work/$name.json" ]; then
+      j=$work/$name.json
+      candidates=$(field "$j" candidate_tuples)
+      tuples=$(field "$j" tuples)
+      mb=$(awk -v b="$(field "$j" file_bytes)" 'BEGIN { printf "%.1f", b / 1048576 }')
+      per=""
+      for c in R T RR RT TR TT; do
+        n=$(field "$j" "tuples_$c")
+        [ "${n:-0}" = 0 ] || per="$per${per:+, }$c $n"
+      done
+      note=$(awk -v t="$(field "$j" tuple_seconds)" -v b="$(field "$j" bounding_seconds)" \
+        -v w="$(field "$j" writing_seconds)" -v p="$(field "$j" position_pieces_per_tuple)" \
+        -v i="$(field "$j" irradiance_pieces_per_tuple)" -v e="$(field "$j" entries)" \
+        -v s="$(field "$j" spill_bytes)" -v per="$per" \
+        'BEGIN { printf "stored %s; wall: finding candidates %.1f s, bounding %.1f s, writing %.1f s; pieces per tuple %.1f position, %.1f irradiance; %d grid entries (%.0f MB spilled)",
+                 per == "" ? "none" : per, t, b, w, p, i, e, s / 1e6 }')
+      # A short render with the cache.
+      echo "$tool: $asset, $label: render 320x240, $spp spp" >&2
+      rstatus=$(limited "$work/$name.render.time" "$work/$name.render.log" "$ren" "$scene" \
+        --cache "$work/$name.bbc" -o "$work/$name.exr" --png "$work/$name.png" --width 320 \
+        --height 240 --spp "$spp" --threads 2 --no-progress --stats)
+      # shellcheck disable=SC2046 # split into fields on purpose
+      set -- $(times_of "$work/$name.render.time")
+      if [ "$rstatus" = ok ]; then
+        render="$1 CPU-s, $2 s wall ($(sed -n 's/^time *//p' "$work/$name.render.log" | head -1) rendering)"
+        s=$(sed -n 's/^caustics *//p' "$work/$name.render.log" | head -1)
+        [ -z "$s" ] || note="$note; render: $s"
+        case $s in
+          *" 0.000 solutions per sampled tuple"*) note="$note: no sampled tuple had a path" ;;
+        esac
+      else
+        render="$rstatus"
+      fi
+    else
+      p=$(progress "$work/$name.log")
+      if [ "${status#no tuple}" != "$status" ]; then
+        note="refused before bounding"
+      elif [ -n "$p" ]; then
+        note="bounding: $p"
+        candidates=$(echo "$p" | sed -n 's/.*[0-9]*\/\([0-9]*\) candidate.*/\1/p')
+      else
+        note="no progress bar: it stopped before the first candidate was bounded, while finding the candidate tuples"
+      fi
+      m=$(tr '\r' '\n' < "$work/$name.log" | grep -v '^bounding \[' | grep -v 'warning' |
+        grep -v '^ *$' | tail -2 | tr '\n' ' ' | cut -c1-300)
+      [ -z "$m" ] || note="$note; last messages: $m"
+    fi
+    echo "$asset|$label|$status|$cpu|$wall|$rss|$candidates|$tuples|$mb|$render" >> "$rows"
+    echo "- $asset, $label: $status; $note" >> "$notes"
+  done
+done
+
+# The loader's warnings, once per asset (every run of an asset loads the same scene).
+warnings=$work/warnings
+: > "$warnings"
+for asset in $assets; do
+  # shellcheck disable=SC2046 # split into fields on purpose
+  set -- $(runs_of "$asset")
+  [ $# -gt 0 ] || continue
+  tr '\r' '\n' < "$work/$asset-$1.log" | grep 'warning' | sed "s|$work/||" | sort -u >> "$warnings" || true
+done
+
+# Notes written by hand below the marker line of the results file are kept.
+hand=$work/hand-notes
+: > "$hand"
+if [ -f "$out/real-assets.md" ]; then
+  sed -n '/^<!-- by hand/,$p' "$out/real-assets.md" > "$hand"
+fi
+{
+  echo "# bbc on public sample assets"
+  echo
+  echo "\`sh bench/real-assets.sh --runs \"$runs\" --probe-runs \"$probe_runs\" --memory-gb $memory_gb --timeout $timeout --spp $spp\`"
+  echo "at $commit; $machine (load average $load_start at the start, $(cut -d' ' -f1-3 /proc/loadavg) at the end)."
+  echo "The Khronos sample assets in \`$scenes/real\` (unchanged; see its README.md), lit as"
+  echo "that README says by \`bench/real-assets-scenes.py\` (new .gltf files in bench/work/real-assets/"
+  echo "referencing the originals): TransmissionTest under a 100 W point lamp at (0.4, 0.9, 1.0);"
+  echo "GlassVaseFlowers under a 20 W lamp at (-0.13, 0.45, 0.15) over a 1.2 m floor of albedo 0.8,"
+  echo "with a camera looking down at the KHR_materials_volume vase; GlassVaseFlowers-floor is that scene"
+  echo "with the floor as its only receiver (flowers and alpha vase role none). Lamps as Blender's exporter writes"
+  echo "them (P / (4 pi) * 683 cd, photometric). Each precompute: \`bbc-precompute SCENE -o C.bbc"
+  echo "--threads 2 [--chains X]\`, one at a time, under \`ulimit -v\` of $memory_gb GB and a ${timeout} s"
+  echo "timeout; each cache written is rendered at 320x240, $spp spp, 2 threads (\`bbc-render --cache"
+  echo "--stats\`, PNG previews in bench/work/real-assets/). CPU-s are user + sys of the whole process,"
+  echo "peak RSS from /usr/bin/time; candidates of an unfinished run are the progress bar's total."
+  echo
+  echo "| asset | chains | status | CPU-s | wall s | peak RSS MB | candidate tuples | stored tuples | cache MB | render |"
+  echo "|---|---|---|---:|---:|---:|---:|---:|---:|---|"
+  awk -F'|' '{ printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", $1, $2, $3, $4, $5, $6, $7, $8, $9, $10 }' "$rows"
+  echo
+  echo "Per run (from each precompute's --json statistics, or, for a run that did not finish,"
+  echo "its progress bar and last messages):"
+  echo
+  cat "$notes"
+  echo
+  echo "What the loader said about the scenes (every run prints the same):"
+  echo
+  echo '```'
+  cat "$warnings"
+  echo '```'
+  if [ -s "$hand" ]; then
+    echo
+    cat "$hand"
+  fi
+} > "$out/real-assets.md"
+cat "$out/real-assets.md"
