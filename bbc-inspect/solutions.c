@@ -51,7 +51,8 @@ int cmd_solutions(cli_args *a, const char *scene_path, const char *cache_path) {
   const bbc_grid *g = bbc_cache_grid(c);
   const bbc_tuple *tuples = bbc_cache_tuples(c);
   /* Receiver triangles in grid order; each is one unit of work. */
-  uint64_t triangles = g->uv_triangle_count;
+  uint64_t triangles = 0; /* every receiver's, planes' too (uv_triangle_count omits them) */
+  for (uint32_t r = 0; r < g->receiver_count; r++) triangles += g->receivers[r].triangle_count;
   uint32_t *tri = malloc((triangles ? triangles : 1) * sizeof *tri);
   if (!tri) cli_fail("out of memory");
   uint64_t n_tri = 0;

@@ -110,7 +110,7 @@ static void same_cache(const char *coarse, const char *fine, uint32_t chains, in
     REQUIRE(bbc_cache_cell(ca, c, &ea, &na) == BBC_OK);
     REQUIRE(bbc_cache_cell(cb, c, &eb, &nb) == BBC_OK);
     listed += na;
-    if (na != nb || memcmp(ea, eb, na * sizeof *ea) != 0) differ++;
+    if (na != nb || (na && memcmp(ea, eb, na * sizeof *ea) != 0)) differ++;
   }
   fprintf(stderr, "%s: %u tuples, %llu entries; %u and %u floor triangles\n", coarse,
           ia.tuple_count, (unsigned long long)listed,
