@@ -10,38 +10,9 @@
 
 #include "bbc/bbc.h"
 #include "harness.h"
+#include "render_fixture.h"
 #include "media_internal.h"
 #include "vec_internal.h"
-
-typedef struct built {
-  bbc_scene *scene;
-  void *bytes;
-  bbc_cache *cache;
-} built;
-
-static int build(built *b, const char *path, uint32_t chains, int max_level) {
-  memset(b, 0, sizeof *b);
-  if (bbc_scene_load(&b->scene, path, NULL) != BBC_OK) return 0;
-  bbc_precompute_options o;
-  memset(&o, 0, sizeof o);
-  bbc_precompute_params_default(&o.params);
-  o.params.chains = chains;
-  o.params.max_level = max_level;
-  o.params.grid_resolution = 128;
-  bbc_cache_builder *cb = NULL;
-  size_t size = 0;
-  if (bbc_precompute(&cb, b->scene, &o, NULL) != BBC_OK) return 0;
-  bbc_result r = bbc_cache_builder_write_memory(cb, &b->bytes, &size, NULL);
-  bbc_cache_builder_free(cb);
-  return r == BBC_OK && bbc_cache_open_memory(&b->cache, b->bytes, size, NULL) == BBC_OK &&
-         bbc_cache_check_scene(b->cache, b->scene) == BBC_OK;
-}
-
-static void release(built *b) {
-  bbc_cache_close(b->cache);
-  free(b->bytes);
-  bbc_scene_free(b->scene);
-}
 
 static uint32_t floor_mesh(const bbc_scene *s) {
   for (uint32_t m = 0; m < s->mesh_count; m++)
@@ -84,10 +55,10 @@ TEST(floors_are_planes_holding_their_mesh) {
 }
 
 /* The floor's tessellation changes no tuple and no cell list. */
-static void same_cache(const char *coarse, const char *fine, uint32_t chains, int level) {
-  built a, b;
-  REQUIRE(build(&a, coarse, chains, level));
-  REQUIRE(build(&b, fine, chains, level));
+static void same_cache(const char *coarse, const char *fine, uint32_t chains, uint32_t level) {
+  fixture a, b;
+  REQUIRE(fixture_setup(&a, coarse, chains, level, 0));
+  REQUIRE(fixture_setup(&b, fine, chains, level, 0));
   CHECK(b.scene->triangle_count > a.scene->triangle_count + 2500);
   bbc_cache_info ia, ib;
   bbc_cache_get_info(a.cache, &ia);
@@ -120,8 +91,8 @@ static void same_cache(const char *coarse, const char *fine, uint32_t chains, in
   CHECK_INT(differ, 0);
   bbc_cache_cursor_free(ca);
   bbc_cache_cursor_free(cb);
-  release(&a);
-  release(&b);
+  teardown(&a);
+  teardown(&b);
 }
 
 TEST(tessellation_changes_nothing_r) {
@@ -142,9 +113,9 @@ TEST(tessellation_changes_nothing_tt) {
 /* True paths to the tessellated floor, looked up as the renderer looks up a point of a
  * plane (bbc_validate_cached_tuple): every one is in a cell listing its tuple with a
  * bound of at least its irradiance. */
-static void bounds_hold(const char *path, uint32_t chains, int level, uint32_t samples) {
-  built b;
-  REQUIRE(build(&b, path, chains, level));
+static void bounds_hold(const char *path, uint32_t chains, uint32_t level, uint32_t samples) {
+  fixture b;
+  REQUIRE(fixture_setup(&b, path, chains, level, 0));
   bbc_cache_info info;
   bbc_cache_get_info(b.cache, &info);
   bbc_cache_cursor *cursor = NULL;
@@ -163,7 +134,7 @@ static void bounds_hold(const char *path, uint32_t chains, int level, uint32_t s
   CHECK(v.admissible > samples / 20);
   CHECK_INT(v.failing, 0);
   bbc_cache_cursor_free(cursor);
-  release(&b);
+  teardown(&b);
 }
 
 TEST(tessellated_floor_bounds_hold_r) {
@@ -181,24 +152,18 @@ TEST(tessellated_floor_bounds_hold_tt) {
 /* The renderer sees the same caustic on both floors: the same cells and tuples, solved at
  * hit points that differ by rounding only. */
 TEST(render_is_the_same_on_both_floors) {
-  built a, b;
-  REQUIRE(build(&a, TEST_SCENE("plane-wavy-mirror.gltf"), BBC_CHAIN_BIT(BBC_CHAIN_R), 6));
-  REQUIRE(build(&b, TEST_SCENE("plane-wavy-mirror-3k.gltf"), BBC_CHAIN_BIT(BBC_CHAIN_R), 6));
-  bbc_image *img[2] = {NULL, NULL};
-  built *both[2] = {&a, &b};
-  for (int k = 0; k < 2; k++) {
-    bbc_accel *accel = NULL;
-    REQUIRE(bbc_accel_create(&accel, both[k]->scene, NULL, NULL) == BBC_OK);
-    REQUIRE(bbc_image_create(&img[k], 48, 36) == BBC_OK);
-    bbc_render_options o;
-    memset(&o, 0, sizeof o);
-    o.method = BBC_METHOD_BBC;
-    o.cache = both[k]->cache;
-    o.spp = 4;
-    o.components = BBC_COMPONENT_CAUSTICS;
-    REQUIRE(bbc_render(both[k]->scene, accel, &o, img[k], NULL) == BBC_OK);
-    bbc_accel_free(accel);
-  }
+  fixture a, b;
+  REQUIRE(
+      fixture_setup(&a, TEST_SCENE("plane-wavy-mirror.gltf"), BBC_CHAIN_BIT(BBC_CHAIN_R), 6, 0));
+  REQUIRE(
+      fixture_setup(&b, TEST_SCENE("plane-wavy-mirror-3k.gltf"), BBC_CHAIN_BIT(BBC_CHAIN_R), 6, 0));
+  bbc_render_options o;
+  memset(&o, 0, sizeof o);
+  o.method = BBC_METHOD_BBC;
+  o.spp = 4;
+  o.components = BBC_COMPONENT_CAUSTICS;
+  bbc_image *img[2] = {fixture_render(&a, o, 48, 36, NULL), fixture_render(&b, o, 48, 36, NULL)};
+  REQUIRE(img[0] && img[1]);
   double sum[2] = {0, 0}, diff = 0;
   int far = 0;
   const size_t n = 3 * (size_t)48 * 36;
@@ -218,6 +183,6 @@ TEST(render_is_the_same_on_both_floors) {
   CHECK(far <= (int)(n / 100));
   bbc_image_free(img[0]);
   bbc_image_free(img[1]);
-  release(&a);
-  release(&b);
+  teardown(&a);
+  teardown(&b);
 }

@@ -244,7 +244,8 @@ static void check_lights(bbc_scene *s, uint32_t chains, long rays, const long *m
   fprintf(stderr, "%s: %zu candidates, %ld rays:", path, count, rays);
   for (int c = 0; c < BBC_CHAIN_COUNT; c++)
     if (totals.paths[c]) fprintf(stderr, " %s %ld", bbc_chain_name((bbc_chain)c), totals.paths[c]);
-  fprintf(stderr, "; stopped by the medium rule %ld; slipped out of a closed mesh %ld; missing %ld\n",
+  fprintf(stderr,
+          "; stopped by the medium rule %ld; slipped out of a closed mesh %ld; missing %ld\n",
           totals.wrong_medium, totals.leaked, totals.missing);
   CHECK(totals.leaked * 1000 <= rays); /* rare, or the tracing is wrong */
   for (int c = 0; c < BBC_CHAIN_COUNT; c++)

@@ -308,7 +308,8 @@ static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role) {
     for (uint32_t t = mesh->first_triangle; t < mesh->first_triangle + mesh->triangle_count; t++) {
       double lo[3], hi[3];
       triangle_bounds(scene, t, lo, hi);
-      for (int a = 0; a < 3; a++) box[a] = fmin(box[a], lo[a]), box[3 + a] = fmax(box[3 + a], hi[a]);
+      for (int a = 0; a < 3; a++)
+        box[a] = fmin(box[a], lo[a]), box[3 + a] = fmax(box[3 + a], hi[a]);
     }
     if (mesh->role == role) n += mesh->plane ? 1 : mesh->triangle_count;
   }

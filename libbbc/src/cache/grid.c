@@ -322,7 +322,8 @@ static int64_t plane_receiver(const bbc_grid *grid, uint32_t m) {
 }
 
 int64_t bbc_grid_receiver_of(const bbc_grid *grid, uint32_t triangle) {
-  if (bbc_receiver_is_plane(triangle)) return plane_receiver(grid, bbc_receiver_plane_mesh(triangle));
+  if (bbc_receiver_is_plane(triangle))
+    return plane_receiver(grid, bbc_receiver_plane_mesh(triangle));
   uint32_t lo = 0, hi = grid->receiver_count;
   /* The last receiver whose range starts at or before the triangle. */
   while (lo < hi) {

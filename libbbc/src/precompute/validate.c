@@ -436,7 +436,8 @@ bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *c
                             : tuple->receiver;
     const bbc_cache_entry *entries = NULL;
     uint32_t n = 0;
-    if ((r = bbc_cache_lookup(cursor, at, path.uk[0], path.uk[1], &path.xk, &entries, &n)) != BBC_OK)
+    if ((r = bbc_cache_lookup(cursor, at, path.uk[0], path.uk[1], &path.xk, &entries, &n)) !=
+        BBC_OK)
       return r;
     const bbc_cache_entry *found = NULL;
     for (uint32_t k = 0; k < n && !found; k++)
