@@ -824,7 +824,7 @@ TEST(transmission_without_volume) {
     for (int i = 0; i < m.warnings && i < 8; i++)
       if (strstr(m.warning[i], "KHR_materials_volume")) glass = i;
     REQUIRE(glass >= 0);
-    CHECK_STR_CONTAINS(m.warning[glass], "mesh \"Ico\" (material \"Glass\")");
+    CHECK_STR_CONTAINS(m.warning[glass], "mesh \"Ico\" (material 1 (\"Glass\"))");
     CHECK_STR_CONTAINS(m.warning[glass], open ? "open mesh; it is rendered as one refracting surface"
                                               : "closed, so it is rendered as a solid dielectric");
     bbc_scene_free(s);

@@ -313,7 +313,7 @@ TEST(missing_or_broken_images_warn_and_go_neutral) {
     CHECK_INT(m.errors, 0);
     CHECK_INT(m.warnings, 1);
     CHECK_STR_CONTAINS(m.warning[0], cases[i].expect);
-    CHECK_STR_CONTAINS(m.warning[0], "material \"Floor\"");
+    CHECK_STR_CONTAINS(m.warning[0], "(\"Floor\")");
     CHECK_STR_CONTAINS(m.warning[0], "as under a white texture");
     CHECK(strchr(m.warning[0], '\n') == NULL);
     CHECK_INT(s->materials[0].base_color_texture, 0);

@@ -27,15 +27,25 @@ typedef enum bbc_wrap {
   BBC_WRAP_MIRROR = 2  /* repeated, every other copy mirrored (33648) */
 } bbc_wrap;
 
-/* A decoded base colour texture: linear RGB (the file's sRGB decoded with the exact
- * IEC 61966-2-1 curve; alpha is ignored), rows from the top of the image (texture
- * coordinate v = 0), with its sampler's wrap modes and magnification filter. */
+/* A decoded texture, rows from the top of the image (texture coordinate v = 0), with its
+ * sampler's wrap modes and magnification filter. A base colour texture holds linear RGB
+ * (the file's sRGB decoded with the exact IEC 61966-2-1 curve; alpha is ignored); a data
+ * texture (metallic-roughness, transmission) holds the stored values over their maximum
+ * (255 or 65535), undecoded, as glTF says. */
 typedef struct bbc_texture {
   uint32_t width, height;
   float *rgb; /* 3 floats per texel, row-major */
   bbc_wrap wrap_s, wrap_t;
   int nearest; /* magFilter NEAREST; otherwise bilinear (no mipmaps: see texture.h) */
 } bbc_texture;
+
+/* A material's use of a texture: 1 + its index into scene->textures, or 0 for none; and
+ * the map from TEXCOORD_0 to texture coordinates, (s, t) = (m[0] u + m[1] v + m[2],
+ * m[3] u + m[4] v + m[5]), from KHR_texture_transform (the identity without it). */
+typedef struct bbc_texture_use {
+  uint32_t texture;
+  double uv_transform[6];
+} bbc_texture_use;
 
 typedef struct bbc_material {
   char name[64];
@@ -56,6 +66,16 @@ typedef struct bbc_material {
    * metallic-roughness BRDF with these factors (bbc/bsdf.h). */
   int glossy;
   float roughness, metallic;
+  /* glTF's metallicRoughnessTexture (roughness = factor x G, metallic = factor x B) and
+   * transmissionTexture (transmission = factor x R). With either, the material's surface
+   * class (type) is decided per triangle from the texels its UVs cover, and a glTF
+   * material whose triangles fall in several classes becomes one bbc material per class
+   * (docs/materials.md). A receiver with a metallic-roughness texture is glossy with
+   * roughness and metallic (then the factors) times the texture at each point. */
+  bbc_texture_use metallic_roughness, transmission;
+  /* The glTF material this one was read from; -1 for the default material of
+   * primitives without one. */
+  int32_t source;
 } bbc_material;
 
 /* What a mesh does for caustics: casters are the specular surfaces light is bounced

@@ -1,4 +1,4 @@
-/* Base colour textures: what a receiver's albedo is at a surface point.
+/* Textures: what a receiver's albedo, metallic and roughness are at a surface point.
  *
  * A texture is sampled where the triangle's interpolated TEXCOORD_0, mapped by the
  * material's KHR_texture_transform, falls: each coordinate is wrapped by the sampler's
@@ -30,6 +30,13 @@ BBC_API void bbc_texture_lookup(const bbc_texture *texture, double s, double t, 
  * one. */
 BBC_API void bbc_scene_base_color(const bbc_scene *scene, uint32_t triangle, double b1, double b2,
                                   double out[3]);
+
+/* The metallic and roughness of a receiver triangle at barycentrics b1, b2: the
+ * material's factors, times the B and G channels of its metallicRoughnessTexture at the
+ * point when it has one (bilinear, as base colours; roughness is not yet raised to
+ * BBC_BSDF_MIN_ROUGHNESS). */
+BBC_API void bbc_scene_metallic_roughness(const bbc_scene *scene, uint32_t triangle, double b1,
+                                          double b2, double *metallic, double *roughness);
 
 #ifdef __cplusplus
 }

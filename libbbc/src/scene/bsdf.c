@@ -12,9 +12,12 @@ void bbc_bsdf_at(const bbc_scene *scene, uint32_t triangle, double b1, double b2
                  bbc_bsdf *out) {
   const bbc_material *m = bbc_scene_triangle_material(scene, triangle);
   bbc_scene_base_color(scene, triangle, b1, b2, out->base);
-  out->glossy = m->glossy;
-  out->metallic = m->metallic;
-  double r = m->roughness < BBC_BSDF_MIN_ROUGHNESS ? BBC_BSDF_MIN_ROUGHNESS : m->roughness;
+  double metallic, r;
+  bbc_scene_metallic_roughness(scene, triangle, b1, b2, &metallic, &r);
+  /* Lambertian where glTF's metallic 0 and roughness 1 hold at the point. */
+  out->glossy = m->glossy && !(metallic == 0.0 && r == 1.0);
+  out->metallic = metallic;
+  r = r < BBC_BSDF_MIN_ROUGHNESS ? BBC_BSDF_MIN_ROUGHNESS : r;
   out->alpha = r * r;
 }
 

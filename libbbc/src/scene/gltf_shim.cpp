@@ -590,6 +590,34 @@ class reader {
     return r;
   }
 
+  // A textureInfo inside a material extension (tinygltf parses only the core ones), as
+  // texture_ref reads it.
+  bbc__gltf_texture_ref extension_texture(const tinygltf::ExtensionMap &extensions,
+                                          const char *extension, const char *key,
+                                          const std::string &owner) {
+    tinygltf::TextureInfo info;
+    auto it = extensions.find(extension);
+    std::string slot = std::string(extension) + "." + key;
+    if (it != extensions.end() && it->second.IsObject() && it->second.Has(key)) {
+      const tinygltf::Value &v = it->second.Get(key);
+      if (!v.IsObject() || !v.Has("index") || !v.Get("index").IsInt())
+        fail(BBC_ERR_GLTF, "%s: %s is not a textureInfo with an integer index", owner.c_str(),
+             slot.c_str());
+      info.index = v.Get("index").GetNumberAsInt();
+      if (info.index == -1) info.index = -2;  // -1 means "none" to texture_ref
+      if (v.Has("texCoord")) {
+        if (!v.Get("texCoord").IsInt())
+          fail(BBC_ERR_GLTF, "%s: %s.texCoord is not an integer", owner.c_str(), slot.c_str());
+        info.texCoord = v.Get("texCoord").GetNumberAsInt();
+      }
+      if (v.Has("extensions") && v.Get("extensions").IsObject()) {
+        const tinygltf::Value &x = v.Get("extensions");
+        for (const std::string &name : x.Keys()) info.extensions[name] = x.Get(name);
+      }
+    }
+    return texture_ref(info, owner, slot.c_str());
+  }
+
   void read_material(size_t i) {
     const tinygltf::Material &m = model_.materials[i];
     std::string owner = label("material", i, m.name);
@@ -612,6 +640,10 @@ class reader {
                                            "emissiveStrength", 1.0, owner);
     g.base_color_texture =
         texture_ref(m.pbrMetallicRoughness.baseColorTexture, owner, "baseColorTexture");
+    g.metallic_roughness_texture = texture_ref(m.pbrMetallicRoughness.metallicRoughnessTexture,
+                                               owner, "metallicRoughnessTexture");
+    g.transmission_texture = extension_texture(m.extensions, "KHR_materials_transmission",
+                                               "transmissionTexture", owner);
     out_.materials.push_back(g);
   }
 

@@ -68,6 +68,9 @@ typedef struct bbc__gltf_material {
   double emissive[3];       /* emissiveFactor, default 0 */
   double emissive_strength; /* KHR_materials_emissive_strength, default 1 */
   bbc__gltf_texture_ref base_color_texture; /* pbrMetallicRoughness.baseColorTexture */
+  /* pbrMetallicRoughness.metallicRoughnessTexture (roughness in G, metallic in B) and
+   * KHR_materials_transmission.transmissionTexture (R); texture -1 when absent. */
+  bbc__gltf_texture_ref metallic_roughness_texture, transmission_texture;
 } bbc__gltf_material;
 
 /* A glTF texture: its image and the wrap modes and magnification filter of its sampler

@@ -19,6 +19,7 @@
 #include "gltf_shim_internal.h"
 #include "media_internal.h"
 #include "scene_internal.h"
+#include "surface_class_internal.h"
 
 #define PI 3.14159265358979323846
 
@@ -154,15 +155,26 @@ static int finite_float3(const double v[3]) {
 
 static const char *material_label(const bbc__gltf_material *m, uint32_t index, char *buf,
                                   size_t size) {
+  /* With its index, as the shim names it: files reuse names (three materials of one
+   * sample asset are all "BlueTransWithMask"). */
   if (m->name[0])
-    snprintf(buf, size, "material \"%s\"", m->name);
+    snprintf(buf, size, "material %u (\"%s\")", index, m->name);
   else
     snprintf(buf, size, "material %u", index);
   return buf;
 }
 
-/* The classification is exact on purpose: bbc renders only ideal surfaces, and a
- * slightly rough mirror is not a mirror. */
+static const char *class_name(bbc_material_type type) {
+  return type == BBC_MATERIAL_MIRROR       ? "an ideal mirror"
+         : type == BBC_MATERIAL_DIELECTRIC ? "a smooth dielectric"
+                                           : "a receiver";
+}
+
+/* The class from the factors (surface_class_internal.h): values within
+ * BBC_IDEAL_TOLERANCE of ideal are rendered ideal, with a note when not exactly so. A
+ * material with a metallic-roughness or transmission texture is classified again per
+ * triangle (classify_triangles); its factors are kept for that and for the glossy
+ * model. */
 static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32_t index,
                            bbc_material *m) {
   char label[128];
@@ -171,6 +183,7 @@ static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32
     copy_name(m->name, g->name);
   else
     snprintf(m->name, sizeof m->name, "material %u", index);
+  m->source = (int32_t)index;
 
   double emission[3];
   for (int k = 0; k < 3; k++) {
@@ -185,36 +198,49 @@ static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32
   }
   m->ior = 1.5f;
   m->uv_transform[0] = m->uv_transform[4] = 1.0;
+  m->metallic_roughness.uv_transform[0] = m->metallic_roughness.uv_transform[4] = 1.0;
+  m->transmission.uv_transform[0] = m->transmission.uv_transform[4] = 1.0;
+  if (!(g->metallic >= 0.0 && g->metallic <= 1.0 && g->roughness >= 0.0 &&
+        g->roughness <= 1.0 && g->transmission >= 0.0 && g->transmission <= 1.0))
+    return fail(ld, BBC_ERR_SCENE,
+                "%s: metallic %g, roughness %g and transmission %g must lie in [0, 1]", label,
+                g->metallic, g->roughness, g->transmission);
+  m->metallic = (float)g->metallic;
+  m->roughness = (float)g->roughness;
 
-  if (g->metallic == 1.0 && g->roughness == 0.0) {
-    m->type = BBC_MATERIAL_MIRROR;
-  } else if (g->metallic == 0.0 && g->transmission == 1.0 && g->thickness >= 0.0 &&
-             g->roughness == 0.0) {
+  const double mr[2] = {g->metallic, g->metallic}, rr[2] = {g->roughness, g->roughness},
+               tr[2] = {g->transmission, g->transmission};
+  int mixed;
+  m->type = bbc__class_of_ranges(mr, rr, tr, &mixed);
+  if (m->type == BBC_MATERIAL_DIELECTRIC) {
     /* Without KHR_materials_volume (thickness 0) glTF means a thin wall; Blender's
      * exporter writes glass and water that way. bbc renders it as a volume all the same
      * and says so per mesh (volume_warnings). */
     if (!fits_float(g->ior) || !(g->ior > 0.0))
       return fail(ld, BBC_ERR_SCENE, "%s: ior %g is not a positive number", label, g->ior);
-    m->type = BBC_MATERIAL_DIELECTRIC;
     m->ior = (float)g->ior;
-  } else if (g->metallic == 0.0 && g->transmission == 0.0 && g->roughness == 1.0) {
-    m->type = BBC_MATERIAL_DIFFUSE;
-  } else if (g->transmission == 0.0 && g->metallic >= 0.0 && g->metallic <= 1.0 &&
-             g->roughness >= 0.0 && g->roughness <= 1.0) {
-    /* A glossy receiver: glTF's metallic-roughness BRDF (bsdf.h). */
-    m->type = BBC_MATERIAL_DIFFUSE;
-    m->glossy = 1;
-    m->metallic = (float)g->metallic;
-    m->roughness = (float)g->roughness;
-    if (g->roughness < BBC_BSDF_MIN_ROUGHNESS) {
+  }
+  if (m->type != BBC_MATERIAL_DIFFUSE) {
+    int exact = g->roughness == 0.0 &&
+                (m->type == BBC_MATERIAL_MIRROR ? g->metallic == 1.0
+                                                : g->metallic == 0.0 && g->transmission == 1.0);
+    if (!exact)
+      warn(ld, "%s (metallic %g, roughness %g, transmission %g) is rendered as %s (within %g of "
+               "ideal)", label, g->metallic, g->roughness, g->transmission, class_name(m->type),
+           BBC_IDEAL_TOLERANCE);
+  } else if (g->transmission <= BBC_IDEAL_TOLERANCE) {
+    /* Lambertian for glTF's metallic 0 with roughness 1; otherwise a glossy receiver,
+     * glTF's metallic-roughness BRDF (bsdf.h). */
+    m->glossy = !(g->metallic == 0.0 && g->roughness == 1.0);
+    if (m->glossy && g->roughness < BBC_BSDF_MIN_ROUGHNESS) {
       warn(ld,
            "%s (metallic %g, roughness %g) is a glossy receiver; roughness below %g is "
            "rendered as %g (the caustic estimator has no specular receivers)",
            label, g->metallic, g->roughness, BBC_BSDF_MIN_ROUGHNESS, BBC_BSDF_MIN_ROUGHNESS);
       m->roughness = (float)BBC_BSDF_MIN_ROUGHNESS;
     }
-  } else {
-    m->type = BBC_MATERIAL_DIFFUSE;
+  } else if (g->metallic_roughness_texture.texture < 0 && g->transmission_texture.texture < 0) {
+    m->metallic = m->roughness = 0.0f;
     warn(ld,
          "%s (metallic %g, roughness %g, transmission %g, thickness %g) is neither diffuse, "
          "an ideal mirror nor a smooth dielectric; it is treated as diffuse",
@@ -239,9 +265,10 @@ static bbc_result wrap_mode(const loader *ld, const char *label, const char *key
   }
 }
 
-/* Decodes glTF texture `index` into *out: sRGB to linear, alpha dropped. */
+/* Decodes glTF texture `index` into *out, alpha dropped: sRGB to linear for a colour
+ * texture, the stored values over their maximum for a data texture. */
 static bbc_result decode_texture(const loader *ld, const bbc__gltf_data *g, uint32_t index,
-                                 const char *label, bbc_texture *out) {
+                                 int data, const char *label, bbc_texture *out) {
   const bbc__gltf_texture *t = &g->textures[index];
   const bbc__gltf_image *im = &g->images[t->image];
   bbc_result r = wrap_mode(ld, label, "wrapS", t->wrap_s, &out->wrap_s);
@@ -256,73 +283,97 @@ static bbc_result decode_texture(const loader *ld, const bbc__gltf_data *g, uint
   out->height = im->height;
   if (im->bits == 8) {
     float table[256];
-    for (int i = 0; i < 256; i++) table[i] = (float)bbc_srgb_to_linear(i / 255.0);
+    for (int i = 0; i < 256; i++)
+      table[i] = data ? (float)(i / 255.0) : (float)bbc_srgb_to_linear(i / 255.0);
     const uint8_t *p = im->rgba;
     for (size_t i = 0; i < texels; i++)
       for (int k = 0; k < 3; k++) out->rgb[3 * i + k] = table[p[4 * i + k]];
   } else {
     const uint16_t *p = im->rgba;
     for (size_t i = 0; i < texels; i++)
-      for (int k = 0; k < 3; k++)
-        out->rgb[3 * i + k] = (float)bbc_srgb_to_linear(p[4 * i + k] / 65535.0);
+      for (int k = 0; k < 3; k++) {
+        double v = p[4 * i + k] / 65535.0;
+        out->rgb[3 * i + k] = (float)(data ? v : bbc_srgb_to_linear(v));
+      }
   }
   return BBC_OK;
 }
 
-/* The base colour textures of the materials: each glTF texture used is decoded once.
- * A texture bbc cannot use (no image, an image that cannot be read or decoded, another
- * TEXCOORD set than 0) is dropped with a warning, leaving the material its factor. */
+/* The texture a material uses in one slot, decoded once per glTF texture and kind
+ * (slot[2 i + data]), into *use. A texture bbc cannot use (no image, an image that
+ * cannot be read or decoded, another TEXCOORD set than 0) is dropped with a warning,
+ * leaving the material its factor. */
+static bbc_result use_texture(const loader *ld, const bbc__gltf_data *g, bbc_scene *s,
+                              int32_t *slot, uint32_t material, const bbc__gltf_texture_ref *ref,
+                              const char *slot_name, int data, bbc_texture_use *use) {
+  if (ref->texture < 0) return BBC_OK;
+  char label[128], what[192];
+  material_label(&g->materials[material], material, label, sizeof label);
+  snprintf(what, sizeof what, "%s: %s (texture %d)", label, slot_name, ref->texture);
+  const char *alone = data ? "its factor alone" : "its baseColorFactor alone";
+  const bbc__gltf_texture *t = &g->textures[ref->texture];
+  if (ref->texcoord != 0) {
+    warn(ld, "%s uses TEXCOORD_%d; bbc reads TEXCOORD_0 only, so the surface has %s (as "
+             "under a white texture)", what, ref->texcoord, alone);
+    return BBC_OK;
+  }
+  if (t->image < 0) {
+    warn(ld, "%s has no image; the surface has %s (as under a white texture)", what, alone);
+    return BBC_OK;
+  }
+  const bbc__gltf_image *im = &g->images[t->image];
+  if (!im->rgba) {
+    warn(ld, "%s: image %d%s%s%s: %s; the surface has %s (as under a white texture)", what,
+         t->image, im->name[0] ? " (\"" : "", im->name, im->name[0] ? "\")" : "",
+         im->problem ? im->problem : "not decoded", alone);
+    return BBC_OK;
+  }
+  int32_t *k = &slot[2 * (size_t)ref->texture + (data ? 1 : 0)];
+  if (*k < 0) {
+    bbc_result r = decode_texture(ld, g, (uint32_t)ref->texture, data, what,
+                                  &s->textures[s->texture_count]);
+    if (r != BBC_OK) return r;
+    *k = (int32_t)s->texture_count++;
+  }
+  use->texture = (uint32_t)*k + 1;
+  /* KHR_texture_transform: T(offset) R(rotation) S(scale), the rotation turning the
+   * coordinates counter-clockwise as the image is seen (s right, t down), as in the
+   * extension's example (offset [0, 1], rotation pi/2, scale 0.5 shows the image's
+   * lower left quadrant turned clockwise). */
+  double c = cos(ref->rotation), sn = sin(ref->rotation);
+  use->uv_transform[0] = c * ref->scale[0];
+  use->uv_transform[1] = sn * ref->scale[1];
+  use->uv_transform[2] = ref->offset[0];
+  use->uv_transform[3] = -sn * ref->scale[0];
+  use->uv_transform[4] = c * ref->scale[1];
+  use->uv_transform[5] = ref->offset[1];
+  return BBC_OK;
+}
+
+/* The materials' textures: base colour (colour), metallic-roughness and transmission
+ * (data). */
 static bbc_result load_textures(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
-  int32_t *slot = alloc(g->texture_count, sizeof *slot);
-  s->textures = alloc(g->texture_count, sizeof *s->textures);
+  int32_t *slot = alloc(2 * (size_t)g->texture_count, sizeof *slot);
+  s->textures = alloc(2 * (size_t)g->texture_count, sizeof *s->textures);
   if (!slot || !s->textures) {
     free(slot);
     return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
   }
-  for (uint32_t i = 0; i < g->texture_count; i++) slot[i] = -1;
+  for (uint32_t i = 0; i < 2 * g->texture_count; i++) slot[i] = -1;
   bbc_result r = BBC_OK;
   for (uint32_t i = 0; i < g->material_count && r == BBC_OK; i++) {
-    const bbc__gltf_texture_ref *ref = &g->materials[i].base_color_texture;
-    if (ref->texture < 0) continue;
-    char label[128], what[192];
-    material_label(&g->materials[i], i, label, sizeof label);
-    snprintf(what, sizeof what, "%s: baseColorTexture (texture %d)", label, ref->texture);
-    const bbc__gltf_texture *t = &g->textures[ref->texture];
-    if (ref->texcoord != 0) {
-      warn(ld, "%s uses TEXCOORD_%d; bbc reads TEXCOORD_0 only, so the surface has its "
-               "baseColorFactor alone (as under a white texture)", what, ref->texcoord);
-      continue;
-    }
-    if (t->image < 0) {
-      warn(ld, "%s has no image; the surface has its baseColorFactor alone (as under a white "
-               "texture)", what);
-      continue;
-    }
-    const bbc__gltf_image *im = &g->images[t->image];
-    if (!im->rgba) {
-      warn(ld, "%s: image %d%s%s%s: %s; the surface has its baseColorFactor alone (as under a "
-               "white texture)", what, t->image, im->name[0] ? " (\"" : "", im->name,
-           im->name[0] ? "\")" : "", im->problem ? im->problem : "not decoded");
-      continue;
-    }
-    if (slot[ref->texture] < 0) {
-      r = decode_texture(ld, g, (uint32_t)ref->texture, what, &s->textures[s->texture_count]);
-      if (r != BBC_OK) break;
-      slot[ref->texture] = (int32_t)s->texture_count++;
-    }
+    const bbc__gltf_material *gm = &g->materials[i];
     bbc_material *m = &s->materials[i];
-    m->base_color_texture = (uint32_t)slot[ref->texture] + 1;
-    /* KHR_texture_transform: T(offset) R(rotation) S(scale), the rotation turning the
-     * coordinates counter-clockwise as the image is seen (s right, t down), as in the
-     * extension's example (offset [0, 1], rotation pi/2, scale 0.5 shows the image's
-     * lower left quadrant turned clockwise). */
-    double c = cos(ref->rotation), sn = sin(ref->rotation);
-    m->uv_transform[0] = c * ref->scale[0];
-    m->uv_transform[1] = sn * ref->scale[1];
-    m->uv_transform[2] = ref->offset[0];
-    m->uv_transform[3] = -sn * ref->scale[0];
-    m->uv_transform[4] = c * ref->scale[1];
-    m->uv_transform[5] = ref->offset[1];
+    bbc_texture_use base = {0, {1, 0, 0, 0, 1, 0}};
+    r = use_texture(ld, g, s, slot, i, &gm->base_color_texture, "baseColorTexture", 0, &base);
+    m->base_color_texture = base.texture;
+    memcpy(m->uv_transform, base.uv_transform, sizeof base.uv_transform);
+    if (r == BBC_OK)
+      r = use_texture(ld, g, s, slot, i, &gm->metallic_roughness_texture,
+                      "metallicRoughnessTexture", 1, &m->metallic_roughness);
+    if (r == BBC_OK)
+      r = use_texture(ld, g, s, slot, i, &gm->transmission_texture, "transmissionTexture", 1,
+                      &m->transmission);
   }
   free(slot);
   return r;
@@ -563,11 +614,106 @@ static bbc_result parse_role(const loader *ld, const bbc__gltf_primitive *p, bbc
   return BBC_OK;
 }
 
+/* ------------------------------------------------------------------ surface classes */
+
+/* Whether material m decides its class per triangle from textures. */
+static int textured_class(const bbc_material *m) {
+  return m->source >= 0 && (m->metallic_roughness.texture || m->transmission.texture);
+}
+
+/* The class of every triangle of primitive p, whose material m (glTF material gm) has a
+ * metallic-roughness or transmission texture: its factors times the texels its UVs
+ * cover (bbc__texture_range). Returns the mask of classes met (bit 1 << type) and adds
+ * the triangles whose texels disagree to *mixed. */
+static unsigned triangle_classes(const bbc_scene *s, const bbc_material *m,
+                                 const bbc__gltf_material *gm, const bbc__gltf_primitive *p,
+                                 uint8_t *cls, uint64_t *mixed) {
+  static const float origin[2] = {0.0f, 0.0f};
+  unsigned mask = 0;
+  for (uint32_t t = 0; t < p->index_count / 3; t++) {
+    const float *uv[3];
+    for (int k = 0; k < 3; k++)
+      uv[k] = p->uvs ? p->uvs + 2 * (size_t)p->indices[3 * (size_t)t + (size_t)k] : origin;
+    double mr[2] = {gm->metallic, gm->metallic}, rr[2] = {gm->roughness, gm->roughness};
+    double tr[2] = {gm->transmission, gm->transmission};
+    double lo, hi;
+    if (m->metallic_roughness.texture) {
+      const bbc_texture *tex = &s->textures[m->metallic_roughness.texture - 1];
+      bbc__texture_range(tex, m->metallic_roughness.uv_transform, uv, 1, &lo, &hi);
+      rr[0] *= lo, rr[1] *= hi;
+      bbc__texture_range(tex, m->metallic_roughness.uv_transform, uv, 2, &lo, &hi);
+      mr[0] *= lo, mr[1] *= hi;
+    }
+    if (m->transmission.texture) {
+      bbc__texture_range(&s->textures[m->transmission.texture - 1], m->transmission.uv_transform,
+                         uv, 0, &lo, &hi);
+      tr[0] *= lo, tr[1] *= hi;
+    }
+    int disagree;
+    cls[t] = (uint8_t)bbc__class_of_ranges(mr, rr, tr, &disagree);
+    *mixed += (uint64_t)disagree;
+    mask |= 1u << cls[t];
+  }
+  return mask;
+}
+
+/* Material `base` as a material of class `type` (a part of its triangles). */
+static bbc_result class_variant(const loader *ld, const bbc__gltf_data *g, const bbc_material *base,
+                                bbc_material_type type, bbc_material *out) {
+  static const char *const part[] = {" (receiver part)", " (mirror part)", " (dielectric part)"};
+  const bbc__gltf_material *gm = &g->materials[base->source];
+  char name[sizeof out->name];
+  memcpy(name, base->name, sizeof name);
+  *out = *base;
+  out->type = type;
+  snprintf(out->name, sizeof out->name, "%.*s%s", (int)(sizeof name - 20), name, part[type]);
+  if (type == BBC_MATERIAL_DIELECTRIC) {
+    if (!fits_float(gm->ior) || !(gm->ior > 0.0)) {
+      char label[128];
+      return fail(ld, BBC_ERR_SCENE, "%s: ior %g is not a positive number",
+                  material_label(gm, (uint32_t)base->source, label, sizeof label), gm->ior);
+    }
+    out->ior = (float)gm->ior;
+  }
+  if (type == BBC_MATERIAL_DIFFUSE) {
+    /* The glossy model with the factors, times the texture at each point when it has
+     * one (bbc_bsdf_at); transmission of a rough surface is not rendered. */
+    out->glossy = base->metallic_roughness.texture || !(gm->metallic == 0.0 && gm->roughness == 1.0);
+    out->metallic = (float)gm->metallic;
+    out->roughness = (float)gm->roughness;
+    if (!base->metallic_roughness.texture && out->roughness < BBC_BSDF_MIN_ROUGHNESS)
+      out->roughness = (float)BBC_BSDF_MIN_ROUGHNESS;
+  }
+  return BBC_OK;
+}
+
+/* One note per material whose textures decided its triangles' classes. */
+static void class_notes(const loader *ld, const bbc__gltf_data *g, const bbc_scene *s,
+                        const uint64_t (*count)[3], const uint64_t *mixed) {
+  for (uint32_t i = 0; i < g->material_count; i++) {
+    const bbc_material *m = &s->materials[i];
+    uint64_t all = count[i][0] + count[i][1] + count[i][2];
+    if (!textured_class(m) || all == 0) continue;
+    char label[128], why[96] = "";
+    material_label(&g->materials[i], i, label, sizeof label);
+    if (mixed[i])
+      snprintf(why, sizeof why, " (%llu of them because their texels disagree)",
+               (unsigned long long)mixed[i]);
+    warn(ld,
+         "%s: by its %s%s%s, %llu triangles are ideal mirrors, %llu smooth dielectrics and "
+         "%llu receivers%s", label, m->metallic_roughness.texture ? "metallicRoughnessTexture" : "",
+         m->metallic_roughness.texture && m->transmission.texture ? " and " : "",
+         m->transmission.texture ? "transmissionTexture" : "", (unsigned long long)count[i][1],
+         (unsigned long long)count[i][2], (unsigned long long)count[i][0], why);
+  }
+}
+
 static bbc_result load_geometry(const loader *ld, const bbc__gltf_data *g, bbc_scene *s) {
   /* Materials: those of the file, then a default one for primitives without. */
   int need_default = 0;
   for (uint32_t i = 0; i < g->primitive_count; i++) need_default |= g->primitives[i].material < 0;
-  s->material_count = g->material_count + (need_default ? 1u : 0u);
+  const uint32_t file_materials = g->material_count + (need_default ? 1u : 0u);
+  s->material_count = file_materials;
   s->materials = alloc(s->material_count, sizeof *s->materials);
   if (!s->materials) return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
   for (uint32_t i = 0; i < g->material_count; i++) {
@@ -581,57 +727,153 @@ static bbc_result load_geometry(const loader *ld, const bbc__gltf_data *g, bbc_s
     m->base_color[0] = m->base_color[1] = m->base_color[2] = 0.8f;
     m->ior = 1.5f;
     m->uv_transform[0] = m->uv_transform[4] = 1.0;
+    m->source = -1;
   }
-  bbc_result tr = load_textures(ld, g, s);
-  if (tr != BBC_OK) return tr;
+  bbc_result r = load_textures(ld, g, s);
+  if (r != BBC_OK) return r;
+
+  /* Surface classes per triangle where textures decide them: a primitive whose
+   * triangles fall in several classes becomes one mesh per class, and its material one
+   * material per class (the variant of class c of material i is variant[3 i + c]). */
+  const uint32_t np = g->primitive_count;
+  uint8_t **cls = alloc(np, sizeof *cls);
+  unsigned *mask = alloc(np, sizeof *mask);
+  uint32_t *variant = alloc(3 * (size_t)file_materials, sizeof *variant);
+  uint64_t(*count)[3] = alloc(file_materials, sizeof *count);
+  uint64_t *mixed = alloc(file_materials, sizeof *mixed);
+  uint32_t *filtered = NULL;
+  if (!cls || !mask || !variant || !count || !mixed) {
+    r = fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
+    goto done;
+  }
+  uint32_t max_triangles = 0;
+  for (uint32_t i = 0; i < np; i++) {
+    const bbc__gltf_primitive *p = &g->primitives[i];
+    uint32_t material = p->material < 0 ? g->material_count : (uint32_t)p->material;
+    const bbc_material *m = &s->materials[material];
+    char label[256];
+    if (p->mode != 4) {
+      r = fail(ld, BBC_ERR_SCENE, "%s has mode %d (%s); only triangles (mode 4) are supported",
+               mesh_label(p, label, sizeof label), p->mode, mode_name(p->mode));
+      goto done;
+    }
+    if (p->index_count % 3 != 0) {
+      r = fail(ld, BBC_ERR_GLTF, "%s: %u indices do not make whole triangles",
+               mesh_label(p, label, sizeof label), p->index_count);
+      goto done;
+    }
+    const uint32_t nt = p->index_count / 3;
+    max_triangles = nt > max_triangles ? nt : max_triangles;
+    mask[i] = 1u << m->type;
+    if (textured_class(m)) {
+      cls[i] = alloc(nt ? nt : 1, 1);
+      if (!cls[i]) {
+        r = fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
+        goto done;
+      }
+      mask[i] = triangle_classes(s, m, &g->materials[material], p, cls[i], &mixed[material]);
+      for (uint32_t t = 0; t < nt; t++) count[material][cls[i][t]]++;
+    }
+    for (unsigned c = 0; c < 3; c++)
+      if ((mask[i] >> c & 1u) && c != (unsigned)m->type) variant[3 * (size_t)material + c] = 1;
+  }
+  class_notes(ld, g, s, (const uint64_t(*)[3])count, mixed);
+  uint32_t variants = 0;
+  for (size_t k = 0; k < 3 * (size_t)file_materials; k++) variants += variant[k];
+  if (variants) {
+    bbc_material *grown = realloc(s->materials, (file_materials + variants) * sizeof *grown);
+    if (!grown) {
+      r = fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
+      goto done;
+    }
+    s->materials = grown;
+    for (size_t k = 0; k < 3 * (size_t)file_materials && r == BBC_OK; k++) {
+      if (!variant[k]) continue;
+      variant[k] = s->material_count;
+      r = class_variant(ld, g, &s->materials[k / 3], (bbc_material_type)(k % 3),
+                        &s->materials[s->material_count++]);
+    }
+    if (r != BBC_OK) goto done;
+  }
 
   /* Sizes first, so that every array is allocated once. */
-  uint64_t vertices = 0, triangles = 0;
-  for (uint32_t i = 0; i < g->primitive_count; i++) {
+  uint64_t vertices = 0, triangles = 0, meshes = 0;
+  for (uint32_t i = 0; i < np; i++) {
     const bbc__gltf_primitive *p = &g->primitives[i];
-    char label[256];
-    if (p->mode != 4)
-      return fail(ld, BBC_ERR_SCENE, "%s has mode %d (%s); only triangles (mode 4) are supported",
-                  mesh_label(p, label, sizeof label), p->mode, mode_name(p->mode));
-    if (p->index_count % 3 != 0)
-      return fail(ld, BBC_ERR_GLTF, "%s: %u indices do not make whole triangles",
-                  mesh_label(p, label, sizeof label), p->index_count);
-    triangles += p->index_count / 3;
-    vertices += p->normals ? p->vertex_count : p->index_count;
+    for (unsigned c = 0; c < 3; c++) {
+      if (!(mask[i] >> c & 1u)) continue;
+      uint64_t nt = 0;
+      for (uint32_t t = 0; t < p->index_count / 3; t++) nt += !cls[i] || cls[i][t] == c;
+      triangles += nt;
+      vertices += p->normals ? p->vertex_count : 3 * nt;
+      meshes++;
+    }
   }
-  if (triangles == 0)
-    return fail(ld, BBC_ERR_SCENE, "no triangles: the default scene has no triangle mesh");
-  if (vertices > UINT32_MAX || triangles > UINT32_MAX / 3)
-    return fail(ld, BBC_ERR_SCENE, "too many vertices or triangles for 32-bit indices");
+  if (triangles == 0) {
+    r = fail(ld, BBC_ERR_SCENE, "no triangles: the default scene has no triangle mesh");
+    goto done;
+  }
+  if (vertices > UINT32_MAX || triangles > UINT32_MAX / 3 || meshes > UINT32_MAX) {
+    r = fail(ld, BBC_ERR_SCENE, "too many vertices or triangles for 32-bit indices");
+    goto done;
+  }
 
   s->vertex_count = (uint32_t)vertices;
   s->triangle_count = (uint32_t)triangles;
-  s->mesh_count = g->primitive_count;
+  s->mesh_count = (uint32_t)meshes;
   s->positions = alloc(3 * (size_t)vertices, sizeof(float));
   s->normals = alloc(3 * (size_t)vertices, sizeof(float));
   s->uvs = alloc(2 * (size_t)vertices, sizeof(float));
   s->indices = alloc(3 * (size_t)triangles, sizeof(uint32_t));
   s->triangle_mesh = alloc((size_t)triangles, sizeof(uint32_t));
   s->meshes = alloc(s->mesh_count, sizeof *s->meshes);
-  if (!s->positions || !s->normals || !s->uvs || !s->indices || !s->triangle_mesh || !s->meshes)
-    return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory for %llu vertices",
-                (unsigned long long)vertices);
+  filtered = alloc(3 * (size_t)max_triangles + 1, sizeof *filtered);
+  if (!s->positions || !s->normals || !s->uvs || !s->indices || !s->triangle_mesh || !s->meshes ||
+      !filtered) {
+    r = fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory for %llu vertices",
+             (unsigned long long)vertices);
+    goto done;
+  }
 
-  uint32_t next_vertex = 0, next_triangle = 0;
-  for (uint32_t i = 0; i < g->primitive_count; i++) {
+  uint32_t next_vertex = 0, next_triangle = 0, mesh = 0;
+  for (uint32_t i = 0; i < np && r == BBC_OK; i++) {
     const bbc__gltf_primitive *p = &g->primitives[i];
     uint32_t material = p->material < 0 ? g->material_count : (uint32_t)p->material;
-    bbc_role role = BBC_ROLE_NONE;
-    bbc_result r = parse_role(ld, p, s->materials[material].type, &role);
-    if (r == BBC_OK) r = add_mesh(ld, p, s, i, material, role, &next_vertex, &next_triangle);
-    if (r != BBC_OK) return r;
-    if (s->materials[material].base_color_texture && !p->uvs) {
+    for (unsigned c = 0; c < 3 && r == BBC_OK; c++) {
+      if (!(mask[i] >> c & 1u)) continue;
+      /* The primitive's triangles of class c, over all its vertices. */
+      bbc__gltf_primitive part = *p;
+      if (cls[i]) {
+        uint32_t n = 0;
+        for (uint32_t t = 0; t < p->index_count / 3; t++)
+          if (cls[i][t] == c)
+            for (int k = 0; k < 3; k++) filtered[n++] = p->indices[3 * (size_t)t + (size_t)k];
+        part.indices = filtered;
+        part.index_count = n;
+      }
+      uint32_t mm = c == (unsigned)s->materials[material].type
+                        ? material
+                        : variant[3 * (size_t)material + c];
+      bbc_role role = BBC_ROLE_NONE;
+      r = parse_role(ld, &part, s->materials[mm].type, &role);
+      if (r == BBC_OK) r = add_mesh(ld, &part, s, mesh++, mm, role, &next_vertex, &next_triangle);
+    }
+    if (r == BBC_OK && s->materials[material].base_color_texture && !p->uvs) {
       char label[256];
       warn(ld, "%s has a base colour texture but no TEXCOORD_0; the texture is read at (0, 0)",
            mesh_label(p, label, sizeof label));
     }
   }
-  return BBC_OK;
+done:
+  if (cls)
+    for (uint32_t i = 0; i < np; i++) free(cls[i]);
+  free(cls);
+  free(mask);
+  free(variant);
+  free(count);
+  free(mixed);
+  free(filtered);
+  return r;
 }
 
 /* The units of the file's light intensities: the caller's override, else the asset's
@@ -913,11 +1155,11 @@ static void volume_warnings(const loader *ld, const bbc__gltf_data *g, const bbc
   for (uint32_t i = 0; i < s->mesh_count; i++) {
     const bbc_mesh *mesh = &s->meshes[i];
     const bbc_material *m = &s->materials[mesh->material];
-    if (m->type != BBC_MATERIAL_DIELECTRIC || mesh->material >= g->material_count ||
-        g->materials[mesh->material].thickness > 0.0)
+    if (m->type != BBC_MATERIAL_DIELECTRIC || m->source < 0 ||
+        g->materials[m->source].thickness > 0.0)
       continue;
     char label[128];
-    material_label(&g->materials[mesh->material], mesh->material, label, sizeof label);
+    material_label(&g->materials[m->source], (uint32_t)m->source, label, sizeof label);
     if (mesh->closed)
       warn(ld,
            "mesh \"%s\" (%s): KHR_materials_transmission without KHR_materials_volume; the "

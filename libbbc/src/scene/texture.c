@@ -53,20 +53,39 @@ void bbc_texture_lookup(const bbc_texture *tex, double s, double t, double out[3
   texel(tex, i1, j1, ax * ay, out);
 }
 
-void bbc_scene_base_color(const bbc_scene *scene, uint32_t triangle, double b1, double b2,
-                          double out[3]) {
-  const bbc_material *m = bbc_scene_triangle_material(scene, triangle);
-  for (int k = 0; k < 3; k++) out[k] = m->base_color[k];
-  if (m->base_color_texture == 0) return;
+/* Texture `texture` (1 + index) of the scene at the interpolated TEXCOORD_0 of a point,
+ * through the transform x. */
+static void lookup_at(const bbc_scene *scene, uint32_t triangle, double b1, double b2,
+                      uint32_t texture, const double x[6], double out[3]) {
   const uint32_t *idx = scene->indices + 3 * (size_t)triangle;
   const float *uv0 = scene->uvs + 2 * (size_t)idx[0], *uv1 = scene->uvs + 2 * (size_t)idx[1],
               *uv2 = scene->uvs + 2 * (size_t)idx[2];
   double b0 = 1.0 - b1 - b2;
   double u = b0 * uv0[0] + b1 * uv1[0] + b2 * uv2[0];
   double v = b0 * uv0[1] + b1 * uv1[1] + b2 * uv2[1];
-  const double *x = m->uv_transform;
+  bbc_texture_lookup(&scene->textures[texture - 1], x[0] * u + x[1] * v + x[2],
+                     x[3] * u + x[4] * v + x[5], out);
+}
+
+void bbc_scene_base_color(const bbc_scene *scene, uint32_t triangle, double b1, double b2,
+                          double out[3]) {
+  const bbc_material *m = bbc_scene_triangle_material(scene, triangle);
+  for (int k = 0; k < 3; k++) out[k] = m->base_color[k];
+  if (m->base_color_texture == 0) return;
   double c[3];
-  bbc_texture_lookup(&scene->textures[m->base_color_texture - 1], x[0] * u + x[1] * v + x[2],
-                     x[3] * u + x[4] * v + x[5], c);
+  lookup_at(scene, triangle, b1, b2, m->base_color_texture, m->uv_transform, c);
   for (int k = 0; k < 3; k++) out[k] *= c[k];
+}
+
+void bbc_scene_metallic_roughness(const bbc_scene *scene, uint32_t triangle, double b1,
+                                  double b2, double *metallic, double *roughness) {
+  const bbc_material *m = bbc_scene_triangle_material(scene, triangle);
+  *metallic = m->metallic;
+  *roughness = m->roughness;
+  if (m->metallic_roughness.texture == 0) return;
+  double c[3];
+  lookup_at(scene, triangle, b1, b2, m->metallic_roughness.texture,
+            m->metallic_roughness.uv_transform, c);
+  *roughness *= c[1];
+  *metallic *= c[2];
 }
