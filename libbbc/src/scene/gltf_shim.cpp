@@ -136,7 +136,7 @@ bool fs_write_whole_file(std::string *err, const std::string &, const std::vecto
 }
 
 // The encoded bytes of every image, kept by the image callback while tinygltf parses;
-// the reader decodes those that base colour textures use. Nothing is decoded in the
+// the reader decodes those that material textures use. Nothing is decoded in the
 // callback, so an unused or broken image never stops a scene from loading.
 struct image_store {
   const tinygltf::Model *model = nullptr;  // the model being parsed

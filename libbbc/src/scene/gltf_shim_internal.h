@@ -80,7 +80,7 @@ typedef struct bbc__gltf_texture {
   int wrap_s, wrap_t, mag_filter;
 } bbc__gltf_texture;
 
-/* A glTF image, decoded when a material's base colour texture uses it (by tinygltf's
+/* A glTF image, decoded when a material's texture bbc reads uses it (by tinygltf's
  * LoadImageData: PNG, JPEG and the other formats of stb_image), as RGBA with 8 or 16 bits
  * per channel, rows from the top. An image that is not used is not decoded. */
 typedef struct bbc__gltf_image {
