@@ -68,6 +68,8 @@ typedef struct bbc__gltf_material {
   double emissive[3];       /* emissiveFactor, default 0 */
   double emissive_strength; /* KHR_materials_emissive_strength, default 1 */
   bbc__gltf_texture_ref base_color_texture; /* pbrMetallicRoughness.baseColorTexture */
+  bbc_alpha_mode alpha_mode; /* alphaMode (checked), default OPAQUE */
+  double alpha_cutoff;       /* alphaCutoff (checked: finite, >= 0), default 0.5 */
 } bbc__gltf_material;
 
 /* A glTF texture: its image and the wrap modes and magnification filter of its sampler

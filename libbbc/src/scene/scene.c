@@ -161,6 +161,25 @@ static const char *material_label(const bbc__gltf_material *m, uint32_t index, c
   return buf;
 }
 
+/* The alpha mode, cutoff and factor alpha of a material (bbc_alpha_mode). BLEND is read
+ * as coverage (README, Scenes); the warning says so once per material, because files
+ * often use it to imitate glass, which it does not make. */
+static bbc_result classify_alpha(const loader *ld, const bbc__gltf_material *g, const char *label,
+                                 bbc_material *m) {
+  m->alpha_mode = g->alpha_mode;
+  m->alpha_cutoff = fits_float(g->alpha_cutoff) ? (float)g->alpha_cutoff : FLT_MAX;
+  if (!fits_float(g->base_color[3]))
+    return fail(ld, BBC_ERR_SCENE, "%s: baseColorFactor's alpha must be finite", label);
+  m->alpha = (float)g->base_color[3];
+  if (g->alpha_mode == BBC_ALPHA_BLEND)
+    warn(ld,
+         "%s: alphaMode BLEND is rendered as coverage: a ray meets the surface with "
+         "probability alpha (baseColorFactor alpha %g%s) and passes straight through "
+         "otherwise; it does not refract (smooth glass is KHR_materials_transmission)",
+         label, g->base_color[3], g->base_color_texture.texture >= 0 ? " times the texture's" : "");
+  return BBC_OK;
+}
+
 /* The classification is exact on purpose: bbc renders only ideal surfaces, and a
  * slightly rough mirror is not a mirror. */
 static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32_t index,
@@ -185,6 +204,8 @@ static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32
   }
   m->ior = 1.5f;
   m->uv_transform[0] = m->uv_transform[4] = 1.0;
+  bbc_result ar = classify_alpha(ld, g, label, m);
+  if (ar != BBC_OK) return ar;
 
   if (g->metallic == 1.0 && g->roughness == 0.0) {
     m->type = BBC_MATERIAL_MIRROR;
@@ -239,9 +260,10 @@ static bbc_result wrap_mode(const loader *ld, const char *label, const char *key
   }
 }
 
-/* Decodes glTF texture `index` into *out: sRGB to linear, alpha dropped. */
+/* Decodes glTF texture `index` into *out: sRGB to linear; the alpha channel (linear)
+ * when keep_alpha is set and some texel is not opaque, else none. */
 static bbc_result decode_texture(const loader *ld, const bbc__gltf_data *g, uint32_t index,
-                                 const char *label, bbc_texture *out) {
+                                 const char *label, int keep_alpha, bbc_texture *out) {
   const bbc__gltf_texture *t = &g->textures[index];
   const bbc__gltf_image *im = &g->images[t->image];
   bbc_result r = wrap_mode(ld, label, "wrapS", t->wrap_s, &out->wrap_s);
@@ -266,6 +288,20 @@ static bbc_result decode_texture(const loader *ld, const bbc__gltf_data *g, uint
       for (int k = 0; k < 3; k++)
         out->rgb[3 * i + k] = (float)bbc_srgb_to_linear(p[4 * i + k] / 65535.0);
   }
+  if (!keep_alpha) return BBC_OK;
+  const uint8_t *p8 = im->rgba;
+  const uint16_t *p16 = im->rgba;
+  int opaque = 1;
+  for (size_t i = 0; i < texels && opaque; i++)
+    opaque = im->bits == 8 ? p8[4 * i + 3] == 255 : p16[4 * i + 3] == 65535;
+  if (opaque) return BBC_OK;
+  out->alpha = alloc(texels, sizeof *out->alpha);
+  if (!out->alpha)
+    return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory for a %ux%u texture", im->width,
+                im->height);
+  for (size_t i = 0; i < texels; i++)
+    out->alpha[i] =
+        im->bits == 8 ? (float)(p8[4 * i + 3] / 255.0) : (float)(p16[4 * i + 3] / 65535.0);
   return BBC_OK;
 }
 
@@ -280,6 +316,13 @@ static bbc_result load_textures(const loader *ld, const bbc__gltf_data *g, bbc_s
     return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
   }
   for (uint32_t i = 0; i < g->texture_count; i++) slot[i] = -1;
+  /* The alpha channel of a texture is kept when a MASK or BLEND material uses it
+   * (slot -2 marks those before any is decoded). */
+  for (uint32_t i = 0; i < g->material_count; i++) {
+    const bbc__gltf_texture_ref *ref = &g->materials[i].base_color_texture;
+    if (ref->texture >= 0 && g->materials[i].alpha_mode != BBC_ALPHA_OPAQUE)
+      slot[ref->texture] = -2;
+  }
   bbc_result r = BBC_OK;
   for (uint32_t i = 0; i < g->material_count && r == BBC_OK; i++) {
     const bbc__gltf_texture_ref *ref = &g->materials[i].base_color_texture;
@@ -306,7 +349,8 @@ static bbc_result load_textures(const loader *ld, const bbc__gltf_data *g, bbc_s
       continue;
     }
     if (slot[ref->texture] < 0) {
-      r = decode_texture(ld, g, (uint32_t)ref->texture, what, &s->textures[s->texture_count]);
+      r = decode_texture(ld, g, (uint32_t)ref->texture, what, slot[ref->texture] == -2,
+                         &s->textures[s->texture_count]);
       if (r != BBC_OK) break;
       slot[ref->texture] = (int32_t)s->texture_count++;
     }
@@ -581,6 +625,7 @@ static bbc_result load_geometry(const loader *ld, const bbc__gltf_data *g, bbc_s
     m->base_color[0] = m->base_color[1] = m->base_color[2] = 0.8f;
     m->ior = 1.5f;
     m->uv_transform[0] = m->uv_transform[4] = 1.0;
+    m->alpha = 1.0f;
   }
   bbc_result tr = load_textures(ld, g, s);
   if (tr != BBC_OK) return tr;
@@ -1016,7 +1061,10 @@ void bbc_scene_free(bbc_scene *scene) {
   free(scene->triangle_mesh);
   free(scene->meshes);
   free(scene->materials);
-  for (uint32_t i = 0; i < scene->texture_count; i++) free(scene->textures[i].rgb);
+  for (uint32_t i = 0; i < scene->texture_count; i++) {
+    free(scene->textures[i].rgb);
+    free(scene->textures[i].alpha);
+  }
   free(scene->textures);
   free(scene->point_lights);
   free(scene->emitters);
