@@ -29,7 +29,11 @@ typedef struct bbc_hit {
 } bbc_hit;
 
 /* Closest hit along origin + t dir for t in (tmin, tmax); returns 1 and fills *hit, or
- * returns 0. dir need not be normalised (t is then in units of |dir|). */
+ * returns 0. dir need not be normalised (t is then in units of |dir|).
+ * Both queries see a surface only where it is there (bbc_scene_coverage, texture.h): a
+ * MASK material's cut-outs are skipped, and a BLEND surface of coverage c is met with
+ * probability c, decided by a hash of the ray and the hit, so the same ray always gets
+ * the same answer. */
 BBC_API int bbc_accel_intersect(const bbc_accel *accel, bbc_vec3 origin, bbc_vec3 dir, double tmin,
                                 double tmax, bbc_hit *hit);
 /* 1 if anything blocks the segment origin + t dir, t in (tmin, tmax). */

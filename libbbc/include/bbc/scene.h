@@ -29,12 +29,16 @@ typedef enum bbc_wrap {
 
 /* A decoded texture, rows from the top of the image (texture coordinate v = 0), with its
  * sampler's wrap modes and magnification filter. A base colour texture holds linear RGB
- * (the file's sRGB decoded with the exact IEC 61966-2-1 curve; alpha is ignored); a data
- * texture (metallic-roughness, transmission) holds the stored values over their maximum
- * (255 or 65535), undecoded, as glTF says. */
+ * (the file's sRGB decoded with the exact IEC 61966-2-1 curve); a data texture
+ * (metallic-roughness, transmission) the stored values over their maximum (255 or
+ * 65535), undecoded, as glTF says. */
 typedef struct bbc_texture {
   uint32_t width, height;
   float *rgb; /* 3 floats per texel, row-major */
+  /* The alpha channel, 1 float per texel in [0, 1] (linear: glTF alpha is never
+   * sRGB-encoded), or NULL: kept only when a MASK or BLEND material uses the texture and
+   * some texel is not opaque; NULL reads as alpha 1. */
+  float *alpha;
   bbc_wrap wrap_s, wrap_t;
   int nearest; /* magFilter NEAREST; otherwise bilinear (no mipmaps: see texture.h) */
 } bbc_texture;
@@ -46,6 +50,15 @@ typedef struct bbc_texture_use {
   uint32_t texture;
   double uv_transform[6];
 } bbc_texture_use;
+/* glTF alphaMode: what a material's alpha (baseColorFactor's fourth component times its
+ * base colour texture's alpha channel) does. The values are fixed. */
+typedef enum bbc_alpha_mode {
+  BBC_ALPHA_OPAQUE = 0, /* alpha is ignored (the glTF default) */
+  BBC_ALPHA_MASK = 1,   /* the surface is there where alpha >= alpha_cutoff and is cut out
+                           elsewhere: no ray, shadow ray or specular path meets it */
+  BBC_ALPHA_BLEND = 2   /* alpha is coverage: a ray meets the surface with probability
+                           alpha (README, Scenes) */
+} bbc_alpha_mode;
 
 typedef struct bbc_material {
   char name[64];
@@ -76,6 +89,10 @@ typedef struct bbc_material {
   /* The glTF material this one was read from; -1 for the default material of
    * primitives without one. */
   int32_t source;
+  /* Cut-outs and coverage (bbc_scene_coverage in texture.h): the alpha mode, glTF's
+   * alphaCutoff (MASK only; 0.5 when absent) and baseColorFactor's alpha. */
+  bbc_alpha_mode alpha_mode;
+  float alpha_cutoff, alpha;
 } bbc_material;
 
 /* What a mesh does for caustics: casters are the specular surfaces light is bounced

@@ -1,4 +1,5 @@
-/* Textures: what a receiver's albedo, metallic and roughness are at a surface point.
+/* Textures: what a receiver's albedo, metallic and roughness are at a surface point, and
+ * how much of a surface is there (glTF alphaMode MASK and BLEND).
  *
  * A texture is sampled where the triangle's interpolated TEXCOORD_0, mapped by the
  * material's KHR_texture_transform, falls: each coordinate is wrapped by the sampler's
@@ -37,6 +38,23 @@ BBC_API void bbc_scene_base_color(const bbc_scene *scene, uint32_t triangle, dou
  * BBC_BSDF_MIN_ROUGHNESS). */
 BBC_API void bbc_scene_metallic_roughness(const bbc_scene *scene, uint32_t triangle, double b1,
                                           double b2, double *metallic, double *roughness);
+/* The alpha channel of a texture at (s, t), looked up like its colour (same wrap modes and
+ * filter); 1 when the texture has no alpha channel (bbc_texture.alpha is NULL). */
+BBC_API double bbc_texture_lookup_alpha(const bbc_texture *texture, double s, double t);
+
+/* The glTF alpha of scene triangle `triangle` at barycentrics b1, b2 (as for
+ * bbc_scene_base_color): its material's baseColorFactor alpha, times its base colour
+ * texture's alpha channel there when it has one. Whatever the alpha mode. */
+BBC_API double bbc_scene_alpha(const bbc_scene *scene, uint32_t triangle, double b1, double b2);
+
+/* How much of scene triangle `triangle` is there at barycentrics b1, b2, in [0, 1]: 1 for
+ * BBC_ALPHA_OPAQUE materials; for BBC_ALPHA_MASK 1 where bbc_scene_alpha >= the material's
+ * alpha_cutoff and 0 where the point is cut out; for BBC_ALPHA_BLEND the alpha clamped to
+ * [0, 1], the probability that a ray meeting the surface there stops at it. Every ray
+ * query (bbc_accel_intersect, bbc_accel_occluded) and every specular vertex of a caustic
+ * path applies it. */
+BBC_API double bbc_scene_coverage(const bbc_scene *scene, uint32_t triangle, double b1,
+                                  double b2);
 
 #ifdef __cplusplus
 }

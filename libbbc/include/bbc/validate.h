@@ -3,10 +3,12 @@
  * piece of the subdivision (bounds.h) that holds u1 and check that the path lands inside
  * the piece's position bound and carries an irradiance inside its irradiance bound.
  *
- * A path counts when the renderer would count it: its trace has no BBC_PATH_REJECT flag
- * and, for refraction, the light arrives on the side of T1 the bounder oriented it to
- * (the side its vertex normals say the light is on; bounds.h). The receiver's shading
- * side, visibility and Fresnel are not part of the check: the bounds do not model them.
+ * A path counts when the renderer would count it: its trace has no BBC_PATH_REJECT flag,
+ * no vertex of it (nor an area light's emitter point) is cut out by its material's alpha
+ * (bbc_scene_coverage 0, texture.h) and, for refraction, the light arrives on the side
+ * of T1 the bounder oriented it to (the side its vertex normals say the light is on;
+ * bounds.h). The receiver's shading side, visibility, Fresnel and partial (BLEND)
+ * coverage are not part of the check: the bounds do not model them.
  *
  * The results go into a bbc_validation accumulator, a plain struct with a fixed-size
  * histogram of log10(E_hi / E), so per-thread accumulators can be merged without any

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "bbc/specular_path.h"
+#include "bbc/texture.h"
 #include "rng_internal.h"
 #include "light_internal.h"
 #include "vec_internal.h"
@@ -274,12 +275,29 @@ static orientation orientation_of(const bbc_tuple_geometry *tg, const bbc_path_g
   return o;
 }
 
-/* Traces u1 and applies the renderer's rule (caustics.c): no rejecting flag and, at a
- * refracting vertex, the light arriving from the side the bounds were computed for. */
-static int admissible_path(const bbc_path_geometry *pg, orientation o, const double u1[2],
+/* Whether a point of the tuple's path is cut out (bbc_scene_coverage 0): a specular
+ * vertex there is no vertex, an emitter point there emits nothing. Partial coverage
+ * (BLEND) scales a path like Fresnel does and is not part of the check. */
+static int cut_out(const bbc_scene *scene, uint32_t triangle, const double b[2]) {
+  return !(bbc_scene_coverage(scene, triangle, b[0], b[1]) > 0);
+}
+
+/* Traces u1 and applies the renderer's rule (caustics.c): no rejecting flag, no vertex
+ * in a cut-out and, at a refracting vertex, the light arriving from the side the bounds
+ * were computed for. */
+static int admissible_path(const bbc_scene *scene, const bbc_tuple *tuple,
+                           const bbc_path_geometry *pg, orientation o, const double u1[2],
                            bbc_specular_path *path) {
   if (bbc_specular_path_trace(pg, u1[0], u1[1], path) != BBC_OK) return 0;
   if (path->flags & BBC_PATH_REJECT) return 0;
+  if (cut_out(scene, tuple->specular[0], path->u1) ||
+      (pg->length == 2 && cut_out(scene, tuple->specular[1], path->u2)))
+    return 0;
+  double b[2];
+  if (pg->light_model.kind == BBC_LIGHT_AREA &&
+      bbc_triangle_barycentrics(pg->light_model.emitter, pg->light, b) &&
+      cut_out(scene, scene->emitters[tuple->light - scene->point_light_count], b))
+    return 0;
   if (pg->light_model.kind == BBC_LIGHT_AREA) {
     /* pg->light is the emitter point: the path's value per unit radiance is A_e
      * cos(theta_e) times its point-light irradiance, 0 behind the emitter. */
@@ -339,7 +357,7 @@ bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, cons
       sample_emitter(seed, tuple, i, ab);
       pgi.light = bbc__area_point(&pg.light_model, ab[0], ab[1]);
     }
-    if (!admissible_path(&pgi, o, u1, &path)) continue;
+    if (!admissible_path(scene, tuple, &pgi, o, u1, &path)) continue;
     acc->admissible++;
 
     const bbc_piece *piece = find_leaf(&leaves, u1[0], u1[1], area ? ab : NULL);
@@ -415,7 +433,7 @@ bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *c
       sample_emitter(seed, tuple, i, ab);
       pgi.light = bbc__area_point(&pg.light_model, ab[0], ab[1]);
     }
-    if (!admissible_path(&pgi, o, u1, &path)) continue;
+    if (!admissible_path(scene, tuple, &pgi, o, u1, &path)) continue;
     /* A path to a receiver's plane past its grid misses the mesh: no path. */
     bbc_cell cell;
     if (bbc_receiver_is_plane(tuple->receiver) &&

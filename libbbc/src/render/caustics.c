@@ -32,6 +32,7 @@
 
 #include <omp.h>
 
+#include "bbc/texture.h"
 #include "vec_internal.h"
 
 bbc_result bbc__caustics_thread_init(bbc__caustics_thread *t, const bbc_cache *cache) {
@@ -109,6 +110,11 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
     area_light.model = g->light_model;
     bbc__cache_light_intensity(scene, tuple->light, area_light.intensity);
     weight = bbc__area_weight(&g->light_model, g->light, s->x1);
+    /* An emitter point in a cut-out emits nothing (bbc_scene_coverage). */
+    double b[2];
+    if (weight > 0 && bbc_triangle_barycentrics(g->light_model.emitter, g->light, b))
+      weight *= bbc_scene_coverage(scene, scene->emitters[tuple->light - scene->point_light_count],
+                                   b[0], b[1]);
     if (!(weight > 0)) return 0;
   } else {
     light = &scene->point_lights[tuple->light];
@@ -127,6 +133,12 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
   for (int i = 0; i < length; i++) {
     const uint32_t tri = tuple->specular[i];
     const bbc_material *m = bbc_scene_triangle_material(scene, tri);
+    /* A specular vertex in a cut-out is no vertex: the path does not exist. Partial
+     * coverage (BLEND) scales it, the expectation of the path tracer's coin flip. */
+    const double *u = i == 0 ? s->u1 : s->u2;
+    const double cover = bbc_scene_coverage(scene, tri, u[0], u[1]);
+    if (!(cover > 0)) return 0;
+    for (int k = 0; k < 3; k++) factor[k] *= cover;
     ngeo[i] = geometric_normal(scene, tri, NULL);
     if (g->specular[i].refract) {
       /* Side consistency: the bounds orient a refraction by the side of the triangle's

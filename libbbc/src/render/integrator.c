@@ -19,6 +19,7 @@
  * are skipped (bbc__caustics_sun_covers). A delta sun (angular diameter 0) cannot be hit. */
 #include "bbc/bsdf.h"
 #include "bbc/render.h"
+#include "bbc/texture.h"
 
 #include <float.h>
 #include <math.h>
@@ -259,18 +260,20 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
     double area = 0.5 * v3_length(cross);
     bbc_hit at = {0, e, r1 * (1.0 - r2), r1 * r2};
     surface light = surface_at(scene, &at);
+    /* A cut-out part of an emitter emits nothing; a partly covered one (BLEND) its share. */
+    const double cover = bbc_scene_coverage(scene, e, at.u, at.v);
     bbc_vec3 to_light = v3_sub(q, s->p);
     double dist2 = v3_dot(to_light, to_light);
     double dist = sqrt(dist2);
     double cos_s = v3_dot(s->ns, to_light) / dist;
     double cos_l = -v3_dot(light.ns, to_light) / dist;
-    if (cos_s > 0 && cos_l > 0 && v3_dot(s->ng, to_light) > 0 && probability > 0) {
+    if (cos_s > 0 && cos_l > 0 && v3_dot(s->ng, to_light) > 0 && probability > 0 && cover > 0) {
       bbc_vec3 origin = v3_offset_origin(s->p, s->ng, to_light);
       bbc_vec3 target = v3_offset_origin(q, light.ng, v3_neg(to_light));
       (*rays)++;
       if (!bbc_accel_occluded(ctx->accel, origin, v3_sub(target, origin), 0.0, 1.0 - 1e-6)) {
         const float *le = light.material->emission;
-        double g = cos_s * cos_l / dist2 * area / probability;
+        double g = cos_s * cos_l / dist2 * area / probability * cover;
         bbc_vec3 e = v3(le[0] * g, le[1] * g, le[2] * g);
         sum = v3_add(sum, bsdf->glossy ? glossy_weight(bsdf, s, wo, to_light, e) : e);
       }

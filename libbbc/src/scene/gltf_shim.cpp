@@ -644,6 +644,20 @@ class reader {
                                                owner, "metallicRoughnessTexture");
     g.transmission_texture = extension_texture(m.extensions, "KHR_materials_transmission",
                                                "transmissionTexture", owner);
+    // glTF 2.0, section 5.19 (material): alphaMode is one of three strings, alphaCutoff
+    // a number >= 0 (tinygltf fills in OPAQUE and 0.5 when they are absent).
+    if (m.alphaMode == "OPAQUE")
+      g.alpha_mode = BBC_ALPHA_OPAQUE;
+    else if (m.alphaMode == "MASK")
+      g.alpha_mode = BBC_ALPHA_MASK;
+    else if (m.alphaMode == "BLEND")
+      g.alpha_mode = BBC_ALPHA_BLEND;
+    else
+      fail(BBC_ERR_GLTF, "%s: alphaMode \"%s\" is not OPAQUE, MASK or BLEND", owner.c_str(),
+           m.alphaMode.c_str());
+    g.alpha_cutoff = m.alphaCutoff;
+    if (!std::isfinite(g.alpha_cutoff) || g.alpha_cutoff < 0.0)
+      fail(BBC_ERR_GLTF, "%s: alphaCutoff %g is not a number >= 0", owner.c_str(), g.alpha_cutoff);
     out_.materials.push_back(g);
   }
 

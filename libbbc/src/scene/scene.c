@@ -170,6 +170,25 @@ static const char *class_name(bbc_material_type type) {
                                            : "a receiver";
 }
 
+/* The alpha mode, cutoff and factor alpha of a material (bbc_alpha_mode). BLEND is read
+ * as coverage (README, Scenes); the warning says so once per material, because files
+ * often use it to imitate glass, which it does not make. */
+static bbc_result classify_alpha(const loader *ld, const bbc__gltf_material *g, const char *label,
+                                 bbc_material *m) {
+  m->alpha_mode = g->alpha_mode;
+  m->alpha_cutoff = fits_float(g->alpha_cutoff) ? (float)g->alpha_cutoff : FLT_MAX;
+  if (!fits_float(g->base_color[3]))
+    return fail(ld, BBC_ERR_SCENE, "%s: baseColorFactor's alpha must be finite", label);
+  m->alpha = (float)g->base_color[3];
+  if (g->alpha_mode == BBC_ALPHA_BLEND)
+    warn(ld,
+         "%s: alphaMode BLEND is rendered as coverage: a ray meets the surface with "
+         "probability alpha (baseColorFactor alpha %g%s) and passes straight through "
+         "otherwise; it does not refract (smooth glass is KHR_materials_transmission)",
+         label, g->base_color[3], g->base_color_texture.texture >= 0 ? " times the texture's" : "");
+  return BBC_OK;
+}
+
 /* The class from the factors (surface_class_internal.h): values within
  * BBC_IDEAL_TOLERANCE of ideal are rendered ideal, with a note when not exactly so. A
  * material with a metallic-roughness or transmission texture is classified again per
@@ -207,6 +226,8 @@ static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32
                 g->metallic, g->roughness, g->transmission);
   m->metallic = (float)g->metallic;
   m->roughness = (float)g->roughness;
+  bbc_result ar = classify_alpha(ld, g, label, m);
+  if (ar != BBC_OK) return ar;
 
   const double mr[2] = {g->metallic, g->metallic}, rr[2] = {g->roughness, g->roughness},
                tr[2] = {g->transmission, g->transmission};
@@ -265,10 +286,11 @@ static bbc_result wrap_mode(const loader *ld, const char *label, const char *key
   }
 }
 
-/* Decodes glTF texture `index` into *out, alpha dropped: sRGB to linear for a colour
- * texture, the stored values over their maximum for a data texture. */
+/* Decodes glTF texture `index` into *out: sRGB to linear for a colour texture, the
+ * stored values over their maximum for a data texture; the alpha channel (linear) when
+ * keep_alpha is set and some texel is not opaque, else none. */
 static bbc_result decode_texture(const loader *ld, const bbc__gltf_data *g, uint32_t index,
-                                 int data, const char *label, bbc_texture *out) {
+                                 int data, const char *label, int keep_alpha, bbc_texture *out) {
   const bbc__gltf_texture *t = &g->textures[index];
   const bbc__gltf_image *im = &g->images[t->image];
   bbc_result r = wrap_mode(ld, label, "wrapS", t->wrap_s, &out->wrap_s);
@@ -296,6 +318,20 @@ static bbc_result decode_texture(const loader *ld, const bbc__gltf_data *g, uint
         out->rgb[3 * i + k] = (float)(data ? v : bbc_srgb_to_linear(v));
       }
   }
+  if (!keep_alpha) return BBC_OK;
+  const uint8_t *p8 = im->rgba;
+  const uint16_t *p16 = im->rgba;
+  int opaque = 1;
+  for (size_t i = 0; i < texels && opaque; i++)
+    opaque = im->bits == 8 ? p8[4 * i + 3] == 255 : p16[4 * i + 3] == 65535;
+  if (opaque) return BBC_OK;
+  out->alpha = alloc(texels, sizeof *out->alpha);
+  if (!out->alpha)
+    return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory for a %ux%u texture", im->width,
+                im->height);
+  for (size_t i = 0; i < texels; i++)
+    out->alpha[i] =
+        im->bits == 8 ? (float)(p8[4 * i + 3] / 255.0) : (float)(p16[4 * i + 3] / 65535.0);
   return BBC_OK;
 }
 
@@ -330,7 +366,7 @@ static bbc_result use_texture(const loader *ld, const bbc__gltf_data *g, bbc_sce
   }
   int32_t *k = &slot[2 * (size_t)ref->texture + (data ? 1 : 0)];
   if (*k < 0) {
-    bbc_result r = decode_texture(ld, g, (uint32_t)ref->texture, data, what,
+    bbc_result r = decode_texture(ld, g, (uint32_t)ref->texture, data, what, *k == -2,
                                   &s->textures[s->texture_count]);
     if (r != BBC_OK) return r;
     *k = (int32_t)s->texture_count++;
@@ -360,6 +396,13 @@ static bbc_result load_textures(const loader *ld, const bbc__gltf_data *g, bbc_s
     return fail(ld, BBC_ERR_OUT_OF_MEMORY, "out of memory");
   }
   for (uint32_t i = 0; i < 2 * g->texture_count; i++) slot[i] = -1;
+  /* The alpha channel of a colour texture is kept when a MASK or BLEND material uses it
+   * (slot -2 marks those before any is decoded). */
+  for (uint32_t i = 0; i < g->material_count; i++) {
+    const bbc__gltf_texture_ref *ref = &g->materials[i].base_color_texture;
+    if (ref->texture >= 0 && g->materials[i].alpha_mode != BBC_ALPHA_OPAQUE)
+      slot[2 * (size_t)ref->texture] = -2;
+  }
   bbc_result r = BBC_OK;
   for (uint32_t i = 0; i < g->material_count && r == BBC_OK; i++) {
     const bbc__gltf_material *gm = &g->materials[i];
@@ -727,6 +770,7 @@ static bbc_result load_geometry(const loader *ld, const bbc__gltf_data *g, bbc_s
     m->base_color[0] = m->base_color[1] = m->base_color[2] = 0.8f;
     m->ior = 1.5f;
     m->uv_transform[0] = m->uv_transform[4] = 1.0;
+    m->alpha = 1.0f;
     m->source = -1;
   }
   bbc_result r = load_textures(ld, g, s);
@@ -1258,7 +1302,10 @@ void bbc_scene_free(bbc_scene *scene) {
   free(scene->triangle_mesh);
   free(scene->meshes);
   free(scene->materials);
-  for (uint32_t i = 0; i < scene->texture_count; i++) free(scene->textures[i].rgb);
+  for (uint32_t i = 0; i < scene->texture_count; i++) {
+    free(scene->textures[i].rgb);
+    free(scene->textures[i].alpha);
+  }
   free(scene->textures);
   free(scene->point_lights);
   free(scene->emitters);

@@ -1,5 +1,5 @@
-/* Base colour textures (bbc/texture.h): wrap modes, nearest and bilinear lookups, and
- * the albedo of a surface point. */
+/* Base colour textures (bbc/texture.h): wrap modes, nearest and bilinear lookups, the
+ * albedo of a surface point, and its alpha and coverage. */
 #include "bbc/texture.h"
 
 #include <math.h>
@@ -25,19 +25,24 @@ static int64_t wrap_index(int64_t i, int64_t n, bbc_wrap wrap) {
   return m < n ? m : 2 * n - 1 - m;
 }
 
-static void texel(const bbc_texture *tex, int64_t x, int64_t y, double w, double out[3]) {
-  const float *p = tex->rgb + 3 * ((size_t)y * tex->width + (size_t)x);
-  for (int k = 0; k < 3; k++) out[k] += w * p[k];
+/* Adds w times texel (x, y) of `channels`-float texels to out[0 .. channels). */
+static void texel(const bbc_texture *tex, const float *data, int channels, int64_t x, int64_t y,
+                  double w, double *out) {
+  const float *p = data + (size_t)channels * ((size_t)y * tex->width + (size_t)x);
+  for (int k = 0; k < channels; k++) out[k] += w * p[k];
 }
 
-void bbc_texture_lookup(const bbc_texture *tex, double s, double t, double out[3]) {
-  out[0] = out[1] = out[2] = 0.0;
+/* The lookup of bbc_texture_lookup over texels of `channels` floats each. */
+static void lookup(const bbc_texture *tex, const float *data, int channels, double s, double t,
+                   double *out) {
+  for (int k = 0; k < channels; k++) out[k] = 0.0;
   const int64_t w = tex->width, h = tex->height;
   /* In texel units: texel i covers [i, i + 1), its centre is i + 1/2. */
   double x = reduce(s, tex->wrap_s) * (double)w, y = reduce(t, tex->wrap_t) * (double)h;
   if (tex->nearest) {
     int64_t i = (int64_t)floor(x), j = (int64_t)floor(y);
-    texel(tex, wrap_index(i, w, tex->wrap_s), wrap_index(j, h, tex->wrap_t), 1.0, out);
+    texel(tex, data, channels, wrap_index(i, w, tex->wrap_s), wrap_index(j, h, tex->wrap_t), 1.0,
+          out);
     return;
   }
   x -= 0.5;
@@ -47,24 +52,35 @@ void bbc_texture_lookup(const bbc_texture *tex, double s, double t, double out[3
   int64_t i = (int64_t)fx, j = (int64_t)fy;
   int64_t i0 = wrap_index(i, w, tex->wrap_s), i1 = wrap_index(i + 1, w, tex->wrap_s);
   int64_t j0 = wrap_index(j, h, tex->wrap_t), j1 = wrap_index(j + 1, h, tex->wrap_t);
-  texel(tex, i0, j0, (1 - ax) * (1 - ay), out);
-  texel(tex, i1, j0, ax * (1 - ay), out);
-  texel(tex, i0, j1, (1 - ax) * ay, out);
-  texel(tex, i1, j1, ax * ay, out);
+  texel(tex, data, channels, i0, j0, (1 - ax) * (1 - ay), out);
+  texel(tex, data, channels, i1, j0, ax * (1 - ay), out);
+  texel(tex, data, channels, i0, j1, (1 - ax) * ay, out);
+  texel(tex, data, channels, i1, j1, ax * ay, out);
 }
 
-/* Texture `texture` (1 + index) of the scene at the interpolated TEXCOORD_0 of a point,
- * through the transform x. */
-static void lookup_at(const bbc_scene *scene, uint32_t triangle, double b1, double b2,
-                      uint32_t texture, const double x[6], double out[3]) {
+void bbc_texture_lookup(const bbc_texture *tex, double s, double t, double out[3]) {
+  lookup(tex, tex->rgb, 3, s, t, out);
+}
+
+double bbc_texture_lookup_alpha(const bbc_texture *tex, double s, double t) {
+  if (!tex->alpha) return 1.0;
+  double a;
+  lookup(tex, tex->alpha, 1, s, t, &a);
+  return a;
+}
+
+/* The texture coordinates of scene triangle `triangle` at barycentrics b1, b2: its
+ * interpolated TEXCOORD_0 through the transform x (a bbc_texture_use's uv_transform). */
+static void texture_coords(const bbc_scene *scene, const double x[6], uint32_t triangle,
+                           double b1, double b2, double *s, double *t) {
   const uint32_t *idx = scene->indices + 3 * (size_t)triangle;
   const float *uv0 = scene->uvs + 2 * (size_t)idx[0], *uv1 = scene->uvs + 2 * (size_t)idx[1],
               *uv2 = scene->uvs + 2 * (size_t)idx[2];
   double b0 = 1.0 - b1 - b2;
   double u = b0 * uv0[0] + b1 * uv1[0] + b2 * uv2[0];
   double v = b0 * uv0[1] + b1 * uv1[1] + b2 * uv2[1];
-  bbc_texture_lookup(&scene->textures[texture - 1], x[0] * u + x[1] * v + x[2],
-                     x[3] * u + x[4] * v + x[5], out);
+  *s = x[0] * u + x[1] * v + x[2];
+  *t = x[3] * u + x[4] * v + x[5];
 }
 
 void bbc_scene_base_color(const bbc_scene *scene, uint32_t triangle, double b1, double b2,
@@ -72,8 +88,9 @@ void bbc_scene_base_color(const bbc_scene *scene, uint32_t triangle, double b1, 
   const bbc_material *m = bbc_scene_triangle_material(scene, triangle);
   for (int k = 0; k < 3; k++) out[k] = m->base_color[k];
   if (m->base_color_texture == 0) return;
-  double c[3];
-  lookup_at(scene, triangle, b1, b2, m->base_color_texture, m->uv_transform, c);
+  double s, t, c[3];
+  texture_coords(scene, m->uv_transform, triangle, b1, b2, &s, &t);
+  bbc_texture_lookup(&scene->textures[m->base_color_texture - 1], s, t, c);
   for (int k = 0; k < 3; k++) out[k] *= c[k];
 }
 
@@ -83,9 +100,26 @@ void bbc_scene_metallic_roughness(const bbc_scene *scene, uint32_t triangle, dou
   *metallic = m->metallic;
   *roughness = m->roughness;
   if (m->metallic_roughness.texture == 0) return;
-  double c[3];
-  lookup_at(scene, triangle, b1, b2, m->metallic_roughness.texture,
-            m->metallic_roughness.uv_transform, c);
+  double s, t, c[3];
+  texture_coords(scene, m->metallic_roughness.uv_transform, triangle, b1, b2, &s, &t);
+  bbc_texture_lookup(&scene->textures[m->metallic_roughness.texture - 1], s, t, c);
   *roughness *= c[1];
   *metallic *= c[2];
+}
+
+double bbc_scene_alpha(const bbc_scene *scene, uint32_t triangle, double b1, double b2) {
+  const bbc_material *m = bbc_scene_triangle_material(scene, triangle);
+  if (m->base_color_texture == 0 || !scene->textures[m->base_color_texture - 1].alpha)
+    return m->alpha;
+  double s, t;
+  texture_coords(scene, m->uv_transform, triangle, b1, b2, &s, &t);
+  return m->alpha * bbc_texture_lookup_alpha(&scene->textures[m->base_color_texture - 1], s, t);
+}
+
+double bbc_scene_coverage(const bbc_scene *scene, uint32_t triangle, double b1, double b2) {
+  const bbc_material *m = bbc_scene_triangle_material(scene, triangle);
+  if (m->alpha_mode == BBC_ALPHA_OPAQUE) return 1.0;
+  double a = bbc_scene_alpha(scene, triangle, b1, b2);
+  if (m->alpha_mode == BBC_ALPHA_MASK) return a >= m->alpha_cutoff ? 1.0 : 0.0;
+  return a >= 1.0 ? 1.0 : a > 0.0 ? a : 0.0; /* NaN reads as 0 */
 }
