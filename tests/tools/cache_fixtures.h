@@ -33,8 +33,8 @@ static bbc_mesh fx_meshes[] = {
     {"floor", 3, 4, 1, 2, 1, BBC_ROLE_RECEIVER, 1, 1, 0, 1, 0, {{0, 0, 0}}},
 };
 static bbc_material fx_materials[] = {
-    {"mirror", BBC_MATERIAL_MIRROR, {1, 1, 1}, 1.5f, {0, 0, 0}, 0, {0}, 0, 0, 0},
-    {"floor", BBC_MATERIAL_DIFFUSE, {0.8f, 0.8f, 0.8f}, 1.5f, {0, 0, 0}, 0, {0}, 0, 0, 0},
+    {"mirror", BBC_MATERIAL_MIRROR, {1, 1, 1}, 1.5f, {0, 0, 0}, 0, {0}, 0, 0, 0, {0}},
+    {"floor", BBC_MATERIAL_DIFFUSE, {0.8f, 0.8f, 0.8f}, 1.5f, {0, 0, 0}, 0, {0}, 0, 0, 0, {0}},
 };
 static bbc_point_light fx_lights[] = {{.position = {0.5, 2, 0.5}, .intensity = {10, 10, 10}}};
 

@@ -215,7 +215,8 @@ static void make_field(field_scene *f, int n, double width, double depth, double
       k += 2;
     }
   f->mesh = (bbc_mesh){"field", 0, v, 0, t, 0, BBC_ROLE_RECEIVER, 1, 0, 0, 1, 0, {{0, 0, 0}}};
-  f->material = (bbc_material){"floor", BBC_MATERIAL_DIFFUSE, {1, 1, 1}, 1.5f, {0, 0, 0}, 0, {0}, 0, 0, 0};
+  f->material = (bbc_material){
+      "floor", BBC_MATERIAL_DIFFUSE, {1, 1, 1}, 1.5f, {0, 0, 0}, 0, {0}, 0, 0, 0, {0}};
   f->light = (bbc_point_light){.position = {0, 5, 0}, .intensity = {1, 1, 1}};
   snprintf(f->s.path, sizeof f->s.path, "field");
   f->s.vertex_count = v;
