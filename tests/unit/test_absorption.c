@@ -520,12 +520,13 @@ static void pixel_mean(const bbc_image *im, int k, double *mean, double *error) 
 
 /* The path tracer, which finds the box's light only through a sun with a disk (here 20
  * degrees across) by bouncing off the floor through the box: max_depth 4 keeps exactly
- * the paths floor -> box bottom -> box top -> sky (no second floor bounce, no internal
- * reflection), whose mean the oracle integrates over the disk, each direction with its
- * own Fresnel factors and path length d / cos(theta_t). 32 x 32 pixels x 1024 samples
- * give a standard error of about 0.4 % per channel, measured from the pixels' spread;
- * the tolerance is 4 of them plus 1e-4 for the Fresnel-sampled refraction's float
- * rounding. Without absorption red would be 3.2 times brighter and blue 5 % (many
+ * the paths floor -> box bottom -> box top -> sky (no internal reflection; and since the
+ * whole floor lies in the box's shadow, no light reflected off the glass onto a sunlit
+ * floor either), whose mean the oracle integrates over the disk, each direction with
+ * its own Fresnel factors and path length d / cos(theta_t). 32 x 32 pixels x 1024
+ * samples give a standard error of about 0.2 % per channel, measured from the pixels'
+ * spread (the independent sampler converges to the same mean); the tolerance is 4
+ * of them plus 1e-4 for the Fresnel-sampled refraction's float rounding. Without absorption red would be 3.2 times brighter and blue 5 % (many
  * standard errors: the check below says so); the blue-to-red ratio, nearly free of
  * noise because every path carries all three channels, must match within 0.2 %. */
 TEST(path_tracer_slab_follows_beer_lambert) {
