@@ -93,6 +93,16 @@ typedef struct bbc_material {
    * alphaCutoff (MASK only; 0.5 when absent) and baseColorFactor's alpha. */
   bbc_alpha_mode alpha_mode;
   float alpha_cutoff, alpha;
+  /* Dielectrics only: the Beer-Lambert absorption coefficient per scene unit of length
+   * inside the volume, -ln(attenuationColor) / attenuationDistance of
+   * KHR_materials_volume: light that travels a length x inside is multiplied by
+   * exp(-absorption x). 0 without attenuation (no attenuationDistance, which glTF reads
+   * as infinite, or an attenuationColor channel of 1); FLT_MAX for a channel whose
+   * attenuationColor is 0 (opaque; the loader warns). Besides, each refraction through
+   * a dielectric's surface, entering or leaving, multiplies the light by its base_color
+   * (at most 1), glTF's tint of transmission; its reflections are not tinted (README,
+   * Scenes). */
+  float absorption[3];
 } bbc_material;
 
 /* What a mesh does for caustics: casters are the specular surfaces light is bounced

@@ -1,6 +1,7 @@
 /* The caustic estimator: cell lookup, tuple sampling, the solver inside each sampled
- * tuple, and each solution's visibility, Fresnel and irradiance divided by the tuple's
- * probability (Eq. 24).
+ * tuple, and each solution's visibility, Fresnel, tint, absorption and irradiance divided
+ * by the tuple's probability (Eq. 24). The probability comes from the irradiance bounds
+ * alone: Fresnel, tint and absorption, all at most 1, are left out of it.
  *
  * Single scattering (R, T) is solved by the specular polynomials, which return every
  * solution. Double scattering (RR, RT, TR, TT) is solved by Newton's method on the chain
@@ -79,6 +80,15 @@ static int in_front_of(const bbc_scene *scene, uint32_t t, bbc_vec3 q) {
   return (v3_dot(ng, q) - v3_dot(ng, p0)) * (v3_dot(ng, nsum) >= 0 ? 1 : -1) > 0;
 }
 
+/* Multiplies factor by the transmittance of the segment from a to b inside medium. */
+static void absorb(const bbc_scene *scene, uint32_t medium, bbc_vec3 a, bbc_vec3 b,
+                   double factor[3]) {
+  if (!medium) return;
+  double t[3];
+  bbc__media_transmittance(scene, medium, v3_length(v3_sub(b, a)), t);
+  for (int k = 0; k < 3; k++) factor[k] *= t[k];
+}
+
 /* 1 if the segment from a (on the surface with unit geometric normal na) to b (on the
  * surface with normal nb) is unoccluded. Both ends are pushed off their surfaces toward
  * the segment, as the path tracer's rays are. */
@@ -130,6 +140,9 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
   double factor[3] = {1, 1, 1};
   bbc_vec3 ngeo[2];
   uint32_t medium = light->medium;
+  /* Beer-Lambert absorption along each segment inside a dielectric, starting with the
+   * light's own medium (air for suns and emitters). */
+  absorb(scene, medium, x[0], x[1], factor);
   for (int i = 0; i < length; i++) {
     const uint32_t tri = tuple->specular[i];
     const bbc_material *m = bbc_scene_triangle_material(scene, tri);
@@ -161,10 +174,12 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
         return 0;
       double eta = dn < 0 ? 1.0 / m->ior : m->ior;
       double f = c->no_fresnel ? 0.0 : fresnel(fabs(dn), eta);
-      for (int k = 0; k < 3; k++) factor[k] *= 1.0 - f;
+      /* Transmitted light is tinted by the base colour at every refraction. */
+      for (int k = 0; k < 3; k++) factor[k] *= (1.0 - f) * bbc__media_tint(m, k);
     } else {
       for (int k = 0; k < 3; k++) factor[k] *= m->base_color[k];
     }
+    absorb(scene, medium, x[i + 1], x[i + 2], factor);
   }
   /* Visibility of every segment: light -> x1 (traced from the light, which needs no
    * offset), x1 -> x2, x_last -> p. */

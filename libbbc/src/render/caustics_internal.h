@@ -94,7 +94,9 @@ bbc_vec3 bbc__caustics_tuple(const bbc__caustics *c, bbc__caustics_thread *t,
 
 /* The value of one solution of a tuple at p: its irradiance per unit intensity times the
  * light's RGB intensity, the Fresnel transmittance of every refraction (unless
- * c->no_fresnel) and the reflectance of every mirror, if every segment is unoccluded,
+ * c->no_fresnel) and its base-colour tint, the reflectance of every mirror and the
+ * Beer-Lambert transmittance of every segment inside a dielectric (media_internal.h; all
+ * at most 1, so the cached bounds still hold), if every segment is unoccluded,
  * the light arrives at p from the side ng points to and every refraction agrees with
  * the side the bounds assume; else 0. g must be bbc_path_geometry_init of the tuple.
  * Exposed for the tests. */

@@ -30,6 +30,7 @@
 
 #include "caustics_internal.h"
 #include "light_internal.h"
+#include "media_internal.h"
 #include "rng_internal.h"
 #include "sobol_internal.h"
 #include "vec_internal.h"
@@ -44,6 +45,7 @@ typedef struct render_ctx {
   uint32_t components;           /* BBC_COMPONENT_* to accumulate */
   const bbc__caustics *caustics; /* NULL: plain path tracing */
   int disk_suns;                 /* some sun has an angular size */
+  uint32_t camera_medium;        /* the camera's medium (media_internal.h) */
 } render_ctx;
 
 /* The random decisions of one path. Each has a slot: the film position, then per path
@@ -173,6 +175,14 @@ static double fresnel_dielectric(double cos_i, double cos_t, double eta) {
   return 0.5 * (rs * rs + rp * rp);
 }
 
+/* e after a length x (may be infinite) inside medium (media_internal.h). */
+static bbc_vec3 absorbed(const bbc_scene *scene, uint32_t medium, double x, bbc_vec3 e) {
+  if (!medium) return e;
+  double t[3];
+  bbc__media_transmittance(scene, medium, x, t);
+  return v3(e.x * t[0], e.y * t[1], e.z * t[2]);
+}
+
 /* Picks an emissive triangle by its share of power (bisection on the CDF). */
 static uint32_t pick_emitter(const bbc_scene *scene, double u, double *probability) {
   uint32_t lo = 0, hi = scene->emitter_count - 1;
@@ -197,10 +207,12 @@ typedef struct vertex_light {
 /* What happens at a diffuse vertex: next-event estimation for every point light and one
  * sampled point on an area light, and, with a cache, the caustic estimator for the
  * point lights' specular chains. `segments` is the number of path segments so far; a
- * light path may not make the whole exceed max_depth. */
+ * light path may not make the whole exceed max_depth. `medium` is the vertex's
+ * (media_internal.h): light reaching it straight from a light travels through it (an
+ * unoccluded light in another medium can only be met through open meshes). */
 static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_thread *ct,
                                          const surface *s, const bbc_bsdf *bsdf, bbc_vec3 wo,
-                                         uint32_t segments, const path_sampler *ps,
+                                         uint32_t segments, uint32_t medium, const path_sampler *ps,
                                          uint64_t *rays) {
   const int depth = (int)segments - 1;
   const bbc_scene *scene = ctx->scene;
@@ -240,6 +252,7 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
                : sun ? cos_s
                      : falloff * cos_s / dist2;
     bbc_vec3 e = v3(light->intensity[0] * g, light->intensity[1] * g, light->intensity[2] * g);
+    e = absorbed(scene, medium, sun ? INFINITY : sqrt(dist2), e);
     sum = v3_add(sum, bsdf->glossy ? glossy_weight(bsdf, s, wo, to_light, e) : e);
   }
 
@@ -274,7 +287,7 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
       if (!bbc_accel_occluded(ctx->accel, origin, v3_sub(target, origin), 0.0, 1.0 - 1e-6)) {
         const float *le = light.material->emission;
         double g = cos_s * cos_l / dist2 * area / probability * cover;
-        bbc_vec3 e = v3(le[0] * g, le[1] * g, le[2] * g);
+        bbc_vec3 e = absorbed(scene, medium, dist, v3(le[0] * g, le[1] * g, le[2] * g));
         sum = v3_add(sum, bsdf->glossy ? glossy_weight(bsdf, s, wo, to_light, e) : e);
       }
     }
@@ -361,6 +374,12 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
   run.count = 0;
   /* Light found before the first diffuse bounce is "direct", after it "indirect". */
   uint32_t lit_component = BBC_COMPONENT_DIRECT;
+  /* The medium the ray travels in (media_internal.h) and the point it left: every
+   * segment inside a dielectric is absorbed (Beer-Lambert), an escape from one entirely
+   * where it absorbs. Refractions switch the medium as the estimator's medium rule does:
+   * into the mesh met from its front, out to air when met from behind. */
+  uint32_t medium = ctx->camera_medium;
+  bbc_vec3 from = origin;
   for (uint32_t depth = 0; depth < ctx->max_depth; depth++) {
     bbc_hit hit;
     (*rays)++;
@@ -368,11 +387,13 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       /* Escaped: a sun's disk counts after a camera or specular vertex (after a diffuse
        * one, next-event estimation has counted it). */
       if (count_emission && (ctx->components & lit_component) && ctx->disk_suns)
-        radiance = v3_add(
-            radiance, v3_mul(throughput, escaped_sun_radiance(ctx, dir, diffuse_triangle, &run)));
+        radiance = v3_add(radiance, v3_mul(absorbed(scene, medium, INFINITY, throughput),
+                                           escaped_sun_radiance(ctx, dir, diffuse_triangle, &run)));
       break;
     }
     surface s = surface_at(scene, &hit);
+    throughput = absorbed(scene, medium, v3_length(v3_sub(s.p, from)), throughput);
+    from = s.p;
     const bbc_material *m = s.material;
     int front = v3_dot(dir, s.ng) < 0;
 
@@ -406,7 +427,8 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       bbc_bsdf bsdf;
       bbc_bsdf_at(scene, s.triangle, s.b1, s.b2, &bsdf);
       const bbc_vec3 wo = v3_neg(dir);
-      vertex_light light = shade_diffuse_vertex(ctx, ct, &s, &bsdf, wo, depth + 1, ps, rays);
+      vertex_light light =
+          shade_diffuse_vertex(ctx, ct, &s, &bsdf, wo, depth + 1, medium, ps, rays);
       if (ctx->components & lit_component)
         radiance = v3_add(radiance, v3_mul(throughput, light.direct));
       if (ctx->components & BBC_COMPONENT_CAUSTICS)
@@ -468,8 +490,12 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         dir = v3_normalize(v3_add(v3_scale(dir, eta), v3_scale(n, eta * cos_i - cos_t)));
         if (v3_dot(dir, ng) >= 0) break;
         /* Radiance is scaled by (n_t / n_i)^2 across the boundary; along a camera path
-         * the factor is its inverse, eta^2. */
+         * the factor is its inverse, eta^2. The transmitted light is tinted by the base
+         * colour (reflected light is not). */
         throughput = v3_scale(throughput, eta * eta);
+        throughput = v3_mul(
+            throughput, v3(bbc__media_tint(m, 0), bbc__media_tint(m, 1), bbc__media_tint(m, 2)));
+        medium = front ? scene->triangle_mesh[s.triangle] + 1 : 0;
       }
       count_emission = 1;
     }
@@ -505,9 +531,11 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
                         ? opts.components
                         : BBC_COMPONENT_CAUSTICS | BBC_COMPONENT_DIRECT | BBC_COMPONENT_INDIRECT,
                     NULL,
+                    0,
                     0};
   for (uint32_t i = 0; i < scene->point_light_count; i++)
     ctx.disk_suns |= bbc__sun_is_disk(&scene->point_lights[i].model);
+  ctx.camera_medium = bbc__media_at(scene, (opts.camera ? opts.camera : &scene->camera)->position);
   int threads = opts.threads > 0 ? opts.threads : omp_get_max_threads();
   const uint32_t width = image->width, height = image->height;
   const size_t pixels = (size_t)width * height;

@@ -244,6 +244,27 @@ double extension_number(const tinygltf::ExtensionMap &extensions, const char *ex
   return v.GetNumberAsDouble();
 }
 
+// Three numbers inside an extension object, with their defaults when absent.
+void extension_vec3(const tinygltf::ExtensionMap &extensions, const char *extension,
+                    const char *key, const double fallback[3], const std::string &owner,
+                    double out[3]) {
+  for (int k = 0; k < 3; k++) out[k] = fallback[k];
+  auto it = extensions.find(extension);
+  if (it == extensions.end()) return;
+  if (!it->second.IsObject())
+    fail(BBC_ERR_GLTF, "%s: %s is not a JSON object", owner.c_str(), extension);
+  if (!it->second.Has(key)) return;
+  const tinygltf::Value &v = it->second.Get(key);
+  if (!v.IsArray() || v.ArrayLen() != 3)
+    fail(BBC_ERR_GLTF, "%s: %s.%s needs 3 numbers", owner.c_str(), extension, key);
+  for (int k = 0; k < 3; k++) {
+    const tinygltf::Value &x = v.Get(k);
+    if (!x.IsNumber())
+      fail(BBC_ERR_GLTF, "%s: %s.%s needs 3 numbers", owner.c_str(), extension, key);
+    out[k] = x.GetNumberAsDouble();
+  }
+}
+
 void identity(double m[16]) {
   for (int i = 0; i < 16; i++) m[i] = (i % 5 == 0) ? 1.0 : 0.0;
 }
@@ -635,6 +656,11 @@ class reader {
                                       "transmissionFactor", 0.0, owner);
     g.thickness =
         extension_number(m.extensions, "KHR_materials_volume", "thicknessFactor", 0.0, owner);
+    static const double white[3] = {1.0, 1.0, 1.0};
+    extension_vec3(m.extensions, "KHR_materials_volume", "attenuationColor", white, owner,
+                   g.attenuation_color);
+    g.attenuation_distance = extension_number(m.extensions, "KHR_materials_volume",
+                                              "attenuationDistance", INFINITY, owner);
     g.ior = extension_number(m.extensions, "KHR_materials_ior", "ior", 1.5, owner);
     g.emissive_strength = extension_number(m.extensions, "KHR_materials_emissive_strength",
                                            "emissiveStrength", 1.0, owner);

@@ -64,6 +64,8 @@ typedef struct bbc__gltf_material {
   double roughness;         /* roughnessFactor, default 1 */
   double transmission;      /* KHR_materials_transmission.transmissionFactor, default 0 */
   double thickness;         /* KHR_materials_volume.thicknessFactor, default 0 */
+  double attenuation_color[3]; /* KHR_materials_volume.attenuationColor, default 1 */
+  double attenuation_distance; /* KHR_materials_volume.attenuationDistance, default +inf */
   double ior;               /* KHR_materials_ior.ior, default 1.5 */
   double emissive[3];       /* emissiveFactor, default 0 */
   double emissive_strength; /* KHR_materials_emissive_strength, default 1 */

@@ -92,11 +92,15 @@ bbc_result bbc__scene_media(bbc_scene *scene) {
     bbc_point_light *light = &scene->point_lights[l];
     light->medium = 0;
     if (light->model.kind == BBC_LIGHT_DIRECTIONAL) continue; /* a sun shines from outside */
-    for (uint32_t i = 0; i < scene->mesh_count && !light->medium; i++)
-      if (scene->meshes[i].closed && point_inside(scene, &scene->meshes[i], light->position))
-        light->medium = i + 1;
+    light->medium = bbc__media_at(scene, light->position);
   }
   return BBC_OK;
+}
+
+uint32_t bbc__media_at(const bbc_scene *scene, bbc_vec3 x) {
+  for (uint32_t i = 0; i < scene->mesh_count; i++)
+    if (scene->meshes[i].closed && point_inside(scene, &scene->meshes[i], x)) return i + 1;
+  return 0;
 }
 
 int bbc__media_side(const bbc_scene *scene, uint32_t t, bbc_vec3 q) {

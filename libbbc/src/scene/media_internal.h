@@ -17,6 +17,8 @@
 #ifndef BBC_MEDIA_INTERNAL_H
 #define BBC_MEDIA_INTERNAL_H
 
+#include <math.h>
+
 #include "bbc/scene.h"
 
 /* Fills every mesh's closed/outward and every point light's medium. */
@@ -34,5 +36,31 @@ int bbc__media_side(const bbc_scene *scene, uint32_t t, bbc_vec3 q);
  * *after when the light may refract there, else 0. */
 int bbc__media_refract(const bbc_scene *scene, uint32_t medium, uint32_t t, int side,
                        uint32_t *after);
+
+/* The medium at point x: m + 1 for the first closed dielectric mesh m holding it (by
+ * the parity of a ray's crossings), else 0 (air). What a point light's medium is, and
+ * the path tracer's camera's. */
+uint32_t bbc__media_at(const bbc_scene *scene, bbc_vec3 x);
+
+/* Beer-Lambert: the fraction of light per RGB channel left after a length x (>= 0, may
+ * be infinite) inside `medium` (0 air, m + 1 inside mesh m), exp(-absorption x) with the
+ * mesh material's absorption (bbc_material); 1 in air and where nothing is absorbed.
+ * Each factor lies in [0, 1], so the cache's irradiance bounds, which leave it out,
+ * stay bounds. */
+static inline void bbc__media_transmittance(const bbc_scene *scene, uint32_t medium, double x,
+                                            double t[3]) {
+  const bbc_material *m = medium ? &scene->materials[scene->meshes[medium - 1].material] : NULL;
+  for (int k = 0; k < 3; k++) {
+    const double a = m ? m->absorption[k] : 0.0;
+    t[k] = a > 0.0 ? exp(-a * x) : 1.0;
+  }
+}
+
+/* The tint of light refracted through dielectric m's surface, entering or leaving:
+ * channel k's base colour, at most 1 (glTF's KHR_materials_transmission tints the
+ * specular BTDF by baseColor; its reflection, the specular BRDF, is untinted). */
+static inline double bbc__media_tint(const bbc_material *m, int k) {
+  return m->base_color[k] < 1.0f ? m->base_color[k] : 1.0;
+}
 
 #endif

@@ -189,6 +189,40 @@ static bbc_result classify_alpha(const loader *ld, const bbc__gltf_material *g, 
   return BBC_OK;
 }
 
+/* A dielectric's Beer-Lambert coefficient from KHR_materials_volume: -ln(c) / d per
+ * channel (bbc_material.absorption), checked: the colour within [0, 1] and the distance
+ * positive (an infinite one, glTF's default, absorbs nothing). A channel of colour 0
+ * would be an infinite coefficient; it becomes FLT_MAX, so that exp(-absorption x) is 0
+ * for any x > 0 and a length of 0 never meets 0 x inf. Also warns of a base colour above
+ * 1, which tints transmission by 1 at most (the bounds hold for factors up to 1). */
+static bbc_result volume_absorption(const loader *ld, const bbc__gltf_material *g,
+                                    const char *label, bbc_material *m) {
+  const double *c = g->attenuation_color, d = g->attenuation_distance;
+  for (int k = 0; k < 3; k++)
+    if (!(c[k] >= 0.0 && c[k] <= 1.0))
+      return fail(ld, BBC_ERR_SCENE, "%s: attenuationColor (%g, %g, %g) must lie in [0, 1]", label,
+                  c[0], c[1], c[2]);
+  if (!(d > 0.0))
+    return fail(ld, BBC_ERR_SCENE, "%s: attenuationDistance %g is not a positive number", label, d);
+  int opaque = 0;
+  for (int k = 0; k < 3; k++) {
+    double s = isinf(d) ? 0.0 : c[k] == 0.0 ? INFINITY : -log(c[k]) / d;
+    opaque |= s > FLT_MAX;
+    m->absorption[k] = s > FLT_MAX ? FLT_MAX : s > 0.0 ? (float)s : 0.0f;
+  }
+  if (opaque)
+    warn(ld,
+         "%s: attenuationColor (%g, %g, %g) over distance %g absorbs some channel entirely "
+         "(any path inside it loses that channel)",
+         label, c[0], c[1], c[2], d);
+  if (m->base_color[0] > 1.0f || m->base_color[1] > 1.0f || m->base_color[2] > 1.0f)
+    warn(ld, "%s: baseColorFactor above 1 tints transmitted light by 1 at most", label);
+  return BBC_OK;
+}
+
+/* The classification is exact on purpose: bbc renders only ideal surfaces, and a
+ * slightly rough mirror is not a mirror. */
+
 /* The class from the factors (surface_class_internal.h): values within
  * BBC_IDEAL_TOLERANCE of ideal are rendered ideal, with a note when not exactly so. A
  * material with a metallic-roughness or transmission texture is classified again per
@@ -240,6 +274,8 @@ static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32
     if (!fits_float(g->ior) || !(g->ior > 0.0))
       return fail(ld, BBC_ERR_SCENE, "%s: ior %g is not a positive number", label, g->ior);
     m->ior = (float)g->ior;
+    bbc_result r = volume_absorption(ld, g, label, m);
+    if (r != BBC_OK) return r;
   }
   if (m->type != BBC_MATERIAL_DIFFUSE) {
     int exact = g->roughness == 0.0 &&
@@ -717,6 +753,10 @@ static bbc_result class_variant(const loader *ld, const bbc__gltf_data *g, const
                   material_label(gm, (uint32_t)base->source, label, sizeof label), gm->ior);
     }
     out->ior = (float)gm->ior;
+    char label[128];
+    bbc_result r = volume_absorption(ld, gm, material_label(gm, (uint32_t)base->source, label,
+                                                            sizeof label), out);
+    if (r != BBC_OK) return r;
   }
   if (type == BBC_MATERIAL_DIFFUSE) {
     /* The glossy model with the factors, times the texture at each point when it has
