@@ -8,7 +8,8 @@
  * i + j is even and 60/255 where it is odd), NEAREST. Mirror point (0, y, z) reflects
  * the sun onto floor point (-y, 0, z) with irradiance E / sqrt 2, and shadows floor point
  * (y, 0, z). Expected values come from this geometry and the checker's rule, never from
- * the library's alpha lookups. */
+ * the library's alpha lookups. A mirror's reflectance follows its base colour texture the
+ * same way (an opaque colour checker). */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -39,10 +40,20 @@
   "iVBORw0KGgoAAAANSUhEUgAAAAIAAAABCAYAAAD0In+KAAAAC0lEQVR42mP4DwUAI+UH+RmQD1QAAAAASUVO" \
   "RK5CYII="
 
+/* 8 x 8 RGBA, opaque, (255, 64, 0) where column + row is even, else (32, 255, 128). */
+#define PNG_COLOUR_CHECKER                                                                       \
+  "iVBORw0KGgoAAAANSUhEUgAAAAgAAAAICAYAAADED76LAAAAHElEQVR42mP478DwX+F/w39cNAM+SRDNMCxMAAAV2JuBMj" \
+  "dqpwAAAABJRU5ErkJggg=="
+
 /* Whether mirror point (0, y, z) is there under MASK with cutoff 0.5: the checker's rule. */
 static int present(double y, double z) {
   int i = (int)floor((z + 0.5) * 8), j = (int)floor((1 - y) * 8);
   return (i + j) % 2 == 0;
+}
+
+/* The sRGB curve, written out independently of the library. */
+static double srgb(double c) {
+  return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
 }
 
 /* Its alpha (BLEND coverage). */
@@ -195,11 +206,12 @@ typedef struct fixture {
   void *bytes;
 } fixture;
 
-static int setup(fixture *f, const char *mirror_members, double factor_alpha) {
+static int setup_png(fixture *f, const char *mirror_members, double factor_alpha,
+                     const char *png) {
   memset(f, 0, sizeof *f);
   messages m;
   bbc_result r;
-  f->scene = load(mirror_members, factor_alpha, NULL, &m, &r);
+  f->scene = load(mirror_members, factor_alpha, png, &m, &r);
   if (r != BBC_OK) {
     fprintf(stderr, "load: %s\n", m.error);
     return 0;
@@ -218,6 +230,10 @@ static int setup(fixture *f, const char *mirror_members, double factor_alpha) {
   bbc_cache_builder_free(b);
   return r == BBC_OK && bbc_cache_open_memory(&f->cache, f->bytes, size, NULL) == BBC_OK &&
          bbc_cache_check_scene(f->cache, f->scene) == BBC_OK;
+}
+
+static int setup(fixture *f, const char *mirror_members, double factor_alpha) {
+  return setup_png(f, mirror_members, factor_alpha, NULL);
 }
 
 static uint32_t tuple_count(const bbc_cache *cache) {
@@ -465,6 +481,50 @@ TEST(masked_mirror_caustic_is_unmasked_times_mask_average) {
     bbc__caustics_thread_free(&t[k]);
     teardown(&f[k]);
   }
+}
+
+/* A mirror's reflectance is its base colour at the reflecting point, texture included:
+ * with the opaque colour checker, the caustic at every point is E / sqrt 2 times the
+ * sRGB-decoded colour of the cell it comes from. The control: the factor alone (white)
+ * would give E / sqrt 2 in every channel, which the check rejects. */
+TEST(mirror_reflectance_follows_its_base_colour_texture) {
+  fixture f;
+  REQUIRE(setup_png(&f, OPAQUE, 1, PNG_COLOUR_CHECKER));
+  bbc__caustics_thread t;
+  REQUIRE(bbc__caustics_thread_init(&t, f.cache) == BBC_OK);
+  bbc__caustics c;
+  memset(&c, 0, sizeof c);
+  c.scene = f.scene;
+  c.accel = f.accel;
+  c.cache = f.cache;
+  c.tuples = bbc_cache_tuples(f.cache);
+  c.chains = BBC_CHAIN_MASK_ALL;
+  c.sampling.method = BBC__SAMPLE_ENUMERATE;
+  const double full = SUN_E * sqrt(0.5);
+  const double even[3] = {1.0, srgb(64 / 255.0), 0.0};
+  const double odd[3] = {srgb(32 / 255.0), 1.0, srgb(128 / 255.0)};
+  int bad = 0, points = 0;
+  for (int j = 0; j < 8; j++)
+    for (int i = 0; i < 8; i++) {
+      double y = 1 - (j + 0.37) / 8, z = (i + 0.41) / 8 - 0.5;
+      floor_point q = floor_below(&f, y, z);
+      bbc_vec3 e = bbc__caustics_estimate(&c, &t, q.p, v3(0, 1, 0), q.triangle, q.b1, q.b2, 2, 1,
+                                          NULL);
+      const double *want = present(y, z) ? even : odd;
+      const double got[3] = {e.x, e.y, e.z};
+      for (int k = 0; k < 3; k++) {
+        if (!(fabs(got[k] - full * want[k]) <= 1e-6 * full) && bad++ < 3)
+          fprintf(stderr, "mirror (%g, %g) channel %d: %.9g, expected %.9g\n", y, z, k, got[k],
+                  full * want[k]);
+        /* Control: the factor alone would reflect every channel whole. */
+        if (want[k] < 0.9) CHECK(fabs(full - full * want[k]) > 0.1 * full);
+      }
+      points++;
+    }
+  CHECK_INT(points, 64);
+  CHECK_INT(bad, 0);
+  bbc__caustics_thread_free(&t);
+  teardown(&f);
 }
 
 /* ------------------------------------------------------------------ shadows and renders */

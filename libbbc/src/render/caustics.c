@@ -175,9 +175,13 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
       double eta = dn < 0 ? 1.0 / m->ior : m->ior;
       double f = c->no_fresnel ? 0.0 : fresnel(fabs(dn), eta);
       /* Transmitted light is tinted by the base colour at every refraction. */
-      for (int k = 0; k < 3; k++) factor[k] *= (1.0 - f) * bbc__media_tint(m, k);
+      double tint[3];
+      bbc__media_tint(scene, tri, u[0], u[1], tint);
+      for (int k = 0; k < 3; k++) factor[k] *= (1.0 - f) * tint[k];
     } else {
-      for (int k = 0; k < 3; k++) factor[k] *= m->base_color[k];
+      double reflectance[3];
+      bbc_scene_base_color(scene, tri, u[0], u[1], reflectance);
+      for (int k = 0; k < 3; k++) factor[k] *= reflectance[k];
     }
     absorb(scene, medium, x[i + 1], x[i + 2], factor);
   }

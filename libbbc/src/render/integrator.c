@@ -463,8 +463,9 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       bbc_vec3 ng = front ? s.ng : v3_neg(s.ng);
       dir = reflect(dir, n);
       if (v3_dot(dir, ng) <= 0) break; /* shading normal sent it into the surface */
-      throughput = v3(throughput.x * m->base_color[0], throughput.y * m->base_color[1],
-                      throughput.z * m->base_color[2]);
+      double reflectance[3];
+      bbc_scene_base_color(scene, s.triangle, s.b1, s.b2, reflectance);
+      throughput = v3_mul(throughput, v3(reflectance[0], reflectance[1], reflectance[2]));
       count_emission = 1;
     } else {
       double eta = front ? 1.0 / m->ior : m->ior;
@@ -493,8 +494,9 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
          * the factor is its inverse, eta^2. The transmitted light is tinted by the base
          * colour (reflected light is not). */
         throughput = v3_scale(throughput, eta * eta);
-        throughput = v3_mul(
-            throughput, v3(bbc__media_tint(m, 0), bbc__media_tint(m, 1), bbc__media_tint(m, 2)));
+        double tint[3];
+        bbc__media_tint(scene, s.triangle, s.b1, s.b2, tint);
+        throughput = v3_mul(throughput, v3(tint[0], tint[1], tint[2]));
         medium = front ? scene->triangle_mesh[s.triangle] + 1 : 0;
       }
       count_emission = 1;

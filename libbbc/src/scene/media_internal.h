@@ -20,6 +20,7 @@
 #include <math.h>
 
 #include "bbc/scene.h"
+#include "bbc/texture.h"
 
 /* Fills every mesh's closed/outward and every point light's medium. */
 bbc_result bbc__scene_media(bbc_scene *scene);
@@ -56,11 +57,15 @@ static inline void bbc__media_transmittance(const bbc_scene *scene, uint32_t med
   }
 }
 
-/* The tint of light refracted through dielectric m's surface, entering or leaving:
- * channel k's base colour, at most 1 (glTF's KHR_materials_transmission tints the
- * specular BTDF by baseColor; its reflection, the specular BRDF, is untinted). */
-static inline double bbc__media_tint(const bbc_material *m, int k) {
-  return m->base_color[k] < 1.0f ? m->base_color[k] : 1.0;
+/* The tint of light refracted through the surface of dielectric triangle `triangle` at
+ * barycentrics b1, b2, entering or leaving: its base colour there (the factor times the
+ * base colour texture, bbc_scene_base_color), at most 1 per channel (glTF's
+ * KHR_materials_transmission tints the specular BTDF by baseColor; its reflection, the
+ * specular BRDF, is untinted). */
+static inline void bbc__media_tint(const bbc_scene *scene, uint32_t triangle, double b1,
+                                   double b2, double out[3]) {
+  bbc_scene_base_color(scene, triangle, b1, b2, out);
+  for (int k = 0; k < 3; k++) out[k] = out[k] < 1.0 ? out[k] : 1.0;
 }
 
 #endif
