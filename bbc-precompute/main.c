@@ -89,10 +89,23 @@ static const char help[] =
     "                        --stats), so that going beyond it fails with one line\n"
     "                        (exit 1, no output) instead of the kernel killing the run.\n"
     "                        A grid whose least memory exceeds it is refused before any\n"
-    "                        work; a lower ulimit -v is kept\n"
+    "                        work; a lower ulimit -v is kept. The candidate tuples are\n"
+    "                        counted first (a progress bar 'finding tuples'), a sample\n"
+    "                        of them bounded, and the estimate (candidates per chain\n"
+    "                        type, time, memory, file size) printed with the bar, --stats\n"
+    "                        or --dry-run; a precompute whose estimated memory exceeds\n"
+    "                        the budget is refused then, in one line with the estimate,\n"
+    "                        before any bounding. A candidate list over 1/16 of the\n"
+    "                        budget is never held: it is searched again, a block at a\n"
+    "                        time, while it is bounded\n"
     "  --entry-memory MB     memory for grid entries (default 8); beyond it they are\n"
     "                        spilled to a temporary file in $TMPDIR (or /tmp), deleted\n"
     "                        on any exit; the cache does not depend on it\n"
+    "  --dry-run             count the candidate tuples, bound a sample of them and print\n"
+    "                        the estimate (tuples, time, memory, file size), then stop;\n"
+    "                        -o is not needed and nothing is written\n"
+    "  --ignore-estimate     bound even when the estimate says the budget will not do\n"
+    "                        (the budget still holds: past it the run fails in one line)\n"
     "  --shard I/N           bound only the candidate tuples k with k % N == I\n"
     "                        (0 <= I < N) and write a shard cache; the N shards, run\n"
     "                        anywhere, merge with 'bbc-inspect merge OUT.bbc SHARD...'\n"
@@ -109,6 +122,15 @@ static const char help[] =
 static int on_progress(void *user, uint64_t done, uint64_t total) {
   char detail[64];
   snprintf(detail, sizeof detail, "%llu/%llu tuples", (unsigned long long)done,
+           (unsigned long long)total);
+  cli_progress_update(user, total ? (double)done / (double)total : 1.0, detail);
+  return cli_interrupted;
+}
+
+/* The search for the candidates: (light, first triangle) prefixes searched of all. */
+static int on_search_progress(void *user, uint64_t done, uint64_t total) {
+  char detail[64];
+  snprintf(detail, sizeof detail, "%llu/%llu light-triangle prefixes", (unsigned long long)done,
            (unsigned long long)total);
   cli_progress_update(user, total ? (double)done / (double)total : 1.0, detail);
   return cli_interrupted;
@@ -152,7 +174,15 @@ static double parse_memory(const cli_args *a, const char *text) {
 typedef struct run_context {
   const budget *memory;
   const char *scene, *output;
-  const char *phase; /* "while precomputing" etc.; NULL for the up-front check */
+  const char *phase; /* "while bounding the candidate tuples" etc.; NULL for the up-front
+                        check */
+  cli_progress *bar;
+  int show_estimate; /* print the estimate (the bar is on, or --stats or --dry-run) */
+  int dry_run;       /* stop after the estimate */
+  int ignore_estimate; /* bound even when the estimate is over the budget */
+  double start_bytes;  /* resident_bytes when the run started */
+  int refused;       /* the estimate did not fit the budget */
+  uint32_t shard_count;
 } run_context;
 
 /* libbbc's messages, one line each. Running out of memory is the budget's doing (the
@@ -174,6 +204,134 @@ static void on_error(void *user, bbc_result code, const char *message) {
             "%s: %s: out of memory within the budget of %.0f MB (%s) %s; %s was not "
             "written\n",
             cli_tool, run->scene, run->memory->mb, option, run->phase, run->output);
+}
+
+/* "1.2e8" for large counts, the number itself below a million. */
+static const char *count_text(uint64_t n, char out[32]) {
+  if (n < 1000000) {
+    snprintf(out, 32, "%llu", (unsigned long long)n);
+    return out;
+  }
+  int e = (int)floor(log10((double)n));
+  double m = (double)n / pow(10, e);
+  if (m >= 9.95) m /= 10, e++;
+  snprintf(out, 32, "%.1fe%d", m, e);
+  return out;
+}
+
+/* "2.4 GB", "16 MB" or "12 kB" (powers of 1024, as --memory's MB). */
+static const char *bytes_text(double bytes, char out[32]) {
+  if (bytes >= 1024.0 * 1048576.0)
+    snprintf(out, 32, "%.1f GB", bytes / (1024.0 * 1048576.0));
+  else if (bytes >= 1048576.0)
+    snprintf(out, 32, "%.0f MB", bytes / 1048576.0);
+  else
+    snprintf(out, 32, "%.0f kB", bytes / 1024.0);
+  return out;
+}
+
+/* "45 s", "12 min", "3.1 h", "2.0 days". */
+static const char *seconds_text(double s, char out[32]) {
+  if (s < 90)
+    snprintf(out, 32, "%.0f s", s);
+  else if (s < 5400)
+    snprintf(out, 32, "%.0f min", s / 60);
+  else if (s < 172800)
+    snprintf(out, 32, "%.1f h", s / 3600);
+  else
+    snprintf(out, 32, "%.1f days", s / 86400);
+  return out;
+}
+
+/* The memory the process holds (VmRSS), bytes; 0 if unknown. */
+static double resident_bytes(void) {
+  FILE *f = fopen("/proc/self/status", "r");
+  if (!f) return 0;
+  char line[256];
+  double kb = 0;
+  while (fgets(line, sizeof line, f))
+    if (strncmp(line, "VmRSS:", 6) == 0) kb = strtod(line + 6, NULL);
+  fclose(f);
+  return kb * 1024.0;
+}
+
+/* "TT 1.1e8, T 5.3e6": the candidates per chain type, most first. */
+static void chains_text(const bbc_precompute_estimate *e, char *out, size_t size) {
+  int done[BBC_CHAIN_COUNT] = {0};
+  out[0] = '\0';
+  for (;;) {
+    int best = -1;
+    for (int c = 0; c < BBC_CHAIN_COUNT; c++)
+      if (!done[c] && e->candidates_per_chain[c] &&
+          (best < 0 || e->candidates_per_chain[c] > e->candidates_per_chain[best]))
+        best = c;
+    if (best < 0) break;
+    done[best] = 1;
+    char n[32];
+    size_t used = strlen(out);
+    snprintf(out + used, size - used, "%s%s %s", used ? ", " : "",
+             bbc_chain_name((bbc_chain)best), count_text(e->candidates_per_chain[best], n));
+  }
+}
+
+/* libbbc's estimate, before the bounding: printed when asked, and checked against the
+ * budget: a precompute whose memory would not fit is refused here, in one line, before
+ * anything is bounded. */
+static int on_estimate(void *user, const bbc_precompute_estimate *e) {
+  run_context *run = user;
+  cli_progress_end(run->bar);
+  char chains[160];
+  chains_text(e, chains, sizeof chains);
+  /* What the run holds now beyond what the program held when it started (its code and
+   * libraries, which the budget's allowance holds). */
+  const double held = fmax(0, resident_bytes() - run->start_bytes);
+  const double need = held + (double)e->memory_bytes;
+  const double budget_bytes = run->memory->mb * 1048576.0;
+  const char *option = run->memory->kept ? "ulimit -v" : "--memory";
+  if (need > budget_bytes && !run->ignore_estimate) {
+    /* Sharding divides the stored tuples, the part that grows with the candidates. */
+    const double fixed = held + (double)e->memory_bytes -
+                         (double)e->stored_tuples * (run->shard_count ? 56.0 : 40.0);
+    char shard[96] = "";
+    const double per = (double)e->stored_tuples * 56.0;
+    if (!run->shard_count && budget_bytes > fixed && per > 0) {
+      const double n = ceil(per / (budget_bytes - fixed));
+      if (n >= 2 && n < 1e6)
+        snprintf(shard, sizeof shard, "--shard I/%.0f (each of I = 0..%.0f, then merged), ", n,
+                 n - 1);
+    }
+    char n1[32], n2[32], l1[32], m1[32], m2[32], m3[32], m4[32];
+    fprintf(stderr,
+            "%s: %s: %s candidate tuples (%s; %s as a list), up to %s of them stored: the "
+            "precompute needs about %s (%s held now, %s more), over the budget of %s (%s); "
+            "try %sfewer --chains or a larger %s; %s was not written\n",
+            cli_tool, run->scene, count_text(e->candidate_tuples, n1), chains,
+            bytes_text((double)e->list_bytes, l1), count_text(e->stored_tuples, n2),
+            bytes_text(need, m1), bytes_text(held, m2), bytes_text((double)e->memory_bytes, m3),
+            bytes_text(budget_bytes, m4), option, shard, option, run->output);
+    run->refused = 1;
+    return 1;
+  }
+  if (run->show_estimate) {
+    char sample[160] = "", t1[32], t2[32], n1[32], s1[32], m1[32], m2[32], l1[32], f1[32];
+    if (e->sample_tuples)
+      snprintf(sample, sizeof sample,
+               "from %u sampled: bounding about %s CPU (%s wall), %.0f%% stored, ",
+               e->sample_tuples, seconds_text(e->bounding_cpu_seconds, t1),
+               seconds_text(e->seconds, t2), 100 * e->stored_fraction);
+    fprintf(stderr,
+            "%s: estimate: %s candidate tuples (%s), found in %s; %s as a list, %s; %smemory "
+            "up to %s of the budget of %s (%s), cache %s %s\n",
+            cli_tool, count_text(e->candidate_tuples, n1), chains[0] ? chains : "none",
+            seconds_text(e->search_seconds, s1), bytes_text((double)e->list_bytes, l1),
+            e->list_held ? "held" : "searched again in blocks while bounding", sample,
+            bytes_text(need, m1), bytes_text(budget_bytes, m2), run->memory->source,
+            e->sample_tuples ? "about" : "at least", bytes_text((double)e->file_bytes, f1));
+  }
+  if (run->dry_run) return 1;
+  cli_progress_begin(run->bar, "bounding", run->bar->enabled);
+  run->phase = "while bounding the candidate tuples";
+  return 0;
 }
 
 static int has_caster(const bbc_scene *scene) {
@@ -251,6 +409,7 @@ int main(int argc, char **argv) {
   memset(&options, 0, sizeof options);
   bbc_precompute_params_default(&options.params);
   int progress = -1, stats = 0, allow_empty = 0, no_geometry = 0, alpha_area_given = 0;
+  int dry_run = 0, ignore_estimate = 0;
   double memory_mb = 0; /* --memory; 0: the default */
   bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
 
@@ -318,6 +477,10 @@ int main(int argc, char **argv) {
       options.entry_memory = (size_t)(mb * 1048576.0);
     } else if (cli_option(&a, "--shard", &value)) {
       parse_shard(value, &options.shard_index, &options.shard_count);
+    } else if (cli_flag(&a, "--dry-run")) {
+      dry_run = 1;
+    } else if (cli_flag(&a, "--ignore-estimate")) {
+      ignore_estimate = 1;
     } else if (cli_flag(&a, "--progress")) {
       progress = 1;
     } else if (cli_flag(&a, "--no-progress")) {
@@ -332,7 +495,8 @@ int main(int argc, char **argv) {
     }
   }
   if (!scene_path) cli_usage_error(usage, "no scene given");
-  if (!output) cli_usage_error(usage, "no output given (-o OUT.bbc)");
+  if (!output && !dry_run) cli_usage_error(usage, "no output given (-o OUT.bbc)");
+  if (!output) output = "(no output: --dry-run)";
   if (options.params.area_double && !options.params.area_lights)
     cli_usage_error(usage, "--area-double needs --area-lights");
   if (alpha_area_given && !options.params.area_lights)
@@ -346,7 +510,8 @@ int main(int argc, char **argv) {
   memory.requested_mb = memory.mb = memory_mb > 0 ? memory_mb : budget_default_mb(&memory.basis);
   budget_allowances(&memory, options.threads > 0 ? options.threads : omp_get_max_threads());
   if (budget_enforce(&memory) != 0) return 1;
-  run_context run = {&memory, scene_path, output, "while loading the scene"};
+  run_context run = {&memory, scene_path, output, "while loading the scene", NULL, 0, 0, 0, 0, 0,
+                     resident_bytes()};
 
   cli_catch_interrupts();
 
@@ -355,23 +520,38 @@ int main(int argc, char **argv) {
   bbc_scene *scene = NULL;
   if (bbc_scene_load(&scene, scene_path, &scene_options) != BBC_OK) return 1;
   run.phase = NULL;
-  if (bbc_cache_check_resources(scene, &options.params, output, (uint64_t)(memory.mb * 1048576.0),
-                                on_error, &run) != BBC_OK) {
+  if (bbc_cache_check_resources(scene, &options.params, dry_run ? NULL : output,
+                                (uint64_t)(memory.mb * 1048576.0), on_error, &run) != BBC_OK) {
     bbc_scene_free(scene);
     return 1;
   }
 
   cli_progress bar;
-  cli_progress_begin(&bar, "bounding", progress);
+  cli_progress_begin(&bar, "finding tuples", progress);
+  options.search_progress = on_search_progress;
   options.progress = on_progress;
   options.progress_user = &bar;
+  options.estimate_fn = on_estimate;
   options.error_fn = on_error;
   options.user = &run;
-  run.phase = "while precomputing";
+  /* The candidate list is held whole when it takes at most a sixteenth of the budget;
+   * a longer one is searched again, a block at a time, while it is bounded. */
+  options.candidate_memory = (size_t)(memory.mb * 1048576.0 / 16);
+  run.bar = &bar;
+  run.show_estimate = bar.enabled || stats || dry_run;
+  run.dry_run = dry_run;
+  run.ignore_estimate = ignore_estimate;
+  run.shard_count = options.shard_count;
+  run.phase = "while finding the candidate tuples";
   bbc_cache_builder *builder = NULL;
   bbc_precompute_stats st;
   bbc_result r = bbc_precompute(&builder, scene, &options, &st);
   cli_progress_end(&bar);
+  if (run.refused || (dry_run && r == BBC_ERR_CANCELLED && !cli_interrupted)) {
+    bbc_cache_builder_free(builder);
+    bbc_scene_free(scene);
+    return run.refused ? 1 : 0;
+  }
   if (r == BBC_ERR_CANCELLED || cli_interrupted) {
     fprintf(stderr, "bbc-precompute: interrupted; %s was not written\n", output);
     bbc_cache_builder_free(builder);
@@ -507,13 +687,33 @@ int main(int argc, char **argv) {
             "  \"entries\": %llu,\n  \"spill_bytes\": %llu,\n  \"file_bytes\": %lld,\n"
             "  \"process_cpu_seconds\": %.3f,\n  \"memory_budget_mb\": %.1f,\n"
             "  \"memory_budget_source\": \"%s\",\n  \"memory_allowance_mb\": %.1f,\n"
-            "  \"address_space_limit_mb\": %.1f,\n  \"peak_memory_mb\": %.1f\n}\n",
+            "  \"address_space_limit_mb\": %.1f,\n  \"peak_memory_mb\": %.1f,\n",
             total, st.construction_seconds, st.bounding_seconds, st.position_cpu_seconds,
             st.irradiance_cpu_seconds, st.recording_seconds, write_seconds, st.threads,
             (unsigned long long)st.candidate_tuples, (unsigned long long)st.tuples, json_chains,
             st.second_per_first, st.position_pieces / tuples, st.irradiance_pieces / tuples,
             (unsigned long long)st.entries, (unsigned long long)st.spill_bytes, file_size,
             process_cpu, memory.mb, memory.source, memory.allowance_mb, memory.limit_mb, peak_mb);
+    /* The estimate made before the bounding, beside what came true. */
+    const bbc_precompute_estimate *e = &st.estimate;
+    fputs("  \"estimate\": {\n", f);
+    for (int c = 0; c < BBC_CHAIN_COUNT; c++)
+      fprintf(f, "    \"candidates_%s\": %llu,\n", bbc_chain_name((bbc_chain)c),
+              (unsigned long long)e->candidates_per_chain[c]);
+    fprintf(f,
+            "    \"candidate_tuples\": %llu,\n    \"bounded_tuples\": %llu,\n"
+            "    \"list_bytes\": %llu,\n    \"list_held\": %s,\n    \"search_bytes\": %llu,\n"
+            "    \"search_seconds\": %.6f,\n    \"sample_tuples\": %u,\n"
+            "    \"sample_cpu_seconds\": %.6f,\n    \"stored_fraction\": %.4f,\n"
+            "    \"entries_per_tuple\": %.2f,\n    \"bounding_cpu_seconds\": %.3f,\n"
+            "    \"seconds\": %.3f,\n    \"stored_tuples\": %llu,\n"
+            "    \"memory_bytes\": %llu,\n    \"file_bytes\": %llu\n  }\n}\n",
+            (unsigned long long)e->candidate_tuples, (unsigned long long)e->bounded_tuples,
+            (unsigned long long)e->list_bytes, e->list_held ? "true" : "false",
+            (unsigned long long)e->search_bytes, e->search_seconds, e->sample_tuples,
+            e->sample_cpu_seconds, e->stored_fraction, e->entries_per_tuple,
+            e->bounding_cpu_seconds, e->seconds, (unsigned long long)e->stored_tuples,
+            (unsigned long long)e->memory_bytes, (unsigned long long)e->file_bytes);
     if (fclose(f) != 0) cli_fail("%s: cannot write the statistics", json);
   }
   return 0;

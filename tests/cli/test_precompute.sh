@@ -25,7 +25,7 @@ test_help_documents_every_flag() {
   expect_status 0 "$PRECOMPUTE" --help
   for flag in --output --stats --json --chains --max-level --sigma --alpha --alpha2 --alpha-area --m --resolution \
               --no-remainder --jacobian --threads --memory --entry-memory --progress --no-progress \
-              --version --help --allow-empty --light-units; do
+              --version --help --allow-empty --light-units --dry-run --ignore-estimate; do
     grep -q -- "$flag" "$TMP/out" || fail "--help does not mention $flag"
   done
 }
@@ -233,7 +233,7 @@ test_memory_budget_below_the_estimate_is_refused() {
     "$TMP/err" || fail "message: $(cat "$TMP/err")"
   [ "$(wc -l <"$TMP/err")" -eq 1 ] || fail "more than one line: $(cat "$TMP/err")"
   [ "$(ls "$TMP" | tr '\n' ' ')" = "err out " ] || fail "files left behind: $(ls "$TMP")"
-  expect_status 0 "$PRECOMPUTE" "$MIRROR" -o "$TMP/m.bbc" --memory 16 --max-level 4 --no-progress
+  expect_status 0 "$PRECOMPUTE" "$MIRROR" -o "$TMP/m.bbc" --memory 32 --max-level 4 --no-progress
   [ -s "$TMP/m.bbc" ] || fail "control: no cache written"
 }
 
@@ -252,11 +252,41 @@ test_memory_budget_exceeded_fails_in_one_line() {
   sanitized && return 0
   expect_status 1 env OMP_NUM_THREADS=1 "$PRECOMPUTE" "$BBC_TEST_SCENES/plane1k.gltf" \
     -o "$TMP/p.bbc" --chains R --max-level 3 --resolution 768 --threads 1 \
-    --entry-memory 1000 --memory 64 --no-progress
-  grep -q "^bbc-precompute: .*plane1k.gltf: out of memory within the budget of 64 MB (--memory) while precomputing; $TMP/p.bbc was not written$" \
+    --entry-memory 1000 --memory 64 --no-progress --ignore-estimate
+  grep -q "^bbc-precompute: .*plane1k.gltf: out of memory within the budget of 64 MB (--memory) while bounding the candidate tuples; $TMP/p.bbc was not written$" \
     "$TMP/err" || fail "message: $(cat "$TMP/err")"
   [ "$(wc -l <"$TMP/err")" -eq 1 ] || fail "more than one line: $(cat "$TMP/err")"
   [ "$(ls "$TMP" | tr '\n' ' ')" = "err out " ] || fail "files left behind: $(ls "$TMP")"
+}
+
+# The estimate, before any bounding: the candidate tuples counted exactly (the same
+# number as the run that bounds them reports, per chain type too), and a budget the
+# estimate does not fit refused in one line naming the count, exit 1, no file; the same
+# budget with --dry-run, or a larger one, runs. wavy-mirror: R and RR candidates, whose
+# stored tuples and grid entries (two lists of 8 MB at most) need about 18 MB more than
+# the scene and grids.
+test_estimate_counts_and_refuses_a_budget_too_small() {
+  SCENE="$BBC_TEST_SCENES/wavy-mirror.gltf"
+  expect_status 0 "$PRECOMPUTE" "$SCENE" -o "$TMP/w.bbc" --max-level 2 --no-progress \
+    --json "$TMP/w.json" --stats
+  n=$(sed -n 's/^  "candidate_tuples": \([0-9]*\),$/\1/p' "$TMP/w.json")
+  [ -n "$n" ] && [ "$n" -gt 1000 ] || fail "no candidate count: $(cat "$TMP/w.json")"
+  grep -q "^    \"candidate_tuples\": $n,$" "$TMP/w.json" || fail "estimate: $(cat "$TMP/w.json")"
+  r=$(sed -n 's/^    "candidates_R": \([0-9]*\),$/\1/p' "$TMP/w.json")
+  rr=$(sed -n 's/^    "candidates_RR": \([0-9]*\),$/\1/p' "$TMP/w.json")
+  [ $((r + rr)) -eq "$n" ] || fail "per chain $r + $rr, not $n"
+  grep -q "^bbc-precompute: estimate: $n candidate tuples (RR $rr, R $r), found in" "$TMP/err" ||
+    fail "--stats shows no estimate: $(cat "$TMP/err")"
+  rm -f "$TMP/w.bbc" "$TMP/w.json"
+  expect_status 1 "$PRECOMPUTE" "$SCENE" -o "$TMP/w.bbc" --memory 12 --no-progress
+  grep -q "^bbc-precompute: .*wavy-mirror.gltf: $n candidate tuples (RR $rr, R $r; .* as a list), up to [0-9]* of them stored: the precompute needs about .* over the budget of 12 MB (--memory); try .*; $TMP/w.bbc was not written$" \
+    "$TMP/err" || fail "message: $(cat "$TMP/err")"
+  [ "$(wc -l <"$TMP/err")" -eq 1 ] || fail "more than one line: $(cat "$TMP/err")"
+  [ "$(ls "$TMP" | tr '\n' ' ')" = "err out " ] || fail "files left behind: $(ls "$TMP")"
+  expect_status 0 "$PRECOMPUTE" "$SCENE" --memory 64 --dry-run
+  grep -q "^bbc-precompute: estimate: $n candidate tuples (RR $rr, R $r), .* of the budget of 64 MB (--memory), cache about" \
+    "$TMP/err" || fail "--dry-run: $(cat "$TMP/err")"
+  [ "$(ls "$TMP" | tr '\n' ' ')" = "err out " ] || fail "--dry-run wrote: $(ls "$TMP")"
 }
 
 test_memory_budget_bad_values_exit_2() {

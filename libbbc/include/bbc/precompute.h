@@ -14,6 +14,8 @@
 extern "C" {
 #endif
 
+struct bbc_precompute_estimate;
+
 /* A zero-initialised struct is not valid: start from bbc_precompute_params_default. */
 typedef struct bbc_precompute_options {
   bbc_precompute_params params;
@@ -32,7 +34,45 @@ typedef struct bbc_precompute_options {
    * sorted runs to an unlinked temporary file in $TMPDIR (or /tmp) and merged back when
    * the cache is written. 0: 8 MiB. The written file does not depend on it. */
   size_t entry_memory;
+  /* Optional: progress of the search for the candidate tuples, (light, first specular
+   * triangle) prefixes searched / total, with progress_user; non-zero cancels. */
+  bbc_progress_fn search_progress;
+  /* Optional: called once with what the precompute will cost (bbc_precompute_estimate),
+   * after the candidates are counted and before any is bounded, with `user`; a non-zero
+   * return stops the precompute there with BBC_ERR_CANCELLED. */
+  int (*estimate_fn)(void *user, const struct bbc_precompute_estimate *estimate);
+  /* Bytes of candidate tuples the precompute may hold as one list (20 bytes each). A
+   * longer list is never held: it is counted, then searched again a block at a time
+   * while it is bounded (the search twice, its memory bounded). 0: 64 MiB. The written
+   * file does not depend on it. */
+  size_t candidate_memory;
 } bbc_precompute_options;
+
+/* What a precompute will cost, known before its bounding starts (estimate_fn): the
+ * candidate tuples exactly, the rest estimated from a sample of them bounded first. */
+typedef struct bbc_precompute_estimate {
+  uint64_t candidate_tuples; /* exact: every candidate (of every shard) */
+  uint64_t candidates_per_chain[BBC_CHAIN_COUNT]; /* exact */
+  uint64_t bounded_tuples;   /* exact: the candidates this run bounds (its shard's) */
+  uint64_t list_bytes;       /* to hold the whole candidate list */
+  int list_held;             /* 1: it is held; 0: it is searched again while bounding */
+  uint64_t search_bytes;     /* the most bytes of candidates the search held at once */
+  double search_seconds;     /* wall time of the search that counted them */
+  /* The sample: candidates drawn uniformly from the bounded ones, bounded and timed
+   * before the rest: 1 in 64, at least 16 (all of them when fewer), at most 256. */
+  uint32_t sample_tuples;
+  double sample_cpu_seconds; /* the threads' CPU time bounding the sample */
+  double stored_fraction;    /* of the sample, the tuples stored (with a kept piece) */
+  double entries_per_tuple;  /* grid entries per stored tuple of the sample */
+  /* Estimates: the bounding's CPU time (bounded_tuples times the sample's mean), the
+   * wall time left (that over the threads, plus the second search when the list is
+   * not held), the stored tuples (the sample's fraction at three standard errors, all
+   * of them without a sample), the most memory the precompute allocates from here on
+   * (the stored tuples, the grid entries before they spill, the search's blocks, the
+   * writer's cell index) and the file's size. */
+  double bounding_cpu_seconds, seconds;
+  uint64_t stored_tuples, memory_bytes, file_bytes;
+} bbc_precompute_estimate;
 
 /* The paper's Table 2 precompute columns and more. Times are wall-clock seconds of
  * the phases; position_cpu_seconds + irradiance_cpu_seconds is the bounding threads' CPU
@@ -46,13 +86,15 @@ typedef struct bbc_precompute_stats {
   uint64_t entries;            /* (cell, tuple) entries in the grids */
   uint32_t spill_runs;         /* sorted runs written to the spill file */
   uint64_t spill_bytes;        /* and their size */
-  double construction_seconds; /* finding tuples */
+  double construction_seconds; /* finding tuples: counting them, and finding them again
+                                  while bounding when the list was not held */
   double bounding_seconds;     /* bounding (position + irradiance), and recording the
                                   previous batch's cells alongside */
   double position_cpu_seconds, irradiance_cpu_seconds;
   double recording_seconds; /* what is left of recording: giving ids, spilling, the part
                                of a batch past the entry budget */
   int threads;
+  bbc_precompute_estimate estimate; /* as estimate_fn was given it */
 } bbc_precompute_stats;
 
 /* Precomputes the scene's bounds into a new cache builder (*out, free with

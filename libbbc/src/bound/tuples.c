@@ -21,6 +21,7 @@
 #include "light_internal.h"
 #include "media_internal.h"
 #include "orient_internal.h"
+#include "tuple_search_internal.h"
 #include "vec_internal.h"
 
 /* T2 is searched with the beams of the BEAM_BOXES boxes of a BEAM_SPLIT x BEAM_SPLIT
@@ -506,19 +507,6 @@ static int area_may_light(const bbc_scene *scene, const bbc_light_model *m, uint
   return 0;
 }
 
-static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int area,
-                                   bbc_tuple **out, size_t *count);
-
-bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
-                           size_t *count) {
-  return bbc__tuples_find(scene, chains, 0, out, count);
-}
-
-bbc_result bbc_tuples_find_area(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
-                                size_t *count) {
-  return bbc__tuples_find(scene, chains, 1, out, count);
-}
-
 /* Per-thread working memory of the tuple search: the arena of the beams, the BVH walk's
  * stack and results, and for second bounces the marks of the T2 found per prefix. */
 typedef struct search_scratch {
@@ -531,7 +519,7 @@ typedef struct search_scratch {
 } search_scratch;
 
 #define SEARCH_ARENA_BYTES ((size_t)4 << 20)
-#define SEARCH_CHUNK 256
+#define SEARCH_CHUNK 16
 
 static bbc_result scratch_init(search_scratch *s, const bbc_scene *scene, int doubles) {
   memset(s, 0, sizeof *s);
@@ -697,70 +685,219 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const b
   return result;
 }
 
-static bbc_result bbc__tuples_find(const bbc_scene *scene, uint32_t chains, int area,
-                                   bbc_tuple **out, size_t *count) {
+/* Prefixes are searched in chunks of SEARCH_CHUNK T1, a window of chunks in parallel;
+ * each chunk's tuples go to a list of its own, handed out in chunk order, so the order
+ * does not depend on the threads. A window has between `threads` and WINDOW_MAX
+ * chunks. */
+#define WINDOW_MAX 256
+#define DEFAULT_BLOCK_BYTES ((size_t)16 << 20)
+
+struct bbc__tuple_search {
+  const bbc_scene *scene;
+  uint32_t chains, area_chains;
+  int threads;
+  bvh receivers, casters;
+  search_scratch *scratch;
+  tuple_list parts[WINDOW_MAX];
+  bbc_result why[WINDOW_MAX]; /* each chunk's result */
+  size_t chunks;              /* per light */
+  uint32_t light, light_end;  /* the light searched, and the end of the lights */
+  bbc_point_light point;      /* the light as the search sees it */
+  size_t next_chunk;          /* the first chunk of the light not yet searched */
+  size_t window, target;      /* chunks per window; the aim for a block's bytes */
+  size_t part, parts_used;    /* the next part handed out, of the window's parts */
+  size_t peak;                /* the largest window's bytes */
+  uint64_t done, total;       /* prefixes */
+  bbc_result failed;
+};
+
+static uint32_t light_chains(const bbc__tuple_search *s, uint32_t l) {
+  return l < s->scene->point_light_count ? s->chains : s->area_chains;
+}
+
+bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *scene,
+                                    uint32_t chains, uint32_t area_chains, int threads,
+                                    size_t block_bytes) {
   *out = NULL;
-  *count = 0;
+  bbc__tuple_search *s = calloc(1, sizeof *s);
+  if (!s) return BBC_ERR_OUT_OF_MEMORY;
+  s->scene = scene;
+  s->chains = chains;
+  s->area_chains = scene->emitter_count ? area_chains : 0;
+  s->threads = threads > 0 ? threads : omp_get_max_threads();
+  s->target = block_bytes ? block_bytes : DEFAULT_BLOCK_BYTES;
+  s->window = (size_t)s->threads < WINDOW_MAX ? (size_t)s->threads : WINDOW_MAX;
+  s->chunks = ((size_t)scene->triangle_count + SEARCH_CHUNK - 1) / SEARCH_CHUNK;
+  s->light_end = scene->point_light_count + (s->area_chains ? scene->emitter_count : 0);
+  for (uint32_t l = 0; l < s->light_end; l++)
+    if (light_chains(s, l)) s->total += scene->triangle_count;
   const uint32_t doubles = (1u << BBC_CHAIN_RR) | (1u << BBC_CHAIN_RT) | (1u << BBC_CHAIN_TR) |
                            (1u << BBC_CHAIN_TT);
-  bvh receivers, casters;
-  memset(&receivers, 0, sizeof receivers);
-  memset(&casters, 0, sizeof casters);
-  const int threads = omp_get_max_threads();
-  search_scratch *scratch = calloc((size_t)threads, sizeof *scratch);
-  /* The prefixes are searched in parallel in chunks of T1; each chunk's tuples go to a
-   * list of its own, joined in chunk order, so the order does not depend on the threads. */
-  const size_t chunks = ((size_t)scene->triangle_count + SEARCH_CHUNK - 1) / SEARCH_CHUNK;
-  tuple_list *parts = calloc(chunks ? chunks : 1, sizeof *parts);
-  bbc_result *why = calloc(chunks ? chunks : 1, sizeof *why); /* each chunk's result */
-  tuple_list list = {NULL, 0, 0};
-  bbc_result result = scratch && parts && why ? BBC_OK : BBC_ERR_OUT_OF_MEMORY;
-  if (result == BBC_OK) result = bvh_init(&receivers, scene, BBC_ROLE_RECEIVER);
-  if (result == BBC_OK && (chains & doubles)) result = bvh_init(&casters, scene, BBC_ROLE_CASTER);
-  for (int i = 0; i < threads && result == BBC_OK; i++)
-    result = scratch_init(&scratch[i], scene, (chains & doubles) != 0);
-  if (result != BBC_OK || receivers.node_count == 0) goto done;
-
-  const uint32_t light_first = area ? scene->point_light_count : 0;
-  const uint32_t light_end = area ? scene->point_light_count + scene->emitter_count
-                                  : scene->point_light_count;
-  for (uint32_t l = light_first; l < light_end && chains && result == BBC_OK; l++) {
-    /* An emitter stands as a light in air at its centroid for the medium rule (the
-     * bounds orient T1 by it; bounds.h). */
-    const bbc_point_light light = bbc__cache_light_point(scene, l);
-    int failed = 0;
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(| : failed)
-    for (size_t c = 0; c < chunks; c++) {
-      search_scratch *s = &scratch[omp_get_thread_num()];
-      parts[c].count = 0;
-      why[c] = BBC_OK;
-      const uint32_t end = (c + 1) * SEARCH_CHUNK < scene->triangle_count
-                               ? (uint32_t)((c + 1) * SEARCH_CHUNK)
-                               : scene->triangle_count;
-      for (uint32_t t = (uint32_t)(c * SEARCH_CHUNK); t < end && why[c] == BBC_OK; t++)
-        why[c] = prefix_tuples(scene, chains, &receivers, &casters, &light, l, t, s, &parts[c]);
-      if (why[c] != BBC_OK) failed = 1;
-    }
-    /* The first failure in prefix order, as a serial search would meet it. */
-    for (size_t c = 0; failed && c < chunks && result == BBC_OK; c++) result = why[c];
-    if (result != BBC_OK) break;
-    for (size_t c = 0; c < chunks && result == BBC_OK; c++)
-      for (size_t i = 0; i < parts[c].count && result == BBC_OK; i++)
-        if (!tuple_push(&list, &parts[c].items[i])) result = BBC_ERR_OUT_OF_MEMORY;
+  const int two = ((s->chains | s->area_chains) & doubles) != 0;
+  s->scratch = calloc((size_t)s->threads, sizeof *s->scratch);
+  bbc_result r = s->scratch ? BBC_OK : BBC_ERR_OUT_OF_MEMORY;
+  if (r == BBC_OK) r = bvh_init(&s->receivers, scene, BBC_ROLE_RECEIVER);
+  if (r == BBC_OK && two) r = bvh_init(&s->casters, scene, BBC_ROLE_CASTER);
+  for (int i = 0; i < s->threads && r == BBC_OK; i++) r = scratch_init(&s->scratch[i], scene, two);
+  if (r != BBC_OK) {
+    bbc__tuple_search_free(s);
+    return r;
   }
-done:
-  bvh_free(&receivers);
-  bvh_free(&casters);
-  for (int i = 0; scratch && i < threads; i++) scratch_free(&scratch[i]);
-  free(scratch);
-  for (size_t c = 0; parts && c < chunks; c++) free(parts[c].items);
-  free(parts);
-  free(why);
-  if (result != BBC_OK) {
+  /* No receiver: no tuple. Otherwise start before the first light. */
+  s->light = s->receivers.node_count == 0 ? s->light_end : 0;
+  if (s->light == s->light_end) s->done = s->total;
+  s->next_chunk = s->chunks; /* the light's chunks are "done": the first call moves on */
+  s->light = s->light == 0 ? UINT32_MAX : s->light;
+  *out = s;
+  return BBC_OK;
+}
+
+void bbc__tuple_search_free(bbc__tuple_search *s) {
+  if (!s) return;
+  bvh_free(&s->receivers);
+  bvh_free(&s->casters);
+  for (int i = 0; s->scratch && i < s->threads; i++) scratch_free(&s->scratch[i]);
+  free(s->scratch);
+  for (size_t c = 0; c < WINDOW_MAX; c++) free(s->parts[c].items);
+  free(s);
+}
+
+void bbc__tuple_search_progress(const bbc__tuple_search *s, uint64_t *done, uint64_t *total) {
+  *done = s->done;
+  *total = s->total;
+}
+
+size_t bbc__tuple_search_peak_bytes(const bbc__tuple_search *s) {
+  return s->peak;
+}
+
+/* Searches the next window of the light's chunks into s->parts. */
+static bbc_result search_window(bbc__tuple_search *s) {
+  const bbc_scene *scene = s->scene;
+  const size_t first = s->next_chunk;
+  const size_t n = s->chunks - first < s->window ? s->chunks - first : s->window;
+  const uint32_t chains = light_chains(s, s->light);
+  int failed = 0;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(s->threads) reduction(| : failed)
+  for (size_t c = 0; c < n; c++) {
+    search_scratch *w = &s->scratch[omp_get_thread_num()];
+    tuple_list *list = &s->parts[c];
+    list->count = 0;
+    s->why[c] = BBC_OK;
+    const size_t begin = (first + c) * SEARCH_CHUNK;
+    const uint32_t end = begin + SEARCH_CHUNK < scene->triangle_count
+                             ? (uint32_t)(begin + SEARCH_CHUNK)
+                             : scene->triangle_count;
+    for (uint32_t t = (uint32_t)begin; t < end && s->why[c] == BBC_OK; t++)
+      s->why[c] = prefix_tuples(scene, chains, &s->receivers, &s->casters, &s->point, s->light,
+                                t, w, list);
+    if (s->why[c] != BBC_OK) failed = 1;
+  }
+  /* The first failure in prefix order, as a serial search would meet it. */
+  for (size_t c = 0; failed && c < n; c++)
+    if (s->why[c] != BBC_OK) return s->why[c];
+  size_t bytes = 0, held = 0;
+  for (size_t c = 0; c < n; c++) {
+    bytes += s->parts[c].count * sizeof(bbc_tuple);
+    held += s->parts[c].capacity * sizeof(bbc_tuple);
+  }
+  if (held > s->peak) s->peak = held;
+  /* A list that grew far beyond what its chunk needs now gives the memory back. */
+  for (size_t c = 0; c < WINDOW_MAX; c++)
+    if (s->parts[c].capacity > 1024 && (c >= n || 4 * s->parts[c].count < s->parts[c].capacity)) {
+      free(s->parts[c].items);
+      s->parts[c] = (tuple_list){NULL, 0, 0};
+    }
+  /* The next window: half as wide when this one's tuples were over the aim, twice as
+   * wide when they were under a quarter of it. */
+  if (bytes > s->target && s->window > (size_t)s->threads)
+    s->window = s->window / 2 > (size_t)s->threads ? s->window / 2 : (size_t)s->threads;
+  else if (4 * bytes < s->target && s->window < WINDOW_MAX)
+    s->window = 2 * s->window < WINDOW_MAX ? 2 * s->window : WINDOW_MAX;
+  s->next_chunk = first + n;
+  const size_t end = s->next_chunk * SEARCH_CHUNK;
+  s->done += (end < scene->triangle_count ? end : scene->triangle_count) - first * SEARCH_CHUNK;
+  s->part = 0;
+  s->parts_used = n;
+  return BBC_OK;
+}
+
+bbc_result bbc__tuple_search_next(bbc__tuple_search *s, const bbc_tuple **tuples, size_t *count) {
+  *tuples = NULL;
+  *count = 0;
+  if (s->failed != BBC_OK) return s->failed;
+  for (;;) {
+    while (s->part < s->parts_used) {
+      const tuple_list *l = &s->parts[s->part++];
+      if (l->count) {
+        *tuples = l->items;
+        *count = l->count;
+        return BBC_OK;
+      }
+    }
+    if (s->next_chunk >= s->chunks) {
+      /* The next light with a chain type to search. */
+      uint32_t l = s->light == UINT32_MAX ? 0 : s->light + 1;
+      while (l < s->light_end && !light_chains(s, l)) l++;
+      s->light = l;
+      if (l >= s->light_end) {
+        s->light = s->light_end;
+        return BBC_OK;
+      }
+      /* An emitter stands as a light in air at its centroid for the medium rule (the
+       * bounds orient T1 by it; bounds.h). */
+      s->point = bbc__cache_light_point(s->scene, l);
+      s->next_chunk = 0;
+    }
+    bbc_result r = search_window(s);
+    if (r != BBC_OK) {
+      s->failed = r;
+      return r;
+    }
+  }
+}
+
+static bbc_result tuples_collect(const bbc_scene *scene, uint32_t chains, uint32_t area_chains,
+                                 bbc_tuple **out, size_t *count) {
+  *out = NULL;
+  *count = 0;
+  bbc__tuple_search *s = NULL;
+  bbc_result r = bbc__tuple_search_create(&s, scene, chains, area_chains, 0, 0);
+  tuple_list list = {NULL, 0, 0};
+  while (r == BBC_OK) {
+    const bbc_tuple *block;
+    size_t n;
+    if ((r = bbc__tuple_search_next(s, &block, &n)) != BBC_OK || n == 0) break;
+    if (list.count + n > list.capacity) {
+      size_t capacity = list.capacity ? list.capacity : 1024;
+      while (capacity < list.count + n) capacity *= 2;
+      bbc_tuple *items = realloc(list.items, capacity * sizeof *items);
+      if (!items) {
+        r = BBC_ERR_OUT_OF_MEMORY;
+        break;
+      }
+      list.items = items;
+      list.capacity = capacity;
+    }
+    memcpy(list.items + list.count, block, n * sizeof *block);
+    list.count += n;
+  }
+  bbc__tuple_search_free(s);
+  if (r != BBC_OK) {
     free(list.items);
-    return result;
+    return r;
   }
   *out = list.items;
   *count = list.count;
   return BBC_OK;
+}
+
+bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
+                           size_t *count) {
+  return tuples_collect(scene, chains, 0, out, count);
+}
+
+bbc_result bbc_tuples_find_area(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
+                                size_t *count) {
+  return tuples_collect(scene, 0, chains, out, count);
 }

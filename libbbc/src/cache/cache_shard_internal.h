@@ -39,6 +39,13 @@ uint64_t bbc__candidates_hash(const bbc_tuple *tuples, size_t count);
 bbc_result bbc__cache_builder_shard(bbc_cache_builder *b, uint32_t index, uint32_t count,
                                     bbc_tuple *tuples, size_t *tuple_count, uint64_t **candidate);
 
+/* Makes the builder write a shard cache, shard `index` of `count` (index < count, else
+ * BBC_ERR_INVALID_ARGUMENT), of a candidate list of candidate_count tuples whose
+ * bbc__candidates_hash is candidates_hash, held by no one: the caller adds the shard's
+ * tuples (k % count == index) and gives each its candidate index k. */
+bbc_result bbc__cache_builder_set_shard(bbc_cache_builder *b, uint32_t index, uint32_t count,
+                                        uint64_t candidate_count, uint64_t candidates_hash);
+
 /* Records the candidate index of tuple `id` of a shard builder. The writer checks the
  * rules of R-SHR-3 and fails with BBC_ERR_INVALID_ARGUMENT if they do not hold. */
 bbc_result bbc__cache_builder_set_candidate(bbc_cache_builder *b, uint32_t id, uint64_t candidate);

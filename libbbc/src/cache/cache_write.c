@@ -235,10 +235,7 @@ bbc_result bbc__cache_builder_shard(bbc_cache_builder *b, uint32_t index, uint32
   size_t all = *tuple_count, kept = all > index ? (all - index - 1) / count + 1 : 0;
   uint64_t *k = malloc(sizeof *k * (kept ? kept : 1));
   if (!k) return BBC_ERR_OUT_OF_MEMORY;
-  b->shard_index = index;
-  b->shard_count = count;
-  b->candidate_count = all;
-  b->candidates_hash = bbc__candidates_hash(tuples, all);
+  bbc__cache_builder_set_shard(b, index, count, all, bbc__candidates_hash(tuples, all));
   /* Interleaved (k % count == index) rather than ranges: neighbouring candidates share
    * a caster and cost alike, so every shard gets a similar mix of work. */
   size_t n = 0;
@@ -248,6 +245,16 @@ bbc_result bbc__cache_builder_shard(bbc_cache_builder *b, uint32_t index, uint32
   }
   *tuple_count = n;
   *candidate = k;
+  return BBC_OK;
+}
+
+bbc_result bbc__cache_builder_set_shard(bbc_cache_builder *b, uint32_t index, uint32_t count,
+                                        uint64_t candidate_count, uint64_t candidates_hash) {
+  if (!b || count == 0 || index >= count || b->tuple_count != 0) return BBC_ERR_INVALID_ARGUMENT;
+  b->shard_index = index;
+  b->shard_count = count;
+  b->candidate_count = candidate_count;
+  b->candidates_hash = candidates_hash;
   return BBC_OK;
 }
 

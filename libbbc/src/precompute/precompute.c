@@ -15,12 +15,18 @@
 
 #include <omp.h>
 
+#include "candidates_internal.h"
 #include "cache_format_internal.h"
 #include "cache_shard_internal.h"
 #include "light_internal.h"
 #include "report_internal.h"
+#include "rng_internal.h"
+#include "spill_internal.h"
 
 #define BATCH_TUPLES 256
+/* The most candidates bounded for the estimate before the others (at most a batch). */
+#define SAMPLE_MAX 256
+#define SAMPLE_MIN 16
 
 static double thread_cpu_seconds(void) {
   struct timespec ts;
@@ -421,8 +427,10 @@ static bbc_result tuple_cells_from_pieces(cell_arena *a, int arena, tuple_cells 
 /* A batch of tuples: bounded, then given ids and recorded while the next batch is
  * bounded. */
 typedef struct batch {
-  size_t first, n; /* its candidates first .. first + n - 1 */
-  uint32_t *ids;   /* per tuple its id, UINT32_MAX when not stored */
+  size_t n;           /* its tuples */
+  bbc_tuple *tuples;  /* the candidates, in order */
+  uint64_t *candidate; /* and their candidate indices */
+  uint32_t *ids;      /* per tuple its id, UINT32_MAX when not stored */
   tuple_cells *cells;
   cell_arena *arenas; /* per bounding thread */
 } batch;
@@ -457,6 +465,136 @@ static int record_part(bbc_cache_builder *builder, const batch *b, uint32_t part
   return status;
 }
 
+/* What bounding a tuple needs: the scene, the parameters and per thread its bounder,
+ * pieces, raster and coverage. */
+typedef struct bound_context {
+  const bbc_scene *scene;
+  const bbc_precompute_params *params;
+  const bbc_grid *grid;
+  bbc_bound_params bound, bound2, bound_area;
+  bbc_bounder **bounders;
+  piece_list *pieces;
+  raster *rasters;
+  coverage *covers;
+} bound_context;
+
+/* Bounds tuple t on thread `id` and gives its cells (in arena a, thread id's); 0 on
+ * failure. */
+static int bound_one(const bound_context *x, int id, const bbc_tuple *t, cell_arena *a,
+                     tuple_cells *c, bbc_bound_stats *stats) {
+  bbc_tuple_geometry g;
+  piece_list *list = &x->pieces[id];
+  list->count = 0;
+  list->failed = 0;
+  tuple_sink sink;
+  memset(&sink, 0, sizeof sink);
+  sink.pieces = list, sink.cover = &x->covers[id], sink.grid = x->grid;
+  sink.receiver = t->receiver;
+  int ok = bbc_tuple_geometry_init(&g, x->scene, t) == BBC_OK &&
+           coverage_begin(&x->covers[id], x->grid, sink.receiver) == BBC_OK;
+  if (ok) {
+    /* Area lights stop at a ratio of their own (docs/lights.md). */
+    bbc_bound_params prm = g.light_model.kind == BBC_LIGHT_AREA ? x->bound_area
+                           : g.length == 2                      ? x->bound2
+                                                                : x->bound;
+    prm.need = piece_need;
+    prm.need_user = &sink;
+    ok = bbc_bound_tuple(x->bounders[id], &g, &prm, keep_piece, &sink, stats) == BBC_OK &&
+         !list->failed;
+  }
+  /* The tuple's cells, while the raster holds them (a tuple is stored when it has a
+   * stored piece). */
+  c->stored = ok && list->count > 0;
+  c->h = 0;
+  c->entries = 0;
+  if (c->stored) {
+    const double power = tuple_power(x->scene, x->params, t);
+    ok = (sink.escaped ? tuple_cells_from_pieces(a, id, c, x->grid, power, t, list,
+                                                 &x->rasters[id])
+                       : tuple_cells_from_coverage(a, id, c, &x->covers[id], power)) == BBC_OK;
+  }
+  coverage_end(&x->covers[id]);
+  return ok;
+}
+
+/* Bounds the census's sample (timing it) into the estimate; its cells go to `arenas`,
+ * its pieces to throwaway statistics. */
+static bbc_result bound_sample(const bound_context *x, int threads, const bbc__census *census,
+                               cell_arena *arenas, tuple_cells *cells,
+                               bbc_precompute_estimate *e) {
+  const size_t n = census->sample_count;
+  double cpu = 0;
+  uint64_t stored = 0, entries = 0;
+  int failed = 0;
+  for (int i = 0; i < threads; i++) arenas[i].codes_used = arenas[i].spans_used = 0;
+#pragma omp parallel num_threads(threads) reduction(+ : cpu, stored, entries) reduction(| : failed)
+  {
+    const int id = omp_get_thread_num();
+    bbc_bound_stats unused;
+    memset(&unused, 0, sizeof unused);
+    const double cpu0 = thread_cpu_seconds();
+#pragma omp for schedule(dynamic, 1)
+    for (size_t i = 0; i < n; i++) {
+      if (!bound_one(x, id, &census->sample[i], &arenas[id], &cells[i], &unused)) failed = 1;
+      stored += cells[i].stored;
+      entries += cells[i].stored ? cells[i].entries : 0;
+    }
+    cpu += thread_cpu_seconds() - cpu0;
+  }
+  for (int i = 0; i < threads; i++) arenas[i].codes_used = arenas[i].spans_used = 0;
+  if (failed) return BBC_ERR_OUT_OF_MEMORY;
+  e->sample_tuples = (uint32_t)n;
+  e->sample_cpu_seconds = cpu;
+  e->stored_fraction = n ? (double)stored / (double)n : 0;
+  e->entries_per_tuple = stored ? (double)entries / (double)stored : 0;
+  return BBC_OK;
+}
+
+/* The rest of the estimate, from the census and the sample: see precompute.h. */
+static void estimate_costs(const bbc__census *census, const bbc_precompute_options *o,
+                           const bbc_grid *grid, int threads, bbc_precompute_estimate *e) {
+  const double tuple = sizeof(bbc_tuple);
+  e->candidate_tuples = census->count;
+  memcpy(e->candidates_per_chain, census->per_chain, sizeof e->candidates_per_chain);
+  e->bounded_tuples = census->bounded;
+  e->list_bytes = census->count * sizeof(bbc_tuple);
+  e->list_held = census->held != NULL;
+  e->search_bytes = census->block_peak;
+  e->search_seconds = census->seconds;
+  const double n = (double)census->bounded, k = e->sample_tuples;
+  e->bounding_cpu_seconds = k ? n * e->sample_cpu_seconds / k : 0;
+  e->seconds = e->bounding_cpu_seconds / threads + (e->list_held ? 0 : census->seconds);
+  /* Stored tuples: the sample's fraction at three standard errors (a binomial's), and
+   * 3 / k more so that a sample with none stored does not promise none. */
+  const double p = e->stored_fraction;
+  double upper = k ? p + 3 * sqrt(p * (1 - p) / k) + 3 / k : 1;
+  if (upper > 1) upper = 1;
+  e->stored_tuples = (uint64_t)ceil(upper * n);
+  /* Memory from here on: the builder's tuple array (doubling: up to twice its tuples)
+   * and, for a shard, their candidate indices likewise; the grid entries up to their
+   * budget, twice while a full list is merged; the second search's blocks (the census's
+   * largest, twice: a block is handed out while the next window fills); the writer's
+   * cell index. What is held already (the scene, the grids, a held list) is not. */
+  const double stored = (double)e->stored_tuples;
+  double entry_memory = o->entry_memory ? (double)o->entry_memory : 8.0 * 1048576.0;
+  const double entries = stored * e->entries_per_tuple * sizeof(bbc__cell_entry);
+  if (k && entries < entry_memory) entry_memory = entries;
+  double memory = stored * 2 * tuple + (o->shard_count ? stored * 2 * 8 : 0) + 2 * entry_memory;
+  if (!e->list_held) memory += 2 * (double)census->block_peak;
+  memory += (double)grid->cell_count * BBC__CIDX_SIZE;
+  e->memory_bytes = (uint64_t)memory;
+  /* The file: its fixed sections (as bbc_cache_check_resources counts them), the
+   * tuples and the cell lists at about 1.7 bytes per entry once compressed (measured
+   * on the benchmark scenes: 1.3 to 2.1). */
+  const double fixed = 64 + 32.0 * 10 + 80 * 10 + BBC__PARM_SIZE + BBC__FPRT_SIZE +
+                       (double)grid->receiver_count * BBC__RCVR_SIZE +
+                       (double)grid->uv_triangle_count * BBC__TRUV_SIZE +
+                       (double)grid->cell_count * BBC__CIDX_SIZE;
+  const double expected = k ? p * n : n;
+  e->file_bytes = (uint64_t)(fixed + expected * (tuple + (o->shard_count ? 8 : 0)) +
+                             expected * e->entries_per_tuple * 1.7);
+}
+
 bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
                           const bbc_precompute_options *options, bbc_precompute_stats *stats) {
   *out = NULL;
@@ -474,51 +612,55 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
                        bbc_result_string(result));
   bbc__cache_builder_set_entry_memory(builder, options->entry_memory);
 
-  double t0 = omp_get_wtime();
-  bbc_tuple *tuples = NULL;
-  size_t tuple_count = 0;
-  result = bbc_tuples_find(scene, params->chains, &tuples, &tuple_count);
-  if (result == BBC_OK && params->area_lights) {
-    /* Area lights come after the punctual ones (their light indices are higher). */
-    bbc_tuple *area = NULL;
-    size_t area_count = 0;
-    /* Their double-scattering chain types only when asked for (area_double). */
-    const uint32_t area_chains =
-        params->area_double ? params->chains : params->chains & ~BBC_CHAIN_MASK_DOUBLE;
-    if (area_chains) result = bbc_tuples_find_area(scene, area_chains, &area, &area_count);
-    if (result == BBC_OK && area_count) {
-      bbc_tuple *all = realloc(tuples, (tuple_count + area_count) * sizeof *all);
-      if (!all) {
-        result = BBC_ERR_OUT_OF_MEMORY;
-      } else {
-        memcpy(all + tuple_count, area, area_count * sizeof *all);
-        tuples = all;
-        tuple_count += area_count;
-      }
+  /* The census: the candidates counted (and the list held when it is small), before
+   * anything is bounded. Area lights come after the punctual ones (their light indices
+   * are higher), their double-scattering chain types only when asked for
+   * (area_double). */
+  bbc__census_request request;
+  memset(&request, 0, sizeof request);
+  request.chains = params->chains;
+  request.area_chains = !params->area_lights ? 0
+                        : params->area_double ? params->chains
+                                              : params->chains & ~BBC_CHAIN_MASK_DOUBLE;
+  request.threads = st.threads;
+  request.shard_index = options->shard_index;
+  request.shard_count = options->shard_count;
+  request.hold_bytes = options->candidate_memory ? options->candidate_memory : (size_t)64 << 20;
+  /* Blocks of an eighth of what may be held: a window's lists stay small beside it. */
+  request.block_bytes = request.hold_bytes / 8 > 4096 ? request.hold_bytes / 8 : 4096;
+  request.sample_max = SAMPLE_MAX;
+  request.progress = options->search_progress;
+  request.progress_user = options->progress_user;
+  bbc__census census;
+  memset(&census, 0, sizeof census);
+  bbc__candidates source;
+  memset(&source, 0, sizeof source);
+  if (options->shard_count && options->shard_index >= options->shard_count)
+    result = BBC_ERR_INVALID_ARGUMENT;
+  if (result == BBC_OK) result = bbc__census_take(&census, scene, &request);
+  /* The sample: 1 in 64 of the candidates, at least SAMPLE_MIN (all of them when they
+   * are fewer) and at most SAMPLE_MAX. */
+  if (result == BBC_OK) {
+    size_t k = (size_t)(census.bounded / 64);
+    if (k < SAMPLE_MIN) k = SAMPLE_MIN;
+    /* k of the reservoir drawn uniformly (a partial Fisher-Yates shuffle, a hash for
+     * the dice): its first slots alone favour the first candidates. */
+    const size_t m = census.sample_count;
+    for (size_t i = 0; i < k && i < m; i++) {
+      const size_t j = i + (size_t)(bbc__mix64(i + 0x2545F4914F6CDD1Dull) % (m - i));
+      const bbc_tuple t = census.sample[i];
+      census.sample[i] = census.sample[j];
+      census.sample[j] = t;
     }
-    free(area);
+    census.sample_count = k < m ? k : m;
   }
-  st.construction_seconds = omp_get_wtime() - t0;
-  st.candidate_tuples = tuple_count;
-  {
-    /* Tuples come ordered by light, T1, T2: count the distinct prefixes and pairs. */
-    uint64_t firsts = 0, pairs = 0;
-    const bbc_tuple *p = NULL; /* the previous two-bounce tuple */
-    for (size_t i = 0; i < tuple_count; i++) {
-      const bbc_tuple *t = &tuples[i];
-      if (bbc_chain_length((bbc_chain)t->chain) != 2) continue;
-      int new_first = !p || p->light != t->light || p->specular[0] != t->specular[0];
-      firsts += new_first;
-      pairs += new_first || p->specular[1] != t->specular[1];
-      p = t;
-    }
-    st.second_per_first = firsts ? (double)pairs / (double)firsts : 0.0;
-  }
+  st.construction_seconds = census.seconds;
+  st.candidate_tuples = census.count;
+  st.second_per_first = census.second_per_first;
   /* A shard (spec Sec. 5.10) bounds the candidates k % N == i, remembering each k. */
-  uint64_t *candidate = NULL;
   if (result == BBC_OK && options->shard_count)
-    result = bbc__cache_builder_shard(builder, options->shard_index, options->shard_count, tuples,
-                                      &tuple_count, &candidate);
+    result = bbc__cache_builder_set_shard(builder, options->shard_index, options->shard_count,
+                                          census.count, census.hash);
 
   bbc_bound_params bound;
   memset(&bound, 0, sizeof bound);
@@ -542,10 +684,13 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   memset(batches, 0, sizeof batches);
   int batches_ok = 1;
   for (int k = 0; k < 2; k++) {
+    batches[k].tuples = calloc(BATCH_TUPLES, sizeof *batches[k].tuples);
+    batches[k].candidate = calloc(BATCH_TUPLES, sizeof *batches[k].candidate);
     batches[k].ids = calloc(BATCH_TUPLES, sizeof *batches[k].ids);
     batches[k].cells = calloc(BATCH_TUPLES, sizeof *batches[k].cells);
     batches[k].arenas = calloc((size_t)threads, sizeof *batches[k].arenas);
-    batches_ok &= batches[k].ids && batches[k].cells && batches[k].arenas;
+    batches_ok &= batches[k].tuples && batches[k].candidate && batches[k].ids &&
+                  batches[k].cells && batches[k].arenas;
   }
   raster *rasters = calloc((size_t)threads, sizeof *rasters);
   coverage *covers = calloc((size_t)threads, sizeof *covers);
@@ -556,6 +701,21 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
                            !thread_stats || !cpu_split))
     result = BBC_ERR_OUT_OF_MEMORY;
   for (int i = 0; i < threads && result == BBC_OK; i++) result = bbc_bounder_create(&bounders[i]);
+  const bound_context context = {scene,  params,   grid,    bound,  bound2,
+                                  bound_area, bounders, pieces, rasters, covers};
+
+  /* The estimate, from the census and its sample bounded first (SAMPLE_MAX tuples
+   * fit a batch's cells), before the bounding: the caller may stop there. */
+  if (result == BBC_OK)
+    result = bound_sample(&context, threads, &census, batches[0].arenas, batches[0].cells,
+                          &st.estimate);
+  if (result == BBC_OK) {
+    estimate_costs(&census, options, grid, threads, &st.estimate);
+    if (options->estimate_fn && options->estimate_fn(options->user, &st.estimate))
+      result = BBC_ERR_CANCELLED;
+  }
+  if (result == BBC_OK) result = bbc__candidates_begin(&source, scene, &census, &request);
+  const uint64_t tuple_count = census.bounded;
 
   /* Batch k is bounded while batch k - 1, its ids given in tuple order, is recorded (so
    * ids and the file are the same for any thread count): a thread done with its share
@@ -563,12 +723,13 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   size_t first = 0;
   for (size_t k = 0; result == BBC_OK; k++) {
     batch *cur = &batches[k & 1], *prev = &batches[(k + 1) & 1];
-    const size_t n = first < tuple_count
-                         ? (tuple_count - first < BATCH_TUPLES ? tuple_count - first : BATCH_TUPLES)
-                         : 0;
+    size_t n = 0;
+    if ((result = bbc__candidates_next(&source, cur->tuples, cur->candidate, BATCH_TUPLES,
+                                       &n)) != BBC_OK)
+      break;
     const int pending = k > 0 && prev->n > 0;
     if (n == 0 && !pending) break;
-    cur->first = first, cur->n = n;
+    cur->n = n;
     for (int i = 0; i < threads; i++) cur->arenas[i].codes_used = cur->arenas[i].spans_used = 0;
     for (uint32_t p = 0; p < parts; p++) resume[p] = 0;
     double b0 = omp_get_wtime();
@@ -584,44 +745,10 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
       const double irr0 = thread_stats[self].irradiance_seconds;
 #pragma omp for schedule(dynamic, 1) nowait
       for (size_t i = 0; i < n; i++) {
-        int id = omp_get_thread_num();
-        const bbc_tuple *t = &tuples[first + i];
-        bbc_tuple_geometry g;
-        piece_list *list = &pieces[id];
-        list->count = 0;
-        list->failed = 0;
-        tuple_sink sink;
-        memset(&sink, 0, sizeof sink);
-        sink.pieces = list, sink.cover = &covers[id], sink.grid = grid;
-        sink.receiver = t->receiver;
-        int ok = bbc_tuple_geometry_init(&g, scene, t) == BBC_OK &&
-                 coverage_begin(&covers[id], grid, sink.receiver) == BBC_OK;
-        if (ok) {
-          /* Area lights stop at a ratio of their own (docs/lights.md). */
-          bbc_bound_params prm = g.light_model.kind == BBC_LIGHT_AREA ? bound_area
-                                 : g.length == 2                      ? bound2
-                                                                      : bound;
-          prm.need = piece_need;
-          prm.need_user = &sink;
-          ok = bbc_bound_tuple(bounders[id], &g, &prm, keep_piece, &sink, &thread_stats[id]) ==
-                   BBC_OK &&
-               !list->failed;
-        }
-        /* The tuple's cells, while the raster holds them (a tuple is stored when it
-         * has a stored piece). */
-        tuple_cells *c = &cur->cells[i];
-        c->stored = ok && list->count > 0;
-        c->h = 0;
-        c->entries = 0;
-        if (c->stored) {
-          const double power = tuple_power(scene, params, t);
-          ok = (sink.escaped ? tuple_cells_from_pieces(&cur->arenas[id], id, c, grid, power, t,
-                                                       list, &rasters[id])
-                             : tuple_cells_from_coverage(&cur->arenas[id], id, c, &covers[id],
-                                                         power)) == BBC_OK;
-        }
-        coverage_end(&covers[id]);
-        if (!ok) failed = 1;
+        const int id = omp_get_thread_num();
+        if (!bound_one(&context, id, &cur->tuples[i], &cur->arenas[id], &cur->cells[i],
+                       &thread_stats[id]))
+          failed = 1;
       }
       const double cpu = thread_cpu_seconds() - cpu0;
       const double pos = thread_stats[self].position_seconds - pos0;
@@ -672,10 +799,11 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     for (size_t i = 0; i < n && result == BBC_OK; i++) {
       cur->ids[i] = UINT32_MAX;
       if (!cur->cells[i].stored) continue;
-      const bbc_tuple *tuple = &tuples[first + i];
+      const bbc_tuple *tuple = &cur->tuples[i];
       if ((result = bbc_cache_builder_add_tuple(builder, tuple, &cur->ids[i])) != BBC_OK) break;
-      if (candidate && (result = bbc__cache_builder_set_candidate(builder, cur->ids[i],
-                                                                  candidate[first + i])) != BBC_OK)
+      if (options->shard_count &&
+          (result = bbc__cache_builder_set_candidate(builder, cur->ids[i], cur->candidate[i])) !=
+              BBC_OK)
         break;
       st.tuples++;
       st.tuples_per_chain[tuple->chain]++;
@@ -708,6 +836,8 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     free(batches[k].arenas);
     free(batches[k].cells);
     free(batches[k].ids);
+    free(batches[k].tuples);
+    free(batches[k].candidate);
   }
   free(resume);
   for (int i = 0; rasters && i < threads; i++) {
@@ -726,8 +856,9 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   free(covers);
   free(thread_stats);
   free(cpu_split);
-  free(tuples);
-  free(candidate);
+  st.construction_seconds += source.search_seconds;
+  bbc__candidates_end(&source);
+  bbc__census_free(&census);
   if (result != BBC_OK) {
     const char *why = bbc__cache_builder_error(builder);
     if (result != BBC_ERR_CANCELLED)

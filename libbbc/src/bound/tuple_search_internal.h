@@ -1,0 +1,42 @@
+/* The candidate tuples as a stream (tuples.c): the search of bbc_tuples_find, handed out
+ * a block at a time in its deterministic order, so that no one has to hold the whole
+ * list. A block is the tuples of a window of consecutive (light, T1) prefixes searched
+ * in parallel; the window shrinks when its tuples exceed the block budget and grows
+ * again when they are far below it, so the memory a search holds follows the budget
+ * however the candidates crowd on a few casters. */
+#ifndef BBC_TUPLE_SEARCH_INTERNAL_H
+#define BBC_TUPLE_SEARCH_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "bbc/scene.h"
+#include "bbc/tuple.h"
+
+typedef struct bbc__tuple_search bbc__tuple_search;
+
+/* A search of the candidates of the scene's point lights for the chain types of
+ * `chains`, followed by those of its emitters (light point_light_count + e) for
+ * `area_chains` (0: none), in the order of bbc_tuples_find then bbc_tuples_find_area.
+ * `threads` searching threads (0: every core); block_bytes is the aim for a block's
+ * tuples (0: 16 MiB; a block of one window of `threads` prefixes chunks may exceed it).
+ * *out is NULL on failure; free with bbc__tuple_search_free. Not thread-safe: one
+ * caller at a time, which the search's own threads serve. */
+bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *scene,
+                                    uint32_t chains, uint32_t area_chains, int threads,
+                                    size_t block_bytes);
+
+/* The next candidates in order: *tuples (borrowed, valid until the next call or the
+ * free) and *count, never 0 before the end; *count == 0 at the end. After a failure the
+ * search is over (every later call returns the same code). */
+bbc_result bbc__tuple_search_next(bbc__tuple_search *s, const bbc_tuple **tuples, size_t *count);
+
+/* How far the search is: prefixes (light, T1) searched of the total. */
+void bbc__tuple_search_progress(const bbc__tuple_search *s, uint64_t *done, uint64_t *total);
+
+/* The most bytes of tuples the search held at once (its largest window). */
+size_t bbc__tuple_search_peak_bytes(const bbc__tuple_search *s);
+
+void bbc__tuple_search_free(bbc__tuple_search *s); /* NULL is allowed */
+
+#endif
