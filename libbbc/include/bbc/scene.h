@@ -86,6 +86,9 @@ typedef struct bbc_material {
    * (docs/materials.md). A receiver with a metallic-roughness texture is glossy with
    * roughness and metallic (then the factors) times the texture at each point. */
   bbc_texture_use metallic_roughness, transmission;
+  /* glTF's emissiveTexture: the emitted radiance at a point is emission times it there
+   * (bbc_scene_emission in texture.h). */
+  bbc_texture_use emissive;
   /* The glTF material this one was read from; -1 for the default material of
    * primitives without one. */
   int32_t source;

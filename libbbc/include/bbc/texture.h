@@ -38,6 +38,14 @@ BBC_API void bbc_scene_base_color(const bbc_scene *scene, uint32_t triangle, dou
  * BBC_BSDF_MIN_ROUGHNESS). */
 BBC_API void bbc_scene_metallic_roughness(const bbc_scene *scene, uint32_t triangle, double b1,
                                           double b2, double *metallic, double *roughness);
+/* The emitted radiance (W/sr/m^2 per channel) of scene triangle `triangle` at
+ * barycentrics b1, b2: its material's emission (emissiveFactor times
+ * KHR_materials_emissive_strength), times its emissiveTexture there when it has one.
+ * The texture is at most 1, so the material's emission bounds it everywhere (the
+ * emitters' sampling and the cached area lights' bounds use that). */
+BBC_API void bbc_scene_emission(const bbc_scene *scene, uint32_t triangle, double b1, double b2,
+                                double out[3]);
+
 /* The alpha channel of a texture at (s, t), looked up like its colour (same wrap modes and
  * filter); 1 when the texture has no alpha channel (bbc_texture.alpha is NULL). */
 BBC_API double bbc_texture_lookup_alpha(const bbc_texture *texture, double s, double t);

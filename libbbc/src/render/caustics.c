@@ -118,7 +118,7 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
     memset(&area_light, 0, sizeof area_light);
     area_light.position = g->light;
     area_light.model = g->light_model;
-    bbc__cache_light_intensity(scene, tuple->light, area_light.intensity);
+    bbc__area_radiance(scene, tuple->light, g->light, area_light.intensity);
     weight = bbc__area_weight(&g->light_model, g->light, s->x1);
     /* An emitter point in a cut-out emits nothing (bbc_scene_coverage). */
     double b[2];

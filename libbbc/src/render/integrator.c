@@ -285,7 +285,8 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
       bbc_vec3 target = v3_offset_origin(q, light.ng, v3_neg(to_light));
       (*rays)++;
       if (!bbc_accel_occluded(ctx->accel, origin, v3_sub(target, origin), 0.0, 1.0 - 1e-6)) {
-        const float *le = light.material->emission;
+        double le[3];
+        bbc_scene_emission(scene, e, at.u, at.v, le);
         double g = cos_s * cos_l / dist2 * area / probability * cover;
         bbc_vec3 e = absorbed(scene, medium, dist, v3(le[0] * g, le[1] * g, le[2] * g));
         sum = v3_add(sum, bsdf->glossy ? glossy_weight(bsdf, s, wo, to_light, e) : e);
@@ -413,8 +414,9 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
                                           hit.triangle, s.p, xs, ns);
     }
     if (count_emission && front && !covered && (ctx->components & lit_component)) {
-      radiance = v3_add(radiance, v3(throughput.x * m->emission[0], throughput.y * m->emission[1],
-                                     throughput.z * m->emission[2]));
+      double le[3];
+      bbc_scene_emission(scene, s.triangle, s.b1, s.b2, le);
+      radiance = v3_add(radiance, v3_mul(throughput, v3(le[0], le[1], le[2])));
     }
 
     if (m->type == BBC_MATERIAL_DIFFUSE) {

@@ -670,6 +670,7 @@ class reader {
                                                owner, "metallicRoughnessTexture");
     g.transmission_texture = extension_texture(m.extensions, "KHR_materials_transmission",
                                                "transmissionTexture", owner);
+    g.emissive_texture = texture_ref(m.emissiveTexture, owner, "emissiveTexture");
     // glTF 2.0, section 5.19 (material): alphaMode is one of three strings, alphaCutoff
     // a number >= 0 (tinygltf fills in OPAQUE and 0.5 when they are absent).
     if (m.alphaMode == "OPAQUE")

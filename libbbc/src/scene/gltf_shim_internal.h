@@ -73,6 +73,7 @@ typedef struct bbc__gltf_material {
   /* pbrMetallicRoughness.metallicRoughnessTexture (roughness in G, metallic in B) and
    * KHR_materials_transmission.transmissionTexture (R); texture -1 when absent. */
   bbc__gltf_texture_ref metallic_roughness_texture, transmission_texture;
+  bbc__gltf_texture_ref emissive_texture; /* emissiveTexture (sRGB colour) */
   bbc_alpha_mode alpha_mode; /* alphaMode (checked), default OPAQUE */
   double alpha_cutoff;       /* alphaCutoff (checked: finite, >= 0), default 0.5 */
 } bbc__gltf_material;

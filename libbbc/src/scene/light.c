@@ -1,9 +1,11 @@
 /* Light kinds: the glTF spot falloff, exactly and in interval arithmetic, and the
- * direction light arrives from for each kind (light_internal.h). */
+ * direction light arrives from for each kind, and an emitter's radiance at a point
+ * (light_internal.h). */
 #include <float.h>
 #include <math.h>
 #include <string.h>
 
+#include "bbc/texture.h"
 #include "light_internal.h"
 #include "vec_internal.h"
 
@@ -152,6 +154,26 @@ double bbc__area_weight(const bbc_light_model *m, bbc_vec3 y, bbc_vec3 x1) {
   if (!(c > 0) || !(len > 0)) return 0.0;
   /* A_e cos(theta_e): |n| / 2 is the area, c / (|n| |d|) the cosine. */
   return 0.5 * c / len;
+}
+
+void bbc__area_radiance(const bbc_scene *scene, uint32_t light, bbc_vec3 y, float out[3]) {
+  const uint32_t t = scene->emitters[light - scene->point_light_count];
+  const uint32_t *a = scene->indices + 3 * (size_t)t;
+  bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)a[0]);
+  bbc_vec3 e1 = v3_sub(v3_load(scene->positions + 3 * (size_t)a[1]), p0);
+  bbc_vec3 e2 = v3_sub(v3_load(scene->positions + 3 * (size_t)a[2]), p0);
+  bbc_vec3 d = v3_sub(y, p0);
+  /* The barycentrics of y's projection on the triangle's plane (y lies on it up to
+   * rounding), clamped into the triangle. */
+  double d11 = v3_dot(e1, e1), d12 = v3_dot(e1, e2), d22 = v3_dot(e2, e2);
+  double r1 = v3_dot(d, e1), r2 = v3_dot(d, e2), det = d11 * d22 - d12 * d12;
+  double b1 = det > 0 ? (d22 * r1 - d12 * r2) / det : 0.0;
+  double b2 = det > 0 ? (d11 * r2 - d12 * r1) / det : 0.0;
+  b1 = b1 > 0 ? b1 : 0.0, b2 = b2 > 0 ? b2 : 0.0;
+  if (b1 + b2 > 1) b1 /= b1 + b2, b2 = 1 - b1;
+  double le[3];
+  bbc_scene_emission(scene, t, b1, b2, le);
+  for (int k = 0; k < 3; k++) out[k] = (float)le[k];
 }
 
 const float *bbc__cache_light_intensity(const bbc_scene *scene, uint32_t light, float buffer[3]) {

@@ -52,4 +52,9 @@ bbc_point_light bbc__cache_light_point(const bbc_scene *scene, uint32_t light);
  * buffer). Zero for an index out of range. */
 const float *bbc__cache_light_intensity(const bbc_scene *scene, uint32_t light, float buffer[3]);
 
+/* The radiance of emitter light `light` (l >= point_light_count, in range) at its point
+ * y: the material's emission times its emissive texture at y (bbc_scene_emission), at
+ * most bbc__cache_light_intensity's. */
+void bbc__area_radiance(const bbc_scene *scene, uint32_t light, bbc_vec3 y, float out[3]);
+
 #endif

@@ -253,6 +253,7 @@ static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32
   m->uv_transform[0] = m->uv_transform[4] = 1.0;
   m->metallic_roughness.uv_transform[0] = m->metallic_roughness.uv_transform[4] = 1.0;
   m->transmission.uv_transform[0] = m->transmission.uv_transform[4] = 1.0;
+  m->emissive.uv_transform[0] = m->emissive.uv_transform[4] = 1.0;
   if (!(g->metallic >= 0.0 && g->metallic <= 1.0 && g->roughness >= 0.0 &&
         g->roughness <= 1.0 && g->transmission >= 0.0 && g->transmission <= 1.0))
     return fail(ld, BBC_ERR_SCENE,
@@ -453,6 +454,9 @@ static bbc_result load_textures(const loader *ld, const bbc__gltf_data *g, bbc_s
     if (r == BBC_OK)
       r = use_texture(ld, g, s, slot, i, &gm->transmission_texture, "transmissionTexture", 1,
                       &m->transmission);
+    if (r == BBC_OK && (m->emission[0] > 0 || m->emission[1] > 0 || m->emission[2] > 0))
+      r = use_texture(ld, g, s, slot, i, &gm->emissive_texture, "emissiveTexture", 0,
+                      &m->emissive);
   }
   free(slot);
   return r;

@@ -107,6 +107,17 @@ void bbc_scene_metallic_roughness(const bbc_scene *scene, uint32_t triangle, dou
   *metallic *= c[2];
 }
 
+void bbc_scene_emission(const bbc_scene *scene, uint32_t triangle, double b1, double b2,
+                        double out[3]) {
+  const bbc_material *m = bbc_scene_triangle_material(scene, triangle);
+  for (int k = 0; k < 3; k++) out[k] = m->emission[k];
+  if (m->emissive.texture == 0) return;
+  double s, t, c[3];
+  texture_coords(scene, m->emissive.uv_transform, triangle, b1, b2, &s, &t);
+  bbc_texture_lookup(&scene->textures[m->emissive.texture - 1], s, t, c);
+  for (int k = 0; k < 3; k++) out[k] *= c[k];
+}
+
 double bbc_scene_alpha(const bbc_scene *scene, uint32_t triangle, double b1, double b2) {
   const bbc_material *m = bbc_scene_triangle_material(scene, triangle);
   if (m->base_color_texture == 0 || !scene->textures[m->base_color_texture - 1].alpha)
