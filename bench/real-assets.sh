@@ -129,8 +129,10 @@ limited() {
   elif grep -q "the cache would hold no tuple" "$lg"; then
     echo "no tuple: $(sed -n 's/.*the cache would hold no tuple: \([^;]*\);.*/\1/p' "$lg" | head -1)"
   else
-    echo "failed ($(grep -v '^Command' "$tf" | head -1 | sed 's/^Command //'; tr '\r' '\n' < "$lg" |
-      grep -v '^bounding \[' | grep -v warning | tail -1 | cut -c1-120))"
+    code=$(sed -n 's/^Command \(exited with non-zero status\|terminated by signal\) /\1 /p' "$tf" |
+      head -1)
+    echo "failed (${code:-unknown}: $(lines "$lg" | grep -v '^bounding \[\|^finding tuples \[' |
+      grep -v warning | grep -v '^ *$' | tail -1 | cut -c1-120))"
   fi
 }
 
