@@ -10,7 +10,7 @@
 # looking down at the vase with KHR_materials_volume.
 #
 #   sh bench/real-assets.sh [--runs "R T TT all"] [--probe-runs "TT"] [--memory-gb G]
-#                           [--timeout S] [--spp N] [SHARED_SCENES_DIR]
+#                           [--timeout S] [--spp N] [--dry-run] [SHARED_SCENES_DIR]
 #
 # SHARED_SCENES_DIR is the folder holding real/; by default $BBC_SHARED_DIR/scenes
 # (BBC_SHARED_DIR: the folder holding scenes/), else ../shared/scenes beside the
@@ -19,10 +19,17 @@
 # Each asset is precomputed once per entry of --runs: a chain type (bbc-precompute
 # --chains R, T, TT, ...) or "all", the defaults (every chain type), one at a time, with
 # --threads 2, under `ulimit -v` of --memory-gb (default 8) and stopped after --timeout
-# seconds (default 600; then SIGKILL 30 s later if it has not stopped). A run that does
-# not finish is reported as such, with what it had used and how far it got (its progress
-# bar, forced on into its log: candidate tuples bounded of all; no bar means it stopped
-# while finding the candidates, before the first was bounded). A probe,
+# seconds (default 600; then SIGKILL 30 s later if it has not stopped). The status says
+# what the user saw: ok; "refused: estimate ..." when bbc-precompute's estimate (printed
+# before any bounding) did not fit its memory budget; "out of memory (G GB) while ..."
+# with the phase it named; a timeout; or another failure with its last message. A run
+# that does not finish is reported with what it had used and how far it got (its progress
+# bars, forced on into its log: light-triangle prefixes searched while finding the
+# candidates, then candidate tuples bounded of all), and each run's estimate line is
+# quoted in the notes. With --dry-run each precompute only counts the candidates and
+# prints its estimate (bbc-precompute --dry-run: nothing written, nothing rendered); the
+# table then shows the estimate (candidates, cache size) and the results go to
+# bench/results/real-assets-dry-run.md instead. A probe,
 # GlassVaseFlowers-floor, is the vase scene with the floor as its only receiver (the
 # flowers and the alpha-blended vase get role none), run for --probe-runs (default TT):
 # what the curved receivers cost. Each cache that is
@@ -36,8 +43,9 @@ probe_runs="TT"
 memory_gb=8
 timeout=600
 spp=4
+dry_run=0
 scenes=""
-usage="usage: sh bench/real-assets.sh [--runs \"R T TT all\"] [--probe-runs \"TT\"] [--memory-gb G] [--timeout S] [--spp N] [SHARED_SCENES_DIR]"
+usage="usage: sh bench/real-assets.sh [--runs \"R T TT all\"] [--probe-runs \"TT\"] [--memory-gb G] [--timeout S] [--spp N] [--dry-run] [SHARED_SCENES_DIR]"
 while [ $# -gt 0 ]; do
   case $1 in
     --runs) runs=$2; shift 2 ;;
@@ -45,6 +53,8 @@ while [ $# -gt 0 ]; do
     --memory-gb) memory_gb=$2; shift 2 ;;
     --timeout) timeout=$2; shift 2 ;;
     --spp) spp=$2; shift 2 ;;
+    --dry-run) dry_run=1; shift ;;
+    -h|--help) sed -n '2,/^set -eu/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "$usage" >&2; exit 2 ;;
     *) scenes=$1; shift ;;
   esac
@@ -75,13 +85,32 @@ assets="TransmissionTest GlassVaseFlowers GlassVaseFlowers-floor"
 # runs_of ASSET: the runs of that asset.
 runs_of() { if [ "$1" = GlassVaseFlowers-floor ]; then echo "$probe_runs"; else echo "$runs"; fi; }
 limit_kb=$((memory_gb * 1024 * 1024))
+# --dry-run: the estimates only, in a results file of their own.
+what="" suffix="" results=$out/real-assets.md
+if [ "$dry_run" = 1 ]; then
+  what=" --dry-run" suffix=-dry-run results=$out/real-assets-dry-run.md
+fi
 
 # field JSON KEY: a number of a --json statistics file.
 field() { sed -n "s/^ *\"$2\": \([0-9.e+-]*\),\{0,1\}$/\1/p" "$1"; }
 
+# lines LOG: the log as lines (progress bars redrawn with CR split, erasures removed).
+lines() { tr '\r' '\n' < "$1" | sed 's/\x1b\[K//g'; }
+
+# estimate LOG: bbc-precompute's estimate line without its tool name, empty if none.
+estimate() { lines "$1" | sed -n 's/^bbc-precompute: estimate: //p' | head -1; }
+
+# refusal LOG: "refused: estimate N candidate tuples, about X needed, over the budget of B"
+# when the estimate did not fit the budget, else empty.
+refusal() {
+  lines "$1" | sed -n 's/.*: \([0-9.e]*\) candidate tuples (.*the precompute needs about \([^(]*[^ (]\) (.*over the budget of \([^;]*\);.*/refused: estimate \1 candidate tuples, about \2 needed, over the budget of \3/p' |
+    head -1
+}
+
 # limited TIMEFILE LOG CMD...: runs CMD under `ulimit -v` and the timeout, stdout and
 # stderr to LOG, "user sys wall maxrss-KB" to TIMEFILE; prints its status: ok,
-# "timeout S s", "out of memory (G GB)" or "failed (...)".
+# "refused: estimate ...", "timeout S s", "out of memory (G GB) while PHASE" or
+# "failed (...)".
 limited() {
   tf=$1
   lg=$2
@@ -91,13 +120,19 @@ limited() {
     echo ok
   elif grep -Eq "Command exited with non-zero status (124|137)" "$tf"; then
     echo "timeout ${timeout} s"
+  elif [ -n "$(refusal "$lg")" ]; then
+    refusal "$lg"
   elif grep -qi "out of memory\|bad_alloc\|cannot allocate" "$lg"; then
-    echo "out of memory (${memory_gb} GB)"
+    phase=$(lines "$lg" | sed -n 's/.*out of memory within the budget of .*) \(while [^;]*\);.*/ \1/p' |
+      head -1)
+    echo "out of memory (${memory_gb} GB)$phase"
   elif grep -q "the cache would hold no tuple" "$lg"; then
     echo "no tuple: $(sed -n 's/.*the cache would hold no tuple: \([^;]*\);.*/\1/p' "$lg" | head -1)"
   else
-    echo "failed ($(grep -v '^Command' "$tf" | head -1 | sed 's/^Command //'; tr '\r' '\n' < "$lg" |
-      grep -v '^bounding \[' | grep -v warning | tail -1 | cut -c1-120))"
+    code=$(sed -n 's/^Command \(exited with non-zero status\|terminated by signal\) /\1 /p' "$tf" |
+      head -1)
+    echo "failed (${code:-unknown}: $(lines "$lg" | grep -v '^bounding \[\|^finding tuples \[' |
+      grep -v warning | grep -v '^ *$' | tail -1 | cut -c1-120))"
   fi
 }
 
@@ -107,11 +142,18 @@ times_of() {
     awk '{ printf "%.2f %.1f %.0f", $1 + $2, $3, $4 / 1024 }'
 }
 
-# progress LOG: the last state of the progress bar ("42% 1234/5678 tuples, 1m20s"),
-# empty if bounding had not begun.
+# progress LOG: the last state of the bounding bar ("42%, 1234/5678 candidate tuples
+# bounded after 01:20"), empty if bounding had not begun.
 progress() {
-  tr '\r' '\n' < "$1" | sed 's/\x1b\[K//g' | grep '^bounding \[' | tail -1 |
+  lines "$1" | grep '^bounding \[' | tail -1 |
     sed -n 's/^bounding \[[#.]*\] *\([0-9]*%\) *\([^ ]*\) elapsed.*  \([0-9]*\/[0-9]*\) tuples.*/\1, \3 candidate tuples bounded after \2/p'
+}
+
+# finding LOG: the last state of the bar of the candidate search ("80%, 11232/14038
+# light-triangle prefixes searched after 04:13"), empty if it had not begun.
+finding() {
+  lines "$1" | grep '^finding tuples \[' | tail -1 |
+    sed -n 's/^finding tuples \[[#.]*\] *\([0-9]*%\) *\([^ ]*\) elapsed.*  \([0-9]*\/[0-9]*\) light-triangle prefixes.*/\1, \3 light-triangle prefixes searched after \2/p'
 }
 
 rows=$work/rows
@@ -123,16 +165,30 @@ for asset in $assets; do
   for run in $(runs_of "$asset"); do
     name=$asset-$run
     if [ "$run" = all ]; then chains=""; label="all (default)"; else chains="--chains $run"; label=$run; fi
-    echo "$tool: $asset, $label: precompute (at most ${timeout} s, ${memory_gb} GB)" >&2
-    rm -f "$work/$name.bbc" "$work/$name.json" "$work/$name.exr" "$work/$name.png"
-    # shellcheck disable=SC2086
-    status=$(limited "$work/$name.time" "$work/$name.log" "$pre" "$scene" -o "$work/$name.bbc" \
-      --threads 2 --progress --json "$work/$name.json" $chains)
+    echo "$tool: $asset, $label: precompute$what (at most ${timeout} s, ${memory_gb} GB)" >&2
+    if [ "$dry_run" = 1 ]; then
+      name=$name-dry-run
+      rm -f "$work/$name.log"
+      # shellcheck disable=SC2086
+      status=$(limited "$work/$name.time" "$work/$name.log" "$pre" "$scene" --dry-run \
+        --threads 2 --progress $chains)
+    else
+      rm -f "$work/$name.bbc" "$work/$name.json" "$work/$name.exr" "$work/$name.png"
+      # shellcheck disable=SC2086
+      status=$(limited "$work/$name.time" "$work/$name.log" "$pre" "$scene" -o "$work/$name.bbc" \
+        --threads 2 --progress --json "$work/$name.json" $chains)
+    fi
     # shellcheck disable=SC2046 # split into fields on purpose
     set -- $(times_of "$work/$name.time")
     cpu=$1 wall=$2 rss=$3
     candidates=- tuples=- mb=- render=- note=
-    if [ "$status" = ok ] && [ -f "$work/$name.json" ]; then
+    e=$(estimate "$work/$name.log")
+    if [ "$dry_run" = 1 ] && [ "$status" = ok ] && [ -n "$e" ]; then
+      status="estimate"
+      candidates=$(echo "$e" | cut -d' ' -f1)
+      mb="~$(echo "$e" | sed -n 's/.*cache [a-z ]*about \([0-9.]* [kMG]B\).*/\1/p;s/.*cache at least \([0-9.]* [kMG]B\).*/>= \1/p')"
+      note="estimate: $e"
+    elif [ "$status" = ok ] && [ -f "$work/$name.json" ]; then
       j=$work/$name.json
       candidates=$(field "$j" candidate_tuples)
       tuples=$(field "$j" tuples)
@@ -148,6 +204,7 @@ for asset in $assets; do
         -v s="$(field "$j" spill_bytes)" -v per="$per" \
         'BEGIN { printf "stored %s; wall: finding candidates %.1f s, bounding %.1f s, writing %.1f s; pieces per tuple %.1f position, %.1f irradiance; %d grid entries (%.0f MB spilled)",
                  per == "" ? "none" : per, t, b, w, p, i, e, s / 1e6 }')
+      [ -z "$e" ] || note="$note; estimate: $e"
       # A short render with the cache.
       echo "$tool: $asset, $label: render 320x240, $spp spp" >&2
       rstatus=$(limited "$work/$name.render.time" "$work/$name.render.log" "$ren" "$scene" \
@@ -167,16 +224,24 @@ for asset in $assets; do
       fi
     else
       p=$(progress "$work/$name.log")
+      f=$(finding "$work/$name.log")
       if [ "${status#no tuple}" != "$status" ]; then
         note="refused before bounding"
+      elif [ "${status#refused}" != "$status" ]; then
+        note="refused before bounding, after counting the candidates"
+        candidates=$(echo "$status" | sed -n 's/^refused: estimate \([0-9.e]*\) .*/\1/p')
       elif [ -n "$p" ]; then
         note="bounding: $p"
         candidates=$(echo "$p" | sed -n 's/.*[0-9]*\/\([0-9]*\) candidate.*/\1/p')
+      elif [ -n "$f" ]; then
+        note="finding the candidates: $f"
       else
-        note="no progress bar: it stopped before the first candidate was bounded, while finding the candidate tuples"
+        note="no progress bar: it stopped before the candidate search began"
       fi
-      m=$(tr '\r' '\n' < "$work/$name.log" | grep -v '^bounding \[' | grep -v 'warning' |
-        grep -v '^ *$' | tail -2 | tr '\n' ' ' | cut -c1-300)
+      [ -z "$e" ] || note="$note; estimate: $e"
+      m=$(lines "$work/$name.log" | grep -v '^bounding \[\|^finding tuples \[' |
+        grep -v 'warning\|^bbc-precompute: estimate: ' | grep -v '^ *$' | tail -2 | tr '\n' ' ' |
+        cut -c1-300)
       [ -z "$m" ] || note="$note; last messages: $m"
     fi
     echo "$asset|$label|$status|$cpu|$wall|$rss|$candidates|$tuples|$mb|$render" >> "$rows"
@@ -191,19 +256,20 @@ for asset in $assets; do
   # shellcheck disable=SC2046 # split into fields on purpose
   set -- $(runs_of "$asset")
   [ $# -gt 0 ] || continue
-  tr '\r' '\n' < "$work/$asset-$1.log" | grep 'warning' | sed "s|$work/||" | sort -u >> "$warnings" || true
+  tr '\r' '\n' < "$work/$asset-$1$suffix.log" | grep 'warning' | sed "s|$work/||" |
+    sort -u >> "$warnings" || true
 done
 
 # Notes written by hand below the marker line of the results file are kept.
 hand=$work/hand-notes
 : > "$hand"
-if [ -f "$out/real-assets.md" ]; then
-  sed -n '/^<!-- by hand/,$p' "$out/real-assets.md" > "$hand"
+if [ -f "$results" ]; then
+  sed -n '/^<!-- by hand/,$p' "$results" > "$hand"
 fi
 {
   echo "# bbc on public sample assets"
   echo
-  echo "\`sh bench/real-assets.sh --runs \"$runs\" --probe-runs \"$probe_runs\" --memory-gb $memory_gb --timeout $timeout --spp $spp\`"
+  echo "\`sh bench/real-assets.sh --runs \"$runs\" --probe-runs \"$probe_runs\" --memory-gb $memory_gb --timeout $timeout --spp $spp$what\`"
   echo "at $commit; $machine (load average $load_start at the start, $(cut -d' ' -f1-3 /proc/loadavg) at the end)."
   echo "The Khronos sample assets in \`$scenes/real\` (unchanged; see its README.md), lit as"
   echo "that README says by \`bench/real-assets-scenes.py\` (new .gltf files in bench/work/real-assets/"
@@ -215,7 +281,13 @@ fi
   echo "--threads 2 [--chains X]\`, one at a time, under \`ulimit -v\` of $memory_gb GB and a ${timeout} s"
   echo "timeout; each cache written is rendered at 320x240, $spp spp, 2 threads (\`bbc-render --cache"
   echo "--stats\`, PNG previews in bench/work/real-assets/). CPU-s are user + sys of the whole process,"
-  echo "peak RSS from /usr/bin/time; candidates of an unfinished run are the progress bar's total."
+  echo "peak RSS from /usr/bin/time; candidates of an unfinished run are the progress bar's total"
+  echo "or the refusal's count."
+  if [ "$dry_run" = 1 ]; then
+    echo "With --dry-run each precompute only counted the candidates, bounded a sample and printed"
+    echo "its estimate (\`bbc-precompute --dry-run\`): nothing was written or rendered; status"
+    echo "\"estimate\" is such a run that finished, and the cache MB are the estimate's."
+  fi
   echo
   echo "| asset | chains | status | CPU-s | wall s | peak RSS MB | candidate tuples | stored tuples | cache MB | render |"
   echo "|---|---|---|---:|---:|---:|---:|---:|---:|---|"
@@ -235,5 +307,5 @@ fi
     echo
     cat "$hand"
   fi
-} > "$out/real-assets.md"
-cat "$out/real-assets.md"
+} > "$results"
+cat "$results"

@@ -26,53 +26,101 @@ static bbc_tuple *reference_list(const bbc_scene *s, uint32_t chains, uint32_t a
   return all;
 }
 
-static void check_stream(const char *scene, uint32_t chains, uint32_t area_chains) {
+/* Whether two tuples share their prefix (light, T1), and (light, T1, T2). */
+static int same_first(const bbc_tuple *a, const bbc_tuple *b) {
+  return a->light == b->light && a->specular[0] == b->specular[0];
+}
+
+static int same_pair(const bbc_tuple *a, const bbc_tuple *b) {
+  return same_first(a, b) && a->specular[1] == b->specular[1] && a->specular[1] != BBC_NO_TRIANGLE;
+}
+
+/* The stream against the list for block budgets of 4 kB (about 200 tuples: the windows
+ * shrink and grow), the default, and `tiny` bytes: then the candidates of one (light, T1)
+ * prefix are handed out over several blocks, and the search must carry on where it
+ * stopped inside them. `triangles`: the receiver planes count as their triangles (one
+ * prefix (light, T1, T2) then reaches many receivers, which `tiny` must split too). */
+static void check_stream(const char *scene, uint32_t chains, uint32_t area_chains, size_t tiny,
+                         int triangles) {
   bbc_scene *s = NULL;
   REQUIRE(bbc_scene_load(&s, scene, NULL) == BBC_OK);
+  for (uint32_t m = 0; triangles && m < s->mesh_count; m++) s->meshes[m].plane = 0;
   size_t count = 0;
   bbc_tuple *want = reference_list(s, chains, area_chains, &count);
   REQUIRE(want != NULL);
   CHECK(count > 100); /* enough for many windows */
-  /* Blocks of 4 kB (about 200 tuples) make the windows shrink and grow. */
-  static const size_t budgets[2] = {4096, 0};
+  const size_t budgets[3] = {4096, 0, tiny};
   for (int threads = 1; threads <= 2; threads++)
-    for (int b = 0; b < 2; b++) {
+    for (int b = 0; b < 3; b++) {
       bbc__tuple_search *search = NULL;
       REQUIRE(bbc__tuple_search_create(&search, s, chains, area_chains, threads, budgets[b]) ==
               BBC_OK);
-      size_t got = 0, blocks = 0, mismatches = 0;
+      size_t got = 0, blocks = 0, mismatches = 0, largest = 0;
+      size_t first_splits = 0, pair_splits = 0;
+      bbc_tuple last;
       for (;;) {
         const bbc_tuple *block;
         size_t n;
         REQUIRE(bbc__tuple_search_next(search, &block, &n) == BBC_OK);
         if (n == 0) break;
+        if (blocks) {
+          first_splits += same_first(&last, &block[0]);
+          pair_splits += same_pair(&last, &block[0]);
+        }
         blocks++;
+        largest = n > largest ? n : largest;
         for (size_t i = 0; i < n; i++, got++)
           mismatches += got >= count || memcmp(&block[i], &want[got], sizeof *block) != 0;
+        last = block[n - 1];
       }
       uint64_t done, total;
       bbc__tuple_search_progress(search, &done, &total);
       CHECK(done == total);
       CHECK(total > 0);
+      const size_t peak = bbc__tuple_search_peak_bytes(search);
       bbc__tuple_search_free(search);
       CHECK_INT(got, count);
       CHECK_INT(mismatches, 0);
       CHECK(blocks > 1);
+      if (budgets[b]) {
+        /* Never more than the budget held (it is at least one tuple per thread). */
+        CHECK(largest * sizeof(bbc_tuple) <= budgets[b]);
+        CHECK(peak <= budgets[b]);
+      }
+      if (b == 2) {
+        CHECK(first_splits > 0);
+        if (triangles) CHECK(pair_splits > 0);
+      }
     }
   free(want);
   bbc_scene_free(s);
 }
 
+#define TINY (3 * sizeof(bbc_tuple))
+
 TEST(stream_is_the_list_mirrors) {
-  check_stream(TEST_SCENE("wavy-mirror.gltf"), BBC_CHAIN_MASK_ALL, 0);
+  check_stream(TEST_SCENE("wavy-mirror.gltf"), BBC_CHAIN_MASK_ALL, 0, TINY, 0);
 }
 
 TEST(stream_is_the_list_glass) {
-  check_stream(TEST_SCENE("ball80.gltf"), BBC_CHAIN_MASK_ALL, 0);
+  check_stream(TEST_SCENE("ball80.gltf"), BBC_CHAIN_MASK_ALL, 0, TINY, 0);
 }
 
 TEST(stream_is_the_list_area_lights) {
-  check_stream(TEST_SCENE("wavy-corner-area.gltf"), BBC_CHAIN_MASK_ALL, BBC_CHAIN_MASK_ALL);
+  check_stream(TEST_SCENE("wavy-corner-area.gltf"), BBC_CHAIN_MASK_ALL, BBC_CHAIN_MASK_ALL, TINY,
+               0);
+}
+
+/* The glass ball over its floor's two triangles: a pair (T1, T2) reaches both. */
+TEST(stream_splits_inside_a_pair) {
+  check_stream(TEST_SCENE("ball80.gltf"), BBC_CHAIN_MASK_ALL, 0, TINY, 1);
+}
+
+/* The glass sphere over a floor of 3,000 triangles: a pair reaches up to all of them, a
+ * prefix (light, T1) some 18,000, and blocks of 1,000 tuples split both many times. */
+TEST(stream_splits_long_receiver_lists) {
+  check_stream(TEST_SCENE("plane-glass-sphere-3k.gltf"), BBC_CHAIN_MASK_ALL, 0,
+               1000 * sizeof(bbc_tuple), 1);
 }
 
 /* The estimate stops the precompute before any bounding. */

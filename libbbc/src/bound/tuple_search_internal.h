@@ -1,9 +1,13 @@
 /* The candidate tuples as a stream (tuples.c): the search of bbc_tuples_find, handed out
  * a block at a time in its deterministic order, so that no one has to hold the whole
  * list. A block is the tuples of a window of consecutive (light, T1) prefixes searched
- * in parallel; the window shrinks when its tuples exceed the block budget and grows
- * again when they are far below it, so the memory a search holds follows the budget
- * however the candidates crowd on a few casters. */
+ * in parallel, each chunk of prefixes given its share of the block budget; a chunk
+ * whose tuples do not fit stops where its share is full, inside a prefix if need be
+ * (at a second triangle and a receiver), and carries on from there once its block has
+ * been handed out. The window narrows when its chunks do not fit and widens when its
+ * tuples are far below the budget. So the memory a search holds never exceeds the
+ * budget, however the candidates crowd on a few casters, and the order of the tuples
+ * is the same for any budget and any number of threads. */
 #ifndef BBC_TUPLE_SEARCH_INTERNAL_H
 #define BBC_TUPLE_SEARCH_INTERNAL_H
 
@@ -18,8 +22,8 @@ typedef struct bbc__tuple_search bbc__tuple_search;
 /* A search of the candidates of the scene's point lights for the chain types of
  * `chains`, followed by those of its emitters (light point_light_count + e) for
  * `area_chains` (0: none), in the order of bbc_tuples_find then bbc_tuples_find_area.
- * `threads` searching threads (0: every core); block_bytes is the aim for a block's
- * tuples (0: 16 MiB; a block of one window of `threads` prefixes chunks may exceed it).
+ * `threads` searching threads (0: every core); block_bytes is the most bytes of tuples
+ * the search holds at once (0: 16 MiB; at least one tuple per thread).
  * *out is NULL on failure; free with bbc__tuple_search_free. Not thread-safe: one
  * caller at a time, which the search's own threads serve. */
 bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *scene,
@@ -34,7 +38,7 @@ bbc_result bbc__tuple_search_next(bbc__tuple_search *s, const bbc_tuple **tuples
 /* How far the search is: prefixes (light, T1) searched of the total. */
 void bbc__tuple_search_progress(const bbc__tuple_search *s, uint64_t *done, uint64_t *total);
 
-/* The most bytes of tuples the search held at once (its largest window). */
+/* The most bytes of tuples the search held at once (at most the block budget). */
 size_t bbc__tuple_search_peak_bytes(const bbc__tuple_search *s);
 
 void bbc__tuple_search_free(bbc__tuple_search *s); /* NULL is allowed */

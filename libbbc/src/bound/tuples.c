@@ -126,14 +126,19 @@ static int beam_meets(const bbc_ivec3 *x, const bbc_ivec3 *d, const double lo[3]
   return bbc_ivec3_dot(w, *d).hi > 0;
 }
 
+/* The tuples of a chunk of prefixes, at most `limit` of them (the search stops there and
+ * carries on once they are handed out). */
 typedef struct tuple_list {
   bbc_tuple *items;
-  size_t count, capacity;
+  size_t count, capacity, limit;
 } tuple_list;
 
+/* Appends t, growing the list up to its limit; 0 when memory ran out. The caller checks
+ * count < limit first. */
 static int tuple_push(tuple_list *l, const bbc_tuple *t) {
   if (l->count == l->capacity) {
     size_t capacity = l->capacity ? 2 * l->capacity : 1024;
+    if (capacity > l->limit) capacity = l->limit;
     bbc_tuple *items = realloc(l->items, capacity * sizeof *items);
     if (!items) return 0;
     l->items = items;
@@ -516,7 +521,20 @@ typedef struct search_scratch {
   bbc_ivec3 *reach;
   uint16_t *boxes;
   uint32_t stamp; /* one per (light, T1) prefix, for `seen` */
+  /* found2[0, n2) and their reach are the second triangles of the prefix (light, T1)
+   * when `listed`: a search that stopped inside that prefix carries on without finding
+   * them again (when it carries on on this thread). */
+  int listed;
+  uint32_t listed_light, listed_t1, n2;
 } search_scratch;
+
+/* Where a search stands inside the prefixes: the next T1, and inside its prefix the
+ * next tuple: stage 0 the single-scattering receivers, stage j > 0 the receivers of the
+ * j-th second triangle found (counting from 1), and index the next receiver of that
+ * stage's walk. */
+typedef struct search_place {
+  uint32_t t1, stage, index;
+} search_place;
 
 #define SEARCH_ARENA_BYTES ((size_t)4 << 20)
 #define SEARCH_CHUNK 16
@@ -550,12 +568,61 @@ static void scratch_free(search_scratch *s) {
   free(s->stack);
 }
 
-/* The candidate tuples of the prefix (light l, T1 = t), appended to list in the order
- * (T2, receiver), single scattering first. */
+/* The tuples of the second triangles of a prefix (s->found2[0, s->n2) with their reach),
+ * from the place *at on, as prefix_tuples says. `tuple` is the prefix's single
+ * scattering tuple, `first` its scattering at T1 (1: refraction) and medium the one
+ * beyond T1. */
+static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, const bvh *receivers,
+                                uint32_t medium, const bbc_tuple *tuple, int first,
+                                search_place *at, search_scratch *s, tuple_list *list,
+                                int *stopped) {
+  const uint32_t after[2] = {1u << (first ? BBC_CHAIN_TR : BBC_CHAIN_RR),
+                             1u << (first ? BBC_CHAIN_TT : BBC_CHAIN_RT)};
+  for (uint32_t j = at->stage ? at->stage - 1 : 0; j < s->n2; j++) {
+    const uint32_t start = j + 1 == at->stage ? at->index : 0;
+    const uint32_t t1 = tuple->specular[0], t2 = s->found2[j];
+    int second = scattering_of(scene, t2);
+    if (second < 0 || !(chains & after[second])) continue;
+    if (second == 1 && !second_refraction_possible(scene, medium, t1, t2)) continue;
+    bbc_tuple pair = *tuple;
+    pair.chain = (uint32_t)(first ? (second ? BBC_CHAIN_TT : BBC_CHAIN_TR)
+                                  : (second ? BBC_CHAIN_RT : BBC_CHAIN_RR));
+    pair.specular[1] = t2;
+    bbc_tuple_geometry g2;
+    bbc_result result = bbc_tuple_geometry_init(&g2, scene, &pair);
+    if (result != BBC_OK) return result;
+    bbc_ivec3 x2, d2;
+    if (!second_beam(&g2, &s->reach[t2], &x2, &d2)) continue;
+    /* The medium after T2: a refraction enters T2's mesh from air or leaves it into
+     * air (second_refraction_possible), a reflection keeps the medium. */
+    const uint32_t last = second == 0 ? medium : medium == 0 ? scene->triangle_mesh[t2] + 1 : 0;
+    uint32_t n = bvh_beam(receivers, scene, &x2, &d2, s->stack, s->found);
+    for (uint32_t i = start; i < n; i++) {
+      if (!medium_reaches(receivers, scene, last, s->found[i])) continue;
+      if (list->count == list->limit) {
+        at->stage = j + 1;
+        at->index = i;
+        *stopped = 1;
+        return BBC_OK;
+      }
+      pair.receiver = s->found[i];
+      if (!tuple_push(list, &pair)) return BBC_ERR_OUT_OF_MEMORY;
+    }
+  }
+  return BBC_OK;
+}
+
+/* The candidate tuples of the prefix (light l, T1 = at->t1) from the place *at, appended
+ * to list in the order (T2, receiver), single scattering first. When the list reaches
+ * its limit before the prefix ends, *stopped is 1 and *at the place of the next tuple,
+ * from which a later call carries on (the stages are found again in the same order). */
 static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const bvh *receivers,
                                 const bvh *casters, const bbc_point_light *light, uint32_t l,
-                                uint32_t t, search_scratch *s, tuple_list *list) {
+                                search_place *at, search_scratch *s, tuple_list *list,
+                                int *stopped) {
   bbc_result result = BBC_OK;
+  const uint32_t t = at->t1;
+  *stopped = 0;
   int first = scattering_of(scene, t);
   if (first < 0) return BBC_OK;
   if (l >= scene->point_light_count &&
@@ -583,20 +650,28 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const b
   if (g.light_model.kind != BBC_LIGHT_AREA &&
       v3_dot(ng, bbc__light_d0(g.light, &g.light_model, g.p[0])) == 0)
     return BBC_OK;
-  beam whole_beam;
-  static const double whole[4] = {0, 1, 0, 1};
-  bbc_arena_reset(&s->arena, 0);
-  if ((result = beam_of(&s->arena, &g, whole, &whole_beam)) != BBC_OK) return result;
   /* Tuples in the order (T2, receiver) with single scattering first (T2 = none). */
-  if (chains & (1u << single)) {
+  if (at->stage == 0 && (chains & (1u << single))) {
+    beam whole_beam;
+    static const double whole[4] = {0, 1, 0, 1};
+    bbc_arena_reset(&s->arena, 0);
+    if ((result = beam_of(&s->arena, &g, whole, &whole_beam)) != BBC_OK) return result;
     uint32_t n = bvh_beam(receivers, scene, &whole_beam.x, &whole_beam.d, s->stack, s->found);
-    for (uint32_t i = 0; i < n && result == BBC_OK; i++) {
+    for (uint32_t i = at->index; i < n; i++) {
       if (!medium_reaches(receivers, scene, medium, s->found[i])) continue;
+      if (list->count == list->limit) {
+        at->index = i;
+        *stopped = 1;
+        return BBC_OK;
+      }
       tuple.receiver = s->found[i];
-      if (!tuple_push(list, &tuple)) result = BBC_ERR_OUT_OF_MEMORY;
+      if (!tuple_push(list, &tuple)) return BBC_ERR_OUT_OF_MEMORY;
     }
   }
   if (!(chains & (after[0] | after[1])) || casters->node_count == 0) return BBC_OK;
+  if (s->listed && s->listed_light == l && s->listed_t1 == t)
+    return second_tuples(scene, chains, receivers, medium, &tuple, first, at, s, list, stopped);
+  s->listed = 0;
   /* T2 from the beams of the BEAM_SPLIT x BEAM_SPLIT s->boxes of T1's unit box that
    * meet the triangle (far tighter than T1's whole beam, whose box of u1 is twice
    * the triangle): the BVH walk with each box's interval beam finds candidates
@@ -657,40 +732,30 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const b
     if (reached) s->found2[kept++] = t2;
   }
   if (result != BBC_OK) return result;
-  n2 = kept;
-  qsort(s->found2, n2, sizeof *s->found2, compare_u32);
-  for (uint32_t j = 0; j < n2 && result == BBC_OK; j++) {
-    const uint32_t t2 = s->found2[j];
-    int second = scattering_of(scene, t2);
-    if (second < 0 || !(chains & after[second])) continue;
-    if (second == 1 && !second_refraction_possible(scene, medium, t, t2)) continue;
-    bbc_tuple pair = tuple;
-    pair.chain = (uint32_t)(first ? (second ? BBC_CHAIN_TT : BBC_CHAIN_TR)
-                                  : (second ? BBC_CHAIN_RT : BBC_CHAIN_RR));
-    pair.specular[1] = t2;
-    bbc_tuple_geometry g2;
-    if ((result = bbc_tuple_geometry_init(&g2, scene, &pair)) != BBC_OK) break;
-    bbc_ivec3 x2, d2;
-    if (!second_beam(&g2, &s->reach[t2], &x2, &d2)) continue;
-    /* The medium after T2: a refraction enters T2's mesh from air or leaves it into
-     * air (second_refraction_possible), a reflection keeps the medium. */
-    const uint32_t last = second == 0 ? medium : medium == 0 ? scene->triangle_mesh[t2] + 1 : 0;
-    uint32_t n = bvh_beam(receivers, scene, &x2, &d2, s->stack, s->found);
-    for (uint32_t i = 0; i < n && result == BBC_OK; i++) {
-      if (!medium_reaches(receivers, scene, last, s->found[i])) continue;
-      pair.receiver = s->found[i];
-      if (!tuple_push(list, &pair)) result = BBC_ERR_OUT_OF_MEMORY;
-    }
-  }
-  return result;
+  qsort(s->found2, kept, sizeof *s->found2, compare_u32);
+  s->n2 = kept;
+  s->listed = 1;
+  s->listed_light = l;
+  s->listed_t1 = t;
+  return second_tuples(scene, chains, receivers, medium, &tuple, first, at, s, list, stopped);
 }
 
 /* Prefixes are searched in chunks of SEARCH_CHUNK T1, a window of chunks in parallel;
  * each chunk's tuples go to a list of its own, handed out in chunk order, so the order
- * does not depend on the threads. A window has between `threads` and WINDOW_MAX
- * chunks. */
+ * does not depend on the threads. A window has between `threads` and WINDOW_MAX chunks,
+ * and each chunk's list at most the window's share of the block budget: a chunk whose
+ * tuples do not fit stops where its list is full (search_place) and carries on, alone,
+ * once its list has been handed out, so however many tuples one prefix has, the search
+ * never holds more than the budget. */
 #define WINDOW_MAX 256
 #define DEFAULT_BLOCK_BYTES ((size_t)16 << 20)
+
+typedef struct search_chunk {
+  tuple_list part;     /* its tuples not yet handed out */
+  search_place at;     /* where its search stands; done when at.t1 == end */
+  uint32_t begin, end; /* its T1 */
+  bbc_result why;
+} search_chunk;
 
 struct bbc__tuple_search {
   const bbc_scene *scene;
@@ -698,16 +763,17 @@ struct bbc__tuple_search {
   int threads;
   bvh receivers, casters;
   search_scratch *scratch;
-  tuple_list parts[WINDOW_MAX];
-  bbc_result why[WINDOW_MAX]; /* each chunk's result */
-  size_t chunks;              /* per light */
-  uint32_t light, light_end;  /* the light searched, and the end of the lights */
-  bbc_point_light point;      /* the light as the search sees it */
-  size_t next_chunk;          /* the first chunk of the light not yet searched */
-  size_t window, target;      /* chunks per window; the aim for a block's bytes */
-  size_t part, parts_used;    /* the next part handed out, of the window's parts */
-  size_t peak;                /* the largest window's bytes */
-  uint64_t done, total;       /* prefixes */
+  search_chunk chunk[WINDOW_MAX];
+  size_t chunks;             /* per light */
+  uint32_t light, light_end; /* the light searched, and the end of the lights */
+  bbc_point_light point;     /* the light as the search sees it */
+  size_t next_chunk;         /* the first chunk of the light not yet searched */
+  size_t window, target;     /* chunks per window; the most bytes of a block */
+  size_t window_max;         /* the widest window: one tuple per chunk fits target */
+  size_t head, used;         /* the chunk whose tuples are next, of the window's chunks */
+  int handed;                /* the head's list was handed out by the last call */
+  size_t peak;               /* the most bytes of lists held at once */
+  uint64_t done, total;      /* prefixes */
   bbc_result failed;
 };
 
@@ -727,6 +793,9 @@ bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *sc
   s->threads = threads > 0 ? threads : omp_get_max_threads();
   s->target = block_bytes ? block_bytes : DEFAULT_BLOCK_BYTES;
   s->window = (size_t)s->threads < WINDOW_MAX ? (size_t)s->threads : WINDOW_MAX;
+  s->window_max = s->target / sizeof(bbc_tuple);
+  if (s->window_max > WINDOW_MAX) s->window_max = WINDOW_MAX;
+  if (s->window_max < s->window) s->window_max = s->window;
   s->chunks = ((size_t)scene->triangle_count + SEARCH_CHUNK - 1) / SEARCH_CHUNK;
   s->light_end = scene->point_light_count + (s->area_chains ? scene->emitter_count : 0);
   for (uint32_t l = 0; l < s->light_end; l++)
@@ -758,7 +827,7 @@ void bbc__tuple_search_free(bbc__tuple_search *s) {
   bvh_free(&s->casters);
   for (int i = 0; s->scratch && i < s->threads; i++) scratch_free(&s->scratch[i]);
   free(s->scratch);
-  for (size_t c = 0; c < WINDOW_MAX; c++) free(s->parts[c].items);
+  for (size_t c = 0; c < WINDOW_MAX; c++) free(s->chunk[c].part.items);
   free(s);
 }
 
@@ -771,54 +840,80 @@ size_t bbc__tuple_search_peak_bytes(const bbc__tuple_search *s) {
   return s->peak;
 }
 
-/* Searches the next window of the light's chunks into s->parts. */
+/* Searches chunk c from where it stands until it is done or its list is full. */
+static bbc_result chunk_search(bbc__tuple_search *s, search_chunk *c, search_scratch *w) {
+  const uint32_t chains = light_chains(s, s->light);
+  for (; c->at.t1 < c->end; c->at.t1++, c->at.stage = c->at.index = 0) {
+    int stopped = 0;
+    bbc_result r = prefix_tuples(s->scene, chains, &s->receivers, &s->casters, &s->point, s->light,
+                                 &c->at, w, &c->part, &stopped);
+    if (r != BBC_OK || stopped) return r;
+  }
+  return BBC_OK;
+}
+
+/* The bytes the window's lists hold now, for the peak. */
+static void note_held(bbc__tuple_search *s) {
+  size_t held = 0;
+  for (size_t c = 0; c < s->used; c++) held += s->chunk[c].part.capacity * sizeof(bbc_tuple);
+  if (held > s->peak) s->peak = held;
+}
+
+/* Searches the next window of the light's chunks in parallel. */
 static bbc_result search_window(bbc__tuple_search *s) {
   const bbc_scene *scene = s->scene;
   const size_t first = s->next_chunk;
   const size_t n = s->chunks - first < s->window ? s->chunks - first : s->window;
-  const uint32_t chains = light_chains(s, s->light);
+  /* Each chunk's share of the budget, at least one tuple. */
+  size_t limit = s->target / (n * sizeof(bbc_tuple));
+  if (limit == 0) limit = 1;
+  for (size_t c = 0; c < WINDOW_MAX; c++) {
+    search_chunk *k = &s->chunk[c];
+    /* A list larger than this window's share, or beyond the window, gives its memory
+     * back. */
+    if (k->part.capacity > limit || (c >= n && k->part.capacity)) {
+      free(k->part.items);
+      k->part.items = NULL;
+      k->part.capacity = 0;
+    }
+    k->part.count = 0;
+    k->part.limit = limit;
+    if (c >= n) continue;
+    const size_t begin = (first + c) * SEARCH_CHUNK;
+    k->begin = (uint32_t)begin;
+    k->end = begin + SEARCH_CHUNK < scene->triangle_count ? (uint32_t)(begin + SEARCH_CHUNK)
+                                                          : scene->triangle_count;
+    k->at = (search_place){k->begin, 0, 0};
+    k->why = BBC_OK;
+  }
+  s->used = n;
+  s->head = 0;
+  s->handed = 0;
   int failed = 0;
 #pragma omp parallel for schedule(dynamic, 1) num_threads(s->threads) reduction(| : failed)
   for (size_t c = 0; c < n; c++) {
-    search_scratch *w = &s->scratch[omp_get_thread_num()];
-    tuple_list *list = &s->parts[c];
-    list->count = 0;
-    s->why[c] = BBC_OK;
-    const size_t begin = (first + c) * SEARCH_CHUNK;
-    const uint32_t end = begin + SEARCH_CHUNK < scene->triangle_count
-                             ? (uint32_t)(begin + SEARCH_CHUNK)
-                             : scene->triangle_count;
-    for (uint32_t t = (uint32_t)begin; t < end && s->why[c] == BBC_OK; t++)
-      s->why[c] = prefix_tuples(scene, chains, &s->receivers, &s->casters, &s->point, s->light,
-                                t, w, list);
-    if (s->why[c] != BBC_OK) failed = 1;
+    search_chunk *k = &s->chunk[c];
+    k->why = chunk_search(s, k, &s->scratch[omp_get_thread_num()]);
+    if (k->why != BBC_OK) failed = 1;
   }
   /* The first failure in prefix order, as a serial search would meet it. */
   for (size_t c = 0; failed && c < n; c++)
-    if (s->why[c] != BBC_OK) return s->why[c];
-  size_t bytes = 0, held = 0;
+    if (s->chunk[c].why != BBC_OK) return s->chunk[c].why;
+  note_held(s);
+  size_t bytes = 0;
+  int full = 0;
   for (size_t c = 0; c < n; c++) {
-    bytes += s->parts[c].count * sizeof(bbc_tuple);
-    held += s->parts[c].capacity * sizeof(bbc_tuple);
+    bytes += s->chunk[c].part.count * sizeof(bbc_tuple);
+    full |= s->chunk[c].at.t1 < s->chunk[c].end;
   }
-  if (held > s->peak) s->peak = held;
-  /* A list that grew far beyond what its chunk needs now gives the memory back. */
-  for (size_t c = 0; c < WINDOW_MAX; c++)
-    if (s->parts[c].capacity > 1024 && (c >= n || 4 * s->parts[c].count < s->parts[c].capacity)) {
-      free(s->parts[c].items);
-      s->parts[c] = (tuple_list){NULL, 0, 0};
-    }
-  /* The next window: half as wide when this one's tuples were over the aim, twice as
-   * wide when they were under a quarter of it. */
-  if (bytes > s->target && s->window > (size_t)s->threads)
+  /* The next window: half as wide when a chunk's tuples did not fit its share (so that
+   * each has a larger one), twice as wide when the tuples were under a quarter of the
+   * aim. */
+  if (full && s->window > (size_t)s->threads)
     s->window = s->window / 2 > (size_t)s->threads ? s->window / 2 : (size_t)s->threads;
-  else if (4 * bytes < s->target && s->window < WINDOW_MAX)
-    s->window = 2 * s->window < WINDOW_MAX ? 2 * s->window : WINDOW_MAX;
+  else if (!full && 4 * bytes < s->target && s->window < s->window_max)
+    s->window = 2 * s->window < s->window_max ? 2 * s->window : s->window_max;
   s->next_chunk = first + n;
-  const size_t end = s->next_chunk * SEARCH_CHUNK;
-  s->done += (end < scene->triangle_count ? end : scene->triangle_count) - first * SEARCH_CHUNK;
-  s->part = 0;
-  s->parts_used = n;
   return BBC_OK;
 }
 
@@ -826,15 +921,28 @@ bbc_result bbc__tuple_search_next(bbc__tuple_search *s, const bbc_tuple **tuples
   *tuples = NULL;
   *count = 0;
   if (s->failed != BBC_OK) return s->failed;
+  bbc_result r = BBC_OK;
+  if (s->handed) s->chunk[s->head].part.count = 0;
+  s->handed = 0;
   for (;;) {
-    while (s->part < s->parts_used) {
-      const tuple_list *l = &s->parts[s->part++];
-      if (l->count) {
-        *tuples = l->items;
-        *count = l->count;
+    while (s->head < s->used) {
+      search_chunk *k = &s->chunk[s->head];
+      if (k->part.count) {
+        s->handed = 1;
+        *tuples = k->part.items;
+        *count = k->part.count;
         return BBC_OK;
       }
+      if (k->at.t1 < k->end) {
+        /* Its list was full: it carries on (the chunks after it are full or done). */
+        if ((r = chunk_search(s, k, &s->scratch[0])) != BBC_OK) break;
+        note_held(s);
+        continue;
+      }
+      s->done += k->end - k->begin;
+      s->head++;
     }
+    if (r != BBC_OK) break;
     if (s->next_chunk >= s->chunks) {
       /* The next light with a chain type to search. */
       uint32_t l = s->light == UINT32_MAX ? 0 : s->light + 1;
@@ -849,12 +957,10 @@ bbc_result bbc__tuple_search_next(bbc__tuple_search *s, const bbc_tuple **tuples
       s->point = bbc__cache_light_point(s->scene, l);
       s->next_chunk = 0;
     }
-    bbc_result r = search_window(s);
-    if (r != BBC_OK) {
-      s->failed = r;
-      return r;
-    }
+    if ((r = search_window(s)) != BBC_OK) break;
   }
+  s->failed = r;
+  return r;
 }
 
 static bbc_result tuples_collect(const bbc_scene *scene, uint32_t chains, uint32_t area_chains,
@@ -863,7 +969,7 @@ static bbc_result tuples_collect(const bbc_scene *scene, uint32_t chains, uint32
   *count = 0;
   bbc__tuple_search *s = NULL;
   bbc_result r = bbc__tuple_search_create(&s, scene, chains, area_chains, 0, 0);
-  tuple_list list = {NULL, 0, 0};
+  tuple_list list = {NULL, 0, 0, SIZE_MAX};
   while (r == BBC_OK) {
     const bbc_tuple *block;
     size_t n;
