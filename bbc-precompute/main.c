@@ -119,6 +119,14 @@ static const char help[] =
     "Exit status: 0 on success, 1 on a runtime failure (bad scene, I/O, out of memory\n"
     "within the budget), 2 on bad usage, 130 when interrupted (no output is left behind).\n";
 
+/* "; OUT was not written" after a failure, or nothing for --dry-run (no output). */
+static const char *not_written(const char *output) {
+  static char text[4200];
+  if (!output) return "";
+  snprintf(text, sizeof text, "; %s was not written", output);
+  return text;
+}
+
 static int on_progress(void *user, uint64_t done, uint64_t total) {
   char detail[64];
   snprintf(detail, sizeof detail, "%llu/%llu tuples", (unsigned long long)done,
@@ -201,9 +209,8 @@ static void on_error(void *user, bbc_result code, const char *message) {
     fprintf(stderr, "%s: %s (%s)\n", cli_tool, message, option);
   else
     fprintf(stderr,
-            "%s: %s: out of memory within the budget of %.0f MB (%s) %s; %s was not "
-            "written\n",
-            cli_tool, run->scene, run->memory->mb, option, run->phase, run->output);
+            "%s: %s: out of memory within the budget of %.0f MB (%s) %s%s\n", cli_tool,
+            run->scene, run->memory->mb, option, run->phase, not_written(run->output));
 }
 
 /* "1.2e8" for large counts, the number itself below a million. */
@@ -304,11 +311,11 @@ static int on_estimate(void *user, const bbc_precompute_estimate *e) {
     fprintf(stderr,
             "%s: %s: %s candidate tuples (%s; %s as a list), up to %s of them stored: the "
             "precompute needs about %s (%s held now, %s more), over the budget of %s (%s); "
-            "try %sfewer --chains or a larger %s; %s was not written\n",
+            "try %sfewer --chains or a larger %s%s\n",
             cli_tool, run->scene, count_text(e->candidate_tuples, n1), chains,
             bytes_text((double)e->list_bytes, l1), count_text(e->stored_tuples, n2),
             bytes_text(need, m1), bytes_text(held, m2), bytes_text((double)e->memory_bytes, m3),
-            bytes_text(budget_bytes, m4), option, shard, option, run->output);
+            bytes_text(budget_bytes, m4), option, shard, option, not_written(run->output));
     run->refused = 1;
     return 1;
   }
@@ -496,7 +503,6 @@ int main(int argc, char **argv) {
   }
   if (!scene_path) cli_usage_error(usage, "no scene given");
   if (!output && !dry_run) cli_usage_error(usage, "no output given (-o OUT.bbc)");
-  if (!output) output = "(no output: --dry-run)";
   if (options.params.area_double && !options.params.area_lights)
     cli_usage_error(usage, "--area-double needs --area-lights");
   if (alpha_area_given && !options.params.area_lights)
@@ -553,7 +559,7 @@ int main(int argc, char **argv) {
     return run.refused ? 1 : 0;
   }
   if (r == BBC_ERR_CANCELLED || cli_interrupted) {
-    fprintf(stderr, "bbc-precompute: interrupted; %s was not written\n", output);
+    fprintf(stderr, "bbc-precompute: interrupted%s\n", not_written(output));
     bbc_cache_builder_free(builder);
     bbc_scene_free(scene);
     return 130;
@@ -569,9 +575,8 @@ int main(int argc, char **argv) {
             empty);
   } else if (empty && !allow_empty) {
     fprintf(stderr,
-            "bbc-precompute: %s: the cache would hold no tuple: %s; %s was not written "
-            "(--allow-empty writes it)\n",
-            scene_path, empty, output);
+            "bbc-precompute: %s: the cache would hold no tuple: %s%s%s\n", scene_path, empty,
+            not_written(output), output ? " (--allow-empty writes it)" : "");
     bbc_cache_builder_free(builder);
     bbc_scene_free(scene);
     return 1;
@@ -593,7 +598,7 @@ int main(int argc, char **argv) {
   bbc_cache_builder_free(builder);
   bbc_scene_free(scene);
   if (cli_interrupted) {
-    fprintf(stderr, "bbc-precompute: interrupted; %s was not written\n", output);
+    fprintf(stderr, "bbc-precompute: interrupted%s\n", not_written(output));
     return 130;
   }
   if (r != BBC_OK) return 1;
