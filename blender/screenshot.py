@@ -1,5 +1,5 @@
-# Run by blender/screenshot.sh inside a real Blender window (under Xvfb): opens the
-# Properties editor on the render tab with the add-on's panel expanded, takes a
+# Run by blender/screenshot.sh inside a real Blender window (under Xvfb): opens a
+# Properties editor with the add-on's panel expanded (see expand()), takes a
 # screenshot of the window and quits.  blender FILE.blend --python screenshot.py -- OUT.png
 import sys
 
