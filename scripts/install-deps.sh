@@ -5,14 +5,19 @@
 # package (tests/install/test_install.sh). With --fuzz, also clang with libFuzzer
 # and the sanitizer runtimes, for tests/fuzz/run.sh; with --bench, also POV-Ray 3.7
 # (photon mapping, the competitor) and gnuplot (the PNG curves), for bench/compare.sh;
-# with --lint, also lintian, to check the Debian packages (`lintian build/*.deb`).
+# with --lint, also lintian, to check the Debian packages (`lintian build/*.deb`);
+# with --screenshot, also Xvfb, to run Blender in a virtual display and take the
+# screenshot of the add-on's panel (blender/screenshot.sh). Blender itself (Debian's
+# 3.4) is always installed: the tests of the Blender add-on (tests/blender/) run it
+# headless; its glTF exporter needs NumPy, which Debian's package does not pull in.
 set -eu
 PACKAGES="build-essential cmake libembree-dev libopenexr-dev libzstd-dev libtinygltf-dev \
-zlib1g-dev pkg-config file groff-base parallel"
+zlib1g-dev pkg-config file groff-base parallel blender python3-numpy"
 case "${1:-}" in
   --fuzz) PACKAGES="$PACKAGES clang libclang-rt-dev llvm" ;;
   --bench) PACKAGES="$PACKAGES povray gnuplot-nox" ;;
   --lint) PACKAGES="$PACKAGES lintian" ;;
+  --screenshot) PACKAGES="$PACKAGES xvfb" ;;
 esac
 missing=""
 for p in $PACKAGES; do
