@@ -34,8 +34,9 @@
 # Every run is timed in CPU-seconds (user + sys of the process, /usr/bin/time), not wall
 # time: the machine may be shared. --scale K multiplies every budget (spp, photons,
 # reference spp). Writes bench/results/compare.md, flat-mirror.png, scenes.png and the
-# README's "Numbers" rows between the compare.sh markers. Installs POV-Ray and gnuplot
-# when missing (scripts/install-deps.sh --bench, as root) and builds bbc (Release) in build/.
+# rows between the compare.sh markers in README.md and docs/numbers.md. Installs POV-Ray
+# and gnuplot when missing (scripts/install-deps.sh --bench, as root) and builds bbc
+# (Release) in build/.
 set -eu
 root=$(cd "$(dirname "$0")/.." && pwd)
 scale=1
@@ -494,7 +495,7 @@ case $part in all | flat) flat ;; esac
 case $part in all | scenes) scenes_part ;; esac
 
 # ------------------------------------------------------------------------------------
-# The report and the README rows (from whichever parts have been run).
+# The report and the rows of README.md and docs/numbers.md (from whichever parts have been run).
 {
   echo "# Caustic quality against CPU time"
   echo
@@ -518,13 +519,16 @@ case $part in all | scenes) scenes_part ;; esac
   [ -f "$work/scenes/readme-rows.md" ] && cat "$work/scenes/readme-rows.md"
   echo "<!-- compare.sh end -->"
 } > "$readme_rows"
-awk -v rows="$readme_rows" '
-  /<!-- compare.sh begin/ { while ((getline l < rows) > 0) print l; skip = 1; next }
-  /<!-- compare.sh end/ { skip = 0; next }
-  !skip { print }' "$root/README.md" > "$work/README.md"
-if grep -q '<!-- compare.sh begin' "$root/README.md"; then
-  cp "$work/README.md" "$root/README.md"
-else
-  echo "compare.sh: README.md has no compare.sh markers; rows left in $readme_rows" >&2
-fi
+# Both files carry the same rows: the README quotes them, docs/numbers.md discusses them.
+for doc in README.md docs/numbers.md; do
+  if grep -q '<!-- compare.sh begin' "$root/$doc"; then
+    awk -v rows="$readme_rows" '
+      /<!-- compare.sh begin/ { while ((getline l < rows) > 0) print l; close(rows); skip = 1; next }
+      /<!-- compare.sh end/ { skip = 0; next }
+      !skip { print }' "$root/$doc" > "$work/rows-doc.md"
+    cp "$work/rows-doc.md" "$root/$doc"
+  else
+    echo "compare.sh: $doc has no compare.sh markers; rows left in $readme_rows" >&2
+  fi
+done
 cat "$out/compare.md"

@@ -131,7 +131,7 @@ def export_scene(path, animations):
         "export_extras": True,
         "export_yup": True,
         "export_animations": animations,
-        # Standard: W -> candela at 683 lm/W, which bbc reads back as W/sr (README).
+        # Standard: W -> candela at 683 lm/W, which bbc reads back as W/sr (docs/scenes.md).
         "convert_lighting_mode": "SPEC",
         "export_import_convert_lighting_mode": "SPEC",
     }

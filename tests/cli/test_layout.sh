@@ -1,5 +1,5 @@
 #!/bin/sh
-# The source layout (README, Tour): libbbc/src is grouped by the pipeline's stages, and a
+# The source layout (docs/architecture.md): libbbc/src is grouped by the pipeline's stages, and a
 # file includes only headers of its own stage or of earlier ones.
 . "${BBC_SOURCE_DIR:?BBC_SOURCE_DIR must name the source folder}/tests/cli/lib.sh"
 

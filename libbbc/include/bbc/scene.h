@@ -57,7 +57,7 @@ typedef enum bbc_alpha_mode {
   BBC_ALPHA_MASK = 1,   /* the surface is there where alpha >= alpha_cutoff and is cut out
                            elsewhere: no ray, shadow ray or specular path meets it */
   BBC_ALPHA_BLEND = 2   /* alpha is coverage: a ray meets the surface with probability
-                           alpha (README, Scenes) */
+                           alpha (docs/materials.md) */
 } bbc_alpha_mode;
 
 typedef struct bbc_material {
@@ -103,8 +103,8 @@ typedef struct bbc_material {
    * as infinite, or an attenuationColor channel of 1); FLT_MAX for a channel whose
    * attenuationColor is 0 (opaque; the loader warns). Besides, each refraction through
    * a dielectric's surface, entering or leaving, multiplies the light by its base_color
-   * (at most 1), glTF's tint of transmission; its reflections are not tinted (README,
-   * Scenes). */
+   * (at most 1), glTF's tint of transmission; its reflections are not tinted
+   * (docs/materials.md). */
   float absorption[3];
 } bbc_material;
 

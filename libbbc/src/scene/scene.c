@@ -171,7 +171,7 @@ static const char *class_name(bbc_material_type type) {
 }
 
 /* The alpha mode, cutoff and factor alpha of a material (bbc_alpha_mode). BLEND is read
- * as coverage (README, Scenes); the warning says so once per material, because files
+ * as coverage (docs/materials.md); the warning says so once per material, because files
  * often use it to imitate glass, which it does not make. */
 static bbc_result classify_alpha(const loader *ld, const bbc__gltf_material *g, const char *label,
                                  bbc_material *m) {
