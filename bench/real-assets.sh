@@ -92,7 +92,8 @@ if [ "$dry_run" = 1 ]; then
 fi
 
 # field JSON KEY: a number of a --json statistics file.
-field() { sed -n "s/^ *\"$2\": \([0-9.e+-]*\),\{0,1\}$/\1/p" "$1"; }
+# (the first occurrence: the statistics come before the estimate's copy of some keys)
+field() { sed -n "s/^ *\"$2\": \([0-9.e+-]*\),\{0,1\}$/\1/p" "$1" | head -1; }
 
 # lines LOG: the log as lines (progress bars redrawn with CR split, erasures removed).
 lines() { tr '\r' '\n' < "$1" | sed 's/\x1b\[K//g'; }
@@ -118,7 +119,8 @@ limited() {
   if (ulimit -v "$limit_kb" &&
     exec /usr/bin/time -f '%U %S %e %M' -o "$tf" timeout -k 30 "$timeout" "$@") > "$lg" 2>&1; then
     echo ok
-  elif grep -Eq "Command exited with non-zero status (124|137)" "$tf"; then
+  elif grep -Eq "Command exited with non-zero status (124|137)|Command terminated by signal (9|15)" \
+    "$tf"; then
     echo "timeout ${timeout} s"
   elif [ -n "$(refusal "$lg")" ]; then
     refusal "$lg"
