@@ -10,7 +10,8 @@
  * texels whose centres are nearest, so a point x reads texels floor(x - 1/2) and the
  * next; nearest filtering reads floor(x), which is one of them. */
 static void texel_span(double lo, double hi, int64_t n, int64_t *first, int64_t *count) {
-  if (!isfinite(lo) || !isfinite(hi) || hi - lo >= (double)n) {
+  /* Beyond 2^52 texels a coordinate has no fraction left (and would not fit the index). */
+  if (!(fabs(lo) < 0x1p52) || !(fabs(hi) < 0x1p52) || hi - lo >= (double)n) {
     *first = 0;
     *count = n;
     return;
