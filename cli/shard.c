@@ -140,7 +140,8 @@ void cli_parse_shard(const cli_args *a, const char *text, uint32_t *index, uint3
       cli_usage_error(a->usage, "--shard: '%s': numbers too large", text);
     goto bad;
   }
-  if (n == 0) cli_usage_error(a->usage, "--shard: '%s': the shard count N must be at least 1", text);
+  if (n == 0)
+    cli_usage_error(a->usage, "--shard: '%s': the shard count N must be at least 1", text);
   if (i >= n)
     cli_usage_error(a->usage, "--shard: '%s': the shard index I must be below N (0..%u)", text,
                     n - 1);

@@ -18,8 +18,8 @@
 # /sys/fs/cgroup is unusual; munged wants its socket folder and every parent
 # world-traversable; SchedulerParameters=batch_sched_delay=0 starts a job within a
 # second; KillWait=15 leaves bbc-precompute the seconds it may take to stop on SIGTERM
-# (scancel) before SIGKILL. `sbatch --wait` is not used: it polls at 2, 8, then every 32 s, and hangs on a
-# dependency that can no longer be met.
+# (scancel) before SIGKILL. `sbatch --wait` is not used: it polls at 2, 8, then every
+# 32 s, and hangs on a dependency that can no longer be met.
 
 CLUSTER_DIR=""
 CLUSTER_PIDS=""
@@ -44,20 +44,20 @@ cluster_logs() {
 cluster_ports_in_use() {
   cat /proc/net/tcp /proc/net/tcp6 2>/dev/null |
     awk '$4 == "0A" { split($2, a, ":"); print a[2] }' |
-    while read -r hex; do printf '%d\n' "0x$hex"; done
+    while read -r c_hex; do printf '%d\n' "0x$c_hex"; done
 }
 
 # Two consecutive free ports from a range above Slurm's own (6817, 6818), so that a real
 # Slurm on the machine and other clusters of this kind are left alone.
 cluster_pick_ports() {
-  used=$(cluster_ports_in_use)
-  port=$((16817 + $$ % 2000 * 2))
-  while [ "$port" -lt 65000 ]; do
-    if ! printf '%s\n' "$used" | grep -qx -e "$port" -e "$((port + 1))"; then
-      echo "$port"
+  c_used=$(cluster_ports_in_use)
+  c_port=$((16817 + $$ % 2000 * 2))
+  while [ "$c_port" -lt 65000 ]; do
+    if ! printf '%s\n' "$c_used" | grep -qx -e "$c_port" -e "$((c_port + 1))"; then
+      echo "$c_port"
       return 0
     fi
-    port=$((port + 2))
+    c_port=$((c_port + 2))
   done
   return 1
 }
@@ -66,11 +66,11 @@ cluster_pick_ports() {
 # carry BBC_CLUSTER=<dir> in their environment; a job's processes carry the submitter's
 # SLURM_CONF together with a SLURM_JOB_ID.
 cluster_processes() {
-  for env in /proc/[0-9]*/environ; do
-    pid=${env#/proc/}
-    pid=${pid%/environ}
-    [ "$pid" = "$$" ] && continue
-    { tr '\0' '\n' <"$env"; } 2>/dev/null | awk -v dir="$CLUSTER_DIR" -v pid="$pid" '
+  for c_env in /proc/[0-9]*/environ; do
+    c_pid=${c_env#/proc/}
+    c_pid=${c_pid%/environ}
+    [ "$c_pid" = "$$" ] && continue
+    { tr '\0' '\n' <"$c_env"; } 2>/dev/null | awk -v dir="$CLUSTER_DIR" -v pid="$c_pid" '
       $0 == "BBC_CLUSTER=" dir { mine = 1 }
       $0 == "SLURM_CONF=" dir "/slurm.conf" { conf = 1 }
       /^SLURM_JOB_ID=/ { job = 1 }
@@ -83,31 +83,31 @@ cluster_start() {
   if [ "$(id -u)" != 0 ]; then
     cluster_unavailable "not root (slurmd runs jobs as their user, and the test's as root)"
   fi
-  for tool in munged slurmctld slurmd sbatch squeue scontrol scancel sinfo; do
-    command -v "$tool" >/dev/null 2>&1 ||
-      cluster_unavailable "$tool is missing (sh scripts/install-deps.sh installs slurm-wlm, munge)"
+  for c_tool in munged slurmctld slurmd sbatch squeue scontrol scancel sinfo; do
+    command -v "$c_tool" >/dev/null 2>&1 ||
+      cluster_unavailable "$c_tool is missing (sh scripts/install-deps.sh installs it)"
   done
   mkdir -p "$CLUSTER_DIR/munge" "$CLUSTER_DIR/state" "$CLUSTER_DIR/spool" "$CLUSTER_DIR/log" \
     "$CLUSTER_DIR/run"
   # munged refuses a socket folder that others cannot traverse, and a key others can read.
   chmod 755 "$CLUSTER_DIR" "$CLUSTER_DIR/munge"
   chmod 700 "$CLUSTER_DIR/state" "$CLUSTER_DIR/spool"
-  dir=$CLUSTER_DIR
-  while [ "$dir" != / ]; do
-    dir=$(dirname "$dir")
-    [ -n "$(find "$dir" -maxdepth 0 -perm -o+x)" ] ||
-      cluster_unavailable "$dir is not world-traversable, which munged needs (set TMPDIR)"
+  c_dir=$CLUSTER_DIR
+  while [ "$c_dir" != / ]; do
+    c_dir=$(dirname "$c_dir")
+    [ -n "$(find "$c_dir" -maxdepth 0 -perm -o+x)" ] ||
+      cluster_unavailable "$c_dir is not world-traversable, which munged needs (set TMPDIR)"
   done
   (umask 077 && dd if=/dev/urandom of="$CLUSTER_DIR/munge/munge.key" bs=1024 count=1 2>/dev/null)
   chmod 400 "$CLUSTER_DIR/munge/munge.key"
-  ports=$(cluster_pick_ports) || cluster_fail "no free TCP port for slurmctld and slurmd"
-  cpus=$(nproc)
-  host=$(hostname -s)
+  c_ports=$(cluster_pick_ports) || cluster_fail "no free TCP port for slurmctld and slurmd"
+  c_cpus=$(nproc)
+  c_host=$(hostname -s)
   cat >"$CLUSTER_DIR/slurm.conf" <<CONF
 ClusterName=bbctest
-SlurmctldHost=$host(127.0.0.1)
-SlurmctldPort=$ports
-SlurmdPort=$((ports + 1))
+SlurmctldHost=$c_host(127.0.0.1)
+SlurmctldPort=$c_ports
+SlurmdPort=$((c_ports + 1))
 SlurmUser=root
 SlurmdUser=root
 AuthType=auth/munge
@@ -135,7 +135,7 @@ ReturnToService=2
 KillWait=15
 MinJobAge=600
 InactiveLimit=0
-NodeName=bbcnode NodeHostname=$host NodeAddr=127.0.0.1 CPUs=$cpus State=UNKNOWN
+NodeName=bbcnode NodeHostname=$c_host NodeAddr=127.0.0.1 CPUs=$c_cpus State=UNKNOWN
 PartitionName=test Nodes=bbcnode Default=YES MaxTime=INFINITE State=UP
 CONF
   echo "CgroupPlugin=cgroup/v1" >"$CLUSTER_DIR/cgroup.conf"
@@ -154,7 +154,8 @@ CONF
     >>"$CLUSTER_DIR/log/start.log" 2>&1 ||
     cluster_fail "munged did not start"
   CLUSTER_PIDS="$(cat "$CLUSTER_DIR/run/munged.pid")"
-  BBC_CLUSTER=$CLUSTER_DIR slurmctld -f "$SLURM_CONF" -i >>"$CLUSTER_DIR/log/start.log" 2>&1 || cluster_fail "slurmctld did not start"
+  BBC_CLUSTER=$CLUSTER_DIR slurmctld -f "$SLURM_CONF" -i >>"$CLUSTER_DIR/log/start.log" 2>&1 ||
+    cluster_fail "slurmctld did not start"
   cluster_wait_file "$CLUSTER_DIR/run/slurmctld.pid" || cluster_fail "slurmctld wrote no pid file"
   CLUSTER_PIDS="$CLUSTER_PIDS $(cat "$CLUSTER_DIR/run/slurmctld.pid")"
   BBC_CLUSTER=$CLUSTER_DIR slurmd -f "$SLURM_CONF" -N bbcnode \
@@ -162,24 +163,24 @@ CONF
   cluster_wait_file "$CLUSTER_DIR/run/slurmd.pid" || cluster_fail "slurmd wrote no pid file"
   CLUSTER_PIDS="$CLUSTER_PIDS $(cat "$CLUSTER_DIR/run/slurmd.pid")"
   # The node is up once the controller has heard from slurmd.
-  i=0
-  while [ "$i" -lt 300 ]; do
-    state=$(sinfo -h -n bbcnode -o %T 2>/dev/null)
-    case $state in
+  c_i=0
+  while [ "$c_i" -lt 300 ]; do
+    c_state=$(sinfo -h -n bbcnode -o %T 2>/dev/null)
+    case $c_state in
       idle* | mixed* | allocated*) return 0 ;;
     esac
     sleep 0.1
-    i=$((i + 1))
+    c_i=$((c_i + 1))
   done
-  cluster_fail "the node did not come up in 30 s (state '$state')"
+  cluster_fail "the node did not come up in 30 s (state '$c_state')"
 }
 
 # cluster_wait_file FILE: waits up to 10 s for FILE to exist and not be empty.
 cluster_wait_file() {
-  i=0
-  while [ ! -s "$1" ] && [ "$i" -lt 100 ]; do
+  c_i=0
+  while [ ! -s "$1" ] && [ "$c_i" -lt 100 ]; do
     sleep 0.1
-    i=$((i + 1))
+    c_i=$((c_i + 1))
   done
   [ -s "$1" ]
 }
@@ -198,24 +199,24 @@ cluster_stop() {
   if [ -n "${SLURM_CONF:-}" ] && [ -n "$CLUSTER_PIDS" ]; then
     # Cancel every job (their processes outlive slurmd otherwise) and give them KillWait.
     scancel --quiet --user=root >/dev/null 2>&1
-    i=0
-    while [ -n "$(squeue -h -o %i 2>/dev/null)" ] && [ "$i" -lt 50 ]; do
+    c_i=0
+    while [ -n "$(squeue -h -o %i 2>/dev/null)" ] && [ "$c_i" -lt 50 ]; do
       sleep 0.1
-      i=$((i + 1))
+      c_i=$((c_i + 1))
     done
   fi
-  for pid in $CLUSTER_PIDS; do kill -TERM "$pid" 2>/dev/null; done
-  i=0
-  while [ "$i" -lt 50 ]; do
-    alive=""
-    for pid in $CLUSTER_PIDS; do kill -0 "$pid" 2>/dev/null && alive="$alive $pid"; done
-    [ -z "$alive" ] && break
+  for c_pid in $CLUSTER_PIDS; do kill -TERM "$c_pid" 2>/dev/null; done
+  c_i=0
+  while [ "$c_i" -lt 50 ]; do
+    c_alive=""
+    for c_pid in $CLUSTER_PIDS; do kill -0 "$c_pid" 2>/dev/null && c_alive="$c_alive $c_pid"; done
+    [ -z "$c_alive" ] && break
     sleep 0.1
-    i=$((i + 1))
+    c_i=$((c_i + 1))
   done
-  for pid in $CLUSTER_PIDS; do kill -KILL "$pid" 2>/dev/null; done
+  for c_pid in $CLUSTER_PIDS; do kill -KILL "$c_pid" 2>/dev/null; done
   # Whatever the daemons spawned and left (slurmstepd, a job's processes).
-  for pid in $(cluster_processes); do kill -KILL "$pid" 2>/dev/null; done
+  for c_pid in $(cluster_processes); do kill -KILL "$c_pid" 2>/dev/null; done
   CLUSTER_PIDS=""
 }
 
@@ -225,18 +226,19 @@ cluster_stop() {
 # that can no longer be met counts as ended. Fails after BBC_CLUSTER_TIMEOUT seconds
 # (default 300).
 cluster_wait() {
-  limit=$(( ${BBC_CLUSTER_TIMEOUT:-300} * 5 ))
-  i=0
+  c_limit=$(( ${BBC_CLUSTER_TIMEOUT:-300} * 5 ))
+  c_i=0
   while :; do
-    busy=$(squeue -h -j "$(echo "$@" | tr ' ' ',')" -o '%T %r' 2>/dev/null |
+    c_busy=$(squeue -h -j "$(echo "$@" | tr ' ' ',')" -o '%T %r' 2>/dev/null |
       grep -v '^PENDING DependencyNeverSatisfied' || true)
-    [ -z "$busy" ] && break
-    [ "$i" -ge "$limit" ] && cluster_fail "jobs $* still running after ${BBC_CLUSTER_TIMEOUT:-300} s"
+    [ -z "$c_busy" ] && break
+    [ "$c_i" -ge "$c_limit" ] &&
+      cluster_fail "jobs $* still running after ${BBC_CLUSTER_TIMEOUT:-300} s"
     sleep 0.2
-    i=$((i + 1))
+    c_i=$((c_i + 1))
   done
-  for job in "$@"; do
-    scontrol -o show job "$job" 2>/dev/null | tr ' ' '\n' | awk -F= '
+  for c_job in "$@"; do
+    scontrol -o show job "$c_job" 2>/dev/null | tr ' ' '\n' | awk -F= '
       $1 == "JobId" { if (id != "") print id, state; id = $2; array = ""; state = "" }
       $1 == "ArrayJobId" { array = $2 }
       $1 == "ArrayTaskId" { id = array "_" $2 }
@@ -247,13 +249,13 @@ cluster_wait() {
 
 # sh cluster.sh --watch PID DIR REMOVE: the watcher started by cluster_start.
 if [ "${1:-}" = --watch ]; then
-  watched=$2
+  c_watched=$2
   CLUSTER_DIR=$3
   # At most an hour, whatever happens.
-  i=0
-  while kill -0 "$watched" 2>/dev/null && [ "$i" -lt 3600 ]; do
+  c_i=0
+  while kill -0 "$c_watched" 2>/dev/null && [ "$c_i" -lt 3600 ]; do
     sleep 1
-    i=$((i + 1))
+    c_i=$((c_i + 1))
   done
   [ -d "$CLUSTER_DIR" ] || exit 0
   CLUSTER_PIDS=$(cat "$CLUSTER_DIR"/run/*.pid 2>/dev/null | tr '\n' ' ')
