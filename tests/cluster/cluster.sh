@@ -222,16 +222,21 @@ cluster_stop() {
 
 # cluster_wait JOB...: waits until no task of the jobs is pending or running (polling
 # the controller every 0.2 s), then prints "ID STATE" for each job or array task, as
-# scontrol shows them (COMPLETED, FAILED, CANCELLED, ...). A job pending on a dependency
-# that can no longer be met counts as ended. Fails after BBC_CLUSTER_TIMEOUT seconds
-# (default 300).
+# scontrol shows them (COMPLETED, FAILED, CANCELLED, ...). Jobs pending on a dependency
+# that can no longer be met (and those waiting on them) count as ended, as PENDING.
+# Fails after BBC_CLUSTER_TIMEOUT seconds (default 300).
 cluster_wait() {
   c_limit=$(( ${BBC_CLUSTER_TIMEOUT:-300} * 5 ))
   c_i=0
   while :; do
-    c_busy=$(squeue -h -j "$(echo "$@" | tr ' ' ',')" -o '%T %r' 2>/dev/null |
-      grep -v '^PENDING DependencyNeverSatisfied' || true)
+    c_busy=$(squeue -h -j "$(echo "$@" | tr ' ' ',')" -o '%T %r' 2>/dev/null || true)
     [ -z "$c_busy" ] && break
+    # Stuck for good: every job left waits on a dependency and one of them on one that
+    # can never be met (the others wait on it).
+    if ! printf '%s\n' "$c_busy" | grep -qv '^PENDING Dependency' &&
+      printf '%s\n' "$c_busy" | grep -q '^PENDING DependencyNeverSatisfied'; then
+      break
+    fi
     [ "$c_i" -ge "$c_limit" ] &&
       cluster_fail "jobs $* still running after ${BBC_CLUSTER_TIMEOUT:-300} s"
     sleep 0.2
