@@ -299,8 +299,9 @@ static int write_exr_verified(const bbc_image *image, const char *path) {
              memcmp(back->rgb, image->rgb, 3 * sizeof(float) * image->width * image->height) == 0;
   bbc_image_free(back);
   if (!same) {
-    fprintf(stderr, "bbc-render: %s: the file written does not read back as the image rendered; "
-                    "not written\n",
+    fprintf(stderr,
+            "bbc-render: %s: the file written does not read back as the image rendered; "
+            "not written\n",
             path);
     remove(tmp);
     return -1;
@@ -602,8 +603,9 @@ int main(int argc, char **argv) {
         images += frames_arg ? (frame_last - frame_first) / frame_step + 1 : 1;
     long long mine = images > shard_index ? (images - shard_index - 1) / shard_count + 1 : 0;
     if (mine == 0) {
-      fprintf(stderr, "bbc-render: note: shard %u/%u: none of the %lld images asked for is "
-                      "this shard's; nothing to render\n",
+      fprintf(stderr,
+              "bbc-render: note: shard %u/%u: none of the %lld images asked for is "
+              "this shard's; nothing to render\n",
               shard_index, shard_count, images);
       bbc_scene_free(scene);
       return 0;

@@ -51,8 +51,7 @@ static void shard_from_environment(const cli_args *a, const char *text, uint32_t
   }
   if (env_u32("BBC_SHARD_COUNT", &env_n) == 0) {
     if (env_n == 0) cli_fail("--shard auto: BBC_SHARD_COUNT is 0; the shard count is at least 1");
-    if (have_n && env_n != n)
-      cli_fail("--shard %s: BBC_SHARD_COUNT is %u, not %u", text, env_n, n);
+    if (have_n && env_n != n) cli_fail("--shard %s: BBC_SHARD_COUNT is %u, not %u", text, env_n, n);
     n = env_n;
     have_n = 1;
   }
@@ -61,28 +60,31 @@ static void shard_from_environment(const cli_args *a, const char *text, uint32_t
   int slurm = env_u32("SLURM_ARRAY_TASK_ID", &slurm_id) == 0;
   int k8s = env_u32("JOB_COMPLETION_INDEX", &k8s_id) == 0;
   if (slurm && k8s)
-    cli_fail("--shard auto: both SLURM_ARRAY_TASK_ID (%u) and JOB_COMPLETION_INDEX (%u) are "
-             "set; unset the one that is not the scheduler's",
-             slurm_id, k8s_id);
+    cli_fail(
+        "--shard auto: both SLURM_ARRAY_TASK_ID (%u) and JOB_COMPLETION_INDEX (%u) are "
+        "set; unset the one that is not the scheduler's",
+        slurm_id, k8s_id);
   if (!slurm && !k8s) {
     if (getenv("SLURM_JOB_ID"))
-      cli_fail("--shard auto: SLURM_ARRAY_TASK_ID is not set: this Slurm job is not an array "
-               "(submit it with sbatch --array=0-%s)",
-               have_n ? "N-1" : "N-1, N the shard count");
-    cli_fail("--shard auto: neither SLURM_ARRAY_TASK_ID (a Slurm array job) nor "
-             "JOB_COMPLETION_INDEX (a Kubernetes Indexed Job) is set; elsewhere give the "
-             "share as --shard I/N");
+      cli_fail(
+          "--shard auto: SLURM_ARRAY_TASK_ID is not set: this Slurm job is not an array "
+          "(submit it with sbatch --array=0-%s)",
+          have_n ? "N-1" : "N-1, N the shard count");
+    cli_fail(
+        "--shard auto: neither SLURM_ARRAY_TASK_ID (a Slurm array job) nor "
+        "JOB_COMPLETION_INDEX (a Kubernetes Indexed Job) is set; elsewhere give the "
+        "share as --shard I/N");
   }
 
   if (k8s) {
     /* Kubernetes does not pass .spec.completions to the pod. */
     if (!have_n)
-      cli_fail("--shard auto: JOB_COMPLETION_INDEX is %u but the count is not known: give it "
-               "as --shard auto/N or BBC_SHARD_COUNT=N (the Job's completions)",
-               k8s_id);
+      cli_fail(
+          "--shard auto: JOB_COMPLETION_INDEX is %u but the count is not known: give it "
+          "as --shard auto/N or BBC_SHARD_COUNT=N (the Job's completions)",
+          k8s_id);
     if (k8s_id >= n)
-      cli_fail("--shard auto: JOB_COMPLETION_INDEX is %u, not below the shard count %u", k8s_id,
-               n);
+      cli_fail("--shard auto: JOB_COMPLETION_INDEX is %u, not below the shard count %u", k8s_id, n);
     *index = k8s_id;
     *count = n;
     return;
@@ -93,9 +95,10 @@ static void shard_from_environment(const cli_args *a, const char *text, uint32_t
    * must be whole: a task resubmitted alone (--array=5) sees SLURM_ARRAY_TASK_COUNT=1. */
   if (have_n) {
     if (slurm_id >= n)
-      cli_fail("--shard auto: SLURM_ARRAY_TASK_ID is %u, not below the shard count %u (number "
-               "the array's tasks from 0: --array=0-%u)",
-               slurm_id, n, n - 1);
+      cli_fail(
+          "--shard auto: SLURM_ARRAY_TASK_ID is %u, not below the shard count %u (number "
+          "the array's tasks from 0: --array=0-%u)",
+          slurm_id, n, n - 1);
     *index = slurm_id;
     *count = n;
     return;
@@ -104,19 +107,22 @@ static void shard_from_environment(const cli_args *a, const char *text, uint32_t
   if (env_u32("SLURM_ARRAY_TASK_COUNT", &task_count) != 0 ||
       env_u32("SLURM_ARRAY_TASK_MIN", &task_min) != 0 ||
       env_u32("SLURM_ARRAY_TASK_MAX", &task_max) != 0)
-    cli_fail("--shard auto: SLURM_ARRAY_TASK_ID is %u but SLURM_ARRAY_TASK_COUNT, _MIN or _MAX "
-             "is not set; give the count as --shard auto/N or BBC_SHARD_COUNT=N",
-             slurm_id);
+    cli_fail(
+        "--shard auto: SLURM_ARRAY_TASK_ID is %u but SLURM_ARRAY_TASK_COUNT, _MIN or _MAX "
+        "is not set; give the count as --shard auto/N or BBC_SHARD_COUNT=N",
+        slurm_id);
   if (task_count == 1)
-    cli_fail("--shard auto: this array has one task (%u), so it cannot tell the shard count "
-             "(a task resubmitted alone sees 1): give the count as --shard auto/N or "
-             "BBC_SHARD_COUNT=N",
-             slurm_id);
+    cli_fail(
+        "--shard auto: this array has one task (%u), so it cannot tell the shard count "
+        "(a task resubmitted alone sees 1): give the count as --shard auto/N or "
+        "BBC_SHARD_COUNT=N",
+        slurm_id);
   if (task_min != 0 || task_max != task_count - 1 || slurm_id > task_max)
-    cli_fail("--shard auto: the array's tasks are %u..%u, %u of them (SLURM_ARRAY_TASK_MIN, "
-             "_MAX, _COUNT), not 0..N-1: submit --array=0-N-1, or give the count as --shard "
-             "auto/N or BBC_SHARD_COUNT=N",
-             task_min, task_max, task_count);
+    cli_fail(
+        "--shard auto: the array's tasks are %u..%u, %u of them (SLURM_ARRAY_TASK_MIN, "
+        "_MAX, _COUNT), not 0..N-1: submit --array=0-N-1, or give the count as --shard "
+        "auto/N or BBC_SHARD_COUNT=N",
+        task_min, task_max, task_count);
   *index = slurm_id;
   *count = task_count;
 }
@@ -189,8 +195,7 @@ int cli_remove_leftovers(const char *path) {
     if (!is_leftover(e->d_name, base, &pid)) continue;
     /* A process of this machine that still runs may be writing it; one of another
      * machine sharing the folder cannot be asked, and is taken for gone. */
-    if (pid > 0 && pid != (long)getpid() && (kill((pid_t)pid, 0) == 0 || errno == EPERM))
-      continue;
+    if (pid > 0 && pid != (long)getpid() && (kill((pid_t)pid, 0) == 0 || errno == EPERM)) continue;
     char full[8192];
     snprintf(full, sizeof full, "%s/%s", dir, e->d_name);
     if (unlink(full) == 0) {
