@@ -42,6 +42,8 @@ int cmd_merge(cli_args *a) {
   memset(&options, 0, sizeof options);
   if (threads_text) options.threads = (int)cli_parse_int(a, "--threads", threads_text, 1, 4096);
   cli_catch_interrupts();
+  /* What a merge killed while writing left beside OUT, a rerun removes. */
+  cli_remove_leftovers(out);
 
   bbc_cache **shards = calloc(n, sizeof *shards);
   if (!shards) cli_fail("out of memory");

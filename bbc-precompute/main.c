@@ -111,6 +111,14 @@ static const char help[] =
     "                        anywhere, merge with 'bbc-inspect merge OUT.bbc SHARD...'\n"
     "                        into the cache this command writes without --shard, byte\n"
     "                        for byte. bbc-render refuses a shard alone\n"
+    "  --shard auto          I/N from the job scheduler: I is SLURM_ARRAY_TASK_ID (a\n"
+    "                        Slurm array, sbatch --array=0-(N-1)) or JOB_COMPLETION_INDEX\n"
+    "                        (a Kubernetes Indexed Job); N is BBC_SHARD_COUNT if set,\n"
+    "                        else the Slurm array's task count (the array must be all of\n"
+    "                        0..N-1: a task resubmitted alone sees a count of 1)\n"
+    "  --shard auto/N        the same with the count N; a missing or inconsistent\n"
+    "                        variable is an error (exit 1). A temporary file that a\n"
+    "                        killed run left beside OUT is removed (docs/cluster.md)\n"
     "  --progress            show a progress bar (default: when stderr is a terminal)\n"
     "  --no-progress         never show one\n"
     "  --version             print versions and exit\n"
@@ -142,30 +150,6 @@ static int on_search_progress(void *user, uint64_t done, uint64_t total) {
            (unsigned long long)total);
   cli_progress_update(user, total ? (double)done / (double)total : 1.0, detail);
   return cli_interrupted;
-}
-
-/* --shard I/N: two decimal integers, 0 <= I < N < 2^32; anything else is a usage error. */
-static void parse_shard(const char *text, uint32_t *index, uint32_t *count) {
-  unsigned long long v[2];
-  const char *p = text;
-  for (int k = 0; k < 2; k++) {
-    if (*p < '0' || *p > '9') cli_usage_error(usage, "--shard: '%s' is not I/N (e.g. 0/4)", text);
-    v[k] = 0;
-    while (*p >= '0' && *p <= '9') {
-      v[k] = v[k] * 10 + (unsigned)(*p++ - '0');
-      if (v[k] > UINT32_MAX) cli_usage_error(usage, "--shard: '%s': numbers too large", text);
-    }
-    if (*p != (k == 0 ? '/' : '\0'))
-      cli_usage_error(usage, "--shard: '%s' is not I/N (e.g. 0/4)", text);
-    p++;
-  }
-  if (v[1] == 0)
-    cli_usage_error(usage, "--shard: '%s': the shard count N must be at least 1", text);
-  if (v[0] >= v[1])
-    cli_usage_error(usage, "--shard: '%s': the shard index I must be below N (0..%llu)", text,
-                    v[1] - 1);
-  *index = (uint32_t)v[0];
-  *count = (uint32_t)v[1];
 }
 
 /* --memory MB: a number from 1 to BUDGET_MAX_MB; anything else is a usage error. */
@@ -483,7 +467,7 @@ int main(int argc, char **argv) {
       double mb = cli_parse_double(&a, "--entry-memory", value, 1e-6, 1e6);
       options.entry_memory = (size_t)(mb * 1048576.0);
     } else if (cli_option(&a, "--shard", &value)) {
-      parse_shard(value, &options.shard_index, &options.shard_count);
+      cli_parse_shard(&a, value, &options.shard_index, &options.shard_count);
     } else if (cli_flag(&a, "--dry-run")) {
       dry_run = 1;
     } else if (cli_flag(&a, "--ignore-estimate")) {
@@ -520,6 +504,9 @@ int main(int argc, char **argv) {
                      resident_bytes()};
 
   cli_catch_interrupts();
+  /* A rerun of a task that was killed while writing (so that libbbc could not remove
+   * its temporary file) leaves nothing of that run behind. */
+  cli_remove_leftovers(output);
 
   double start = cli_now();
   bbc_scene_options scene_options = {on_error, cli_print_warning, &run, light_units};

@@ -1,8 +1,10 @@
 /* bbc-render: renders a glTF scene to OpenEXR. */
 #define _POSIX_C_SOURCE 200809L
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "bbc/bbc.h"
 #include "cli.h"
@@ -16,7 +18,10 @@ static const char help[] =
     "usage: bbc-render SCENE.gltf -o OUT.exr [options]\n"
     "\n"
     "Output:\n"
-    "  -o, --output FILE     the EXR image to write (required)\n"
+    "  -o, --output FILE     the EXR image to write (required); written to a temporary\n"
+    "                        file, read back and compared with the rendered pixels, then\n"
+    "                        renamed, so no partial or damaged image is left at FILE (nor\n"
+    "                        the temporary file of a run killed while writing it)\n"
     "  --png FILE            also write an 8-bit sRGB PNG preview (tone mapped)\n"
     "  --write-partial       when interrupted (SIGINT, SIGTERM), write the EXR (and the\n"
     "                        PNG) of the passes completed so far instead of nothing;\n"
@@ -42,6 +47,14 @@ static const char help[] =
     "                        Frame F uses a seed that is a fixed function of --seed and F,\n"
     "                        so re-rendering gives bit-identical frames\n"
     "  --fps F               frames per second of --frames (default 24, Blender's)\n"
+    "  --shard I/N           render only this task's share of the images asked for: those\n"
+    "                        whose position in the list (each camera's frames in turn,\n"
+    "                        from 0) is I modulo N (0 <= I < N); each is bit-identical to\n"
+    "                        the same image of the whole list, and a task whose share is\n"
+    "                        empty writes nothing and exits 0\n"
+    "  --shard auto[/N]      I/N from the job scheduler, as bbc-precompute --shard auto: I\n"
+    "                        is SLURM_ARRAY_TASK_ID or JOB_COMPLETION_INDEX, N is given,\n"
+    "                        else BBC_SHARD_COUNT, else the Slurm array's task count\n"
     "\n"
     "Scene:\n"
     "  --light-units U       photometric or radiometric: how light intensities are read\n"
@@ -269,6 +282,38 @@ static uint64_t frame_seed(uint64_t seed, long long frame) {
   return z ^ (z >> 31);
 }
 
+/* Writes image to path through a temporary file beside it, which is read back and
+ * compared with the image bit for bit before it is renamed: a task rerun after a
+ * failure finds either a whole, verified image at path or none. 0, or -1 after one line
+ * on stderr. */
+static int write_exr_verified(const bbc_image *image, const char *path) {
+  char tmp[1300];
+  snprintf(tmp, sizeof tmp, "%s.tmp.%ld", path, (long)getpid());
+  if (bbc_image_write_exr(image, tmp, cli_print_message, NULL) != BBC_OK) {
+    remove(tmp);
+    return -1;
+  }
+  bbc_image *back = NULL;
+  int same = bbc_image_read_exr(&back, tmp, cli_print_message, NULL) == BBC_OK &&
+             back->width == image->width && back->height == image->height &&
+             memcmp(back->rgb, image->rgb, 3 * sizeof(float) * image->width * image->height) == 0;
+  bbc_image_free(back);
+  if (!same) {
+    fprintf(stderr,
+            "bbc-render: %s: the file written does not read back as the image rendered; "
+            "not written\n",
+            path);
+    remove(tmp);
+    return -1;
+  }
+  if (rename(tmp, path) != 0) {
+    fprintf(stderr, "bbc-render: %s: cannot rename %s: %s\n", path, tmp, strerror(errno));
+    remove(tmp);
+    return -1;
+  }
+  return 0;
+}
+
 /* Renders one image of options->camera and writes it (and its PNG); returns the exit
  * status: 0, 1 on failure, 130 when interrupted. */
 static int render_one(const bbc_scene *scene, const bbc_accel *accel,
@@ -315,7 +360,7 @@ static int render_one(const bbc_scene *scene, const bbc_accel *accel,
       status = 130;
       goto done;
     }
-    if (bbc_image_write_exr(image, output, cli_print_message, NULL) != BBC_OK) goto done;
+    if (write_exr_verified(image, output) != 0) goto done;
     if (png && bbc_image_write_png(image, png, exposure, 1, cli_print_message, NULL) != BBC_OK)
       goto done;
     if (stats) print_stats(&render_stats, options, scene, width, height);
@@ -328,7 +373,7 @@ static int render_one(const bbc_scene *scene, const bbc_accel *accel,
     fprintf(stderr, "bbc-render: rendering failed: %s\n", bbc_result_string(r));
     goto done;
   }
-  if (bbc_image_write_exr(image, output, cli_print_message, NULL) != BBC_OK) goto done;
+  if (write_exr_verified(image, output) != 0) goto done;
   if (png && bbc_image_write_png(image, png, exposure, 1, cli_print_message, NULL) != BBC_OK)
     goto done;
   if (reference) {
@@ -367,6 +412,7 @@ int main(int argc, char **argv) {
   long long width = 0, height = 0;
   int progress = -1, stats = 0, write_partial = 0, verify = 1;
   const char *camera_arg = NULL, *frames_arg = NULL;
+  uint32_t shard_index = 0, shard_count = 0; /* --shard; count 0: every image */
   int all_cameras = 0;
   double fps = 24.0;
   bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
@@ -398,6 +444,8 @@ int main(int argc, char **argv) {
       all_cameras = 1;
     } else if (cli_option(&a, "--frames", &value)) {
       frames_arg = value;
+    } else if (cli_option(&a, "--shard", &value)) {
+      cli_parse_shard(&a, value, &shard_index, &shard_count);
     } else if (cli_option(&a, "--fps", &value)) {
       fps = cli_parse_double(&a, "--fps", value, 1e-3, 1e6);
     } else if (cli_option(&a, "--light-units", &value)) {
@@ -546,9 +594,31 @@ int main(int argc, char **argv) {
     }
   }
 
+  /* --shard: this task's images are those whose position in the list is shard_index
+   * modulo shard_count. When it has none, nothing is loaded further. */
+  if (shard_count) {
+    long long images = 0;
+    for (uint32_t i = first_camera; i <= last_camera; i++)
+      if (!frames_arg || scene->cameras[i].animated)
+        images += frames_arg ? (frame_last - frame_first) / frame_step + 1 : 1;
+    long long mine = images > shard_index ? (images - shard_index - 1) / shard_count + 1 : 0;
+    if (mine == 0) {
+      fprintf(stderr,
+              "bbc-render: note: shard %u/%u: none of the %lld images asked for is "
+              "this shard's; nothing to render\n",
+              shard_index, shard_count, images);
+      bbc_scene_free(scene);
+      return 0;
+    }
+    if (stats)
+      fprintf(stderr, "shard        %u/%u: %lld of the %lld images\n", shard_index, shard_count,
+              mine, images);
+  }
+
   bbc_accel *accel = NULL;
   bbc_cache *cache = NULL;
   int status = 1;
+  long long position = 0; /* of the next image in the list, for --shard */
   if (cache_path && options.method != BBC_METHOD_PT) {
     bbc_cache_options cache_options;
     memset(&cache_options, 0, sizeof cache_options);
@@ -598,6 +668,7 @@ int main(int argc, char **argv) {
       continue;
     }
     for (long long frame = frame_first; frame <= frame_last; frame += frame_step) {
+      if (shard_count && position++ % shard_count != shard_index) continue;
       bbc_camera camera;
       if (bbc_scene_camera_at(scene, cam, frames_arg ? (double)frame / fps : 0.0, &camera) !=
           BBC_OK) {
@@ -622,6 +693,9 @@ int main(int argc, char **argv) {
       char out_name[1200], png_name[1200];
       image_name(out_name, sizeof out_name, output, name_camera, name_frame);
       if (png) image_name(png_name, sizeof png_name, png, name_camera, name_frame);
+      /* What a run killed while writing these images left, a rerun removes. */
+      cli_remove_leftovers(out_name);
+      if (png) cli_remove_leftovers(png_name);
       if (frames_arg) options.seed = frame_seed(base_seed, frame);
       options.camera = &camera;
       if (stats && several) fprintf(stderr, "image        %s (camera %u \"%s\")\n", out_name, cam,

@@ -62,6 +62,24 @@ uint32_t cli_parse_chains(const cli_args *a, const char *name, const char *text)
  * for anything else. */
 bbc_light_units cli_parse_light_units(const cli_args *a, const char *name, const char *text);
 
+/* --shard I/N, auto or auto/N as the shard index and count (0 <= index < count):
+ *   I/N      two decimal integers, 0 <= I < N < 2^32;
+ *   auto     the index from the scheduler: SLURM_ARRAY_TASK_ID (a Slurm array, numbered
+ *            from 0) or JOB_COMPLETION_INDEX (a Kubernetes Indexed Job); the count from
+ *            BBC_SHARD_COUNT, else, for Slurm, from SLURM_ARRAY_TASK_COUNT, provided the
+ *            array is the whole 0..COUNT-1 (SLURM_ARRAY_TASK_MIN, _MAX) and more than one
+ *            task (a task resubmitted alone sees a count of 1);
+ *   auto/N   the same with the count N (BBC_SHARD_COUNT, when set, must agree).
+ * Bad syntax is a usage error (exit 2); a missing or inconsistent environment variable
+ * ends the tool with one line naming it (exit 1). */
+void cli_parse_shard(const cli_args *a, const char *text, uint32_t *index, uint32_t *count);
+
+/* Removes the temporary files an atomic write of `path` leaves when its process is
+ * killed before it can clean up (SIGKILL, a lost node): "<path>.tmp.<pid>", and
+ * "<path>.tmp.<pid>.tmp.<pid>", unless <pid> is a process that still runs on this
+ * machine. Says so on stderr for each; returns how many it removed. */
+int cli_remove_leftovers(const char *path);
+
 /* Set once SIGINT or SIGTERM arrived, after cli_catch_interrupts. Long operations poll
  * it (through their progress callbacks) and stop; the tool then exits with 130. */
 extern volatile int cli_interrupted;

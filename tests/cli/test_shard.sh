@@ -264,4 +264,189 @@ test_render_refuses_a_shard() {
   no_output "$TMP/x.exr"
 }
 
+# Runs a command with none of the variables --shard auto reads, but those given first
+# (NAME=VALUE...), so that a suite run inside a Slurm job is not misled.
+sched() {
+  env -u SLURM_ARRAY_TASK_ID -u SLURM_ARRAY_TASK_MIN -u SLURM_ARRAY_TASK_MAX \
+    -u SLURM_ARRAY_TASK_COUNT -u SLURM_JOB_ID -u JOB_COMPLETION_INDEX -u BBC_SHARD_COUNT "$@"
+}
+
+# --shard auto writes the same shard as the explicit I/N, from a Slurm array (whole, or
+# a task resubmitted alone with its count), and from a Kubernetes Indexed Job.
+test_shard_auto_takes_the_index_from_the_scheduler() {
+  for s in 0 1 2; do mirror -o "$TMP/s$s.bbc" --shard "$s/3"; done
+  for s in 0 1 2; do
+    expect_status 0 sched SLURM_JOB_ID=7 SLURM_ARRAY_TASK_ID=$s SLURM_ARRAY_TASK_MIN=0 \
+      SLURM_ARRAY_TASK_MAX=2 SLURM_ARRAY_TASK_COUNT=3 "$PRECOMPUTE" "$MIRROR" --chains R \
+      --max-level 4 --resolution 64 --no-progress -o "$TMP/a$s.bbc" --shard auto
+    cmp "$TMP/s$s.bbc" "$TMP/a$s.bbc" >&2 || fail "--shard auto as task $s differs from $s/3"
+  done
+  # Resubmitted alone (sbatch --array=1): the count from BBC_SHARD_COUNT or auto/N.
+  for how in "BBC_SHARD_COUNT=3 auto" "BBC_SHARD_COUNT=3 auto/3" "X=1 auto/3"; do
+    expect_status 0 sched ${how% *} SLURM_JOB_ID=8 SLURM_ARRAY_TASK_ID=1 SLURM_ARRAY_TASK_MIN=1 \
+      SLURM_ARRAY_TASK_MAX=1 SLURM_ARRAY_TASK_COUNT=1 "$PRECOMPUTE" "$MIRROR" --chains R \
+      --max-level 4 --resolution 64 --no-progress -o "$TMP/r.bbc" --shard "${how#* }"
+    cmp "$TMP/s1.bbc" "$TMP/r.bbc" >&2 || fail "resubmitted task 1 ($how) differs from 1/3"
+  done
+  expect_status 0 sched JOB_COMPLETION_INDEX=2 "$PRECOMPUTE" "$MIRROR" --chains R --max-level 4 \
+    --resolution 64 --no-progress -o "$TMP/k.bbc" --shard auto/3
+  cmp "$TMP/s2.bbc" "$TMP/k.bbc" >&2 || fail "JOB_COMPLETION_INDEX=2 differs from 2/3"
+  expect_status 0 "$INSPECT" merge "$TMP/m.bbc" "$TMP/a0.bbc" "$TMP/r.bbc" "$TMP/k.bbc"
+  mirror -o "$TMP/full.bbc"
+  cmp "$TMP/full.bbc" "$TMP/m.bbc" >&2 || fail "the merged cache differs from the unsharded one"
+}
+
+# A missing or inconsistent variable is one line naming it, exit 1, and nothing written;
+# bad syntax is a usage error.
+test_shard_auto_refuses_a_bad_environment() {
+  # "@I:MIN:MAX:COUNT" stands for the four SLURM_ARRAY_TASK_ variables.
+  while IFS='|' read -r vars option words; do
+    case $vars in
+      @*)
+        # shellcheck disable=SC2046
+        set -- $(echo "${vars#@}" | tr ':' ' ')
+        vars="SLURM_ARRAY_TASK_ID=$1 SLURM_ARRAY_TASK_MIN=$2 SLURM_ARRAY_TASK_MAX=$3"
+        vars="$vars SLURM_ARRAY_TASK_COUNT=$4"
+        ;;
+    esac
+    # shellcheck disable=SC2086
+    expect_refusal 1 "^bbc-precompute: --shard auto.*$words" sched $vars "$PRECOMPUTE" \
+      "$MIRROR" -o "$TMP/x.bbc" --no-progress --shard "$option"
+    no_output "$TMP/x.bbc"
+  done <<'CASES'
+X=1|auto|neither SLURM_ARRAY_TASK_ID (a Slurm array job) nor JOB_COMPLETION_INDEX
+SLURM_JOB_ID=3|auto|SLURM_ARRAY_TASK_ID is not set: this Slurm job is not an array
+@5:5:5:1|auto|this array has one task (5), so it cannot tell the shard count
+@2:1:3:3|auto|the array's tasks are 1..3, 3 of them
+@4:0:4:3|auto|the array's tasks are 0..4, 3 of them
+SLURM_ARRAY_TASK_ID=1|auto|SLURM_ARRAY_TASK_COUNT, _MIN or _MAX is not set
+SLURM_ARRAY_TASK_ID=4|auto/4|SLURM_ARRAY_TASK_ID is 4, not below the shard count 4
+SLURM_ARRAY_TASK_ID=1x|auto/4|SLURM_ARRAY_TASK_ID is '1x', not a whole number
+SLURM_ARRAY_TASK_ID=1 BBC_SHARD_COUNT=3|auto/4|BBC_SHARD_COUNT is 3, not 4
+SLURM_ARRAY_TASK_ID=1 BBC_SHARD_COUNT=0|auto|BBC_SHARD_COUNT is 0
+SLURM_ARRAY_TASK_ID=1 BBC_SHARD_COUNT=|auto|BBC_SHARD_COUNT is '', not a whole number
+JOB_COMPLETION_INDEX=2|auto|JOB_COMPLETION_INDEX is 2 but the count is not known
+JOB_COMPLETION_INDEX=2|auto/2|JOB_COMPLETION_INDEX is 2, not below the shard count 2
+JOB_COMPLETION_INDEX=0 SLURM_ARRAY_TASK_ID=0|auto/2|both SLURM_ARRAY_TASK_ID (0) and JOB_COMPLET
+CASES
+  for bad in auto/0 auto/ auto/x autox auto/-1 "auto 2"; do
+    expect_refusal 2 "^bbc-precompute: --shard: '$bad'" sched SLURM_ARRAY_TASK_ID=0 \
+      "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --shard "$bad"
+    no_output "$TMP/x.bbc"
+  done
+  # bbc-render reads the environment the same way.
+  expect_refusal 1 "^bbc-render: --shard auto: this array has one task (5)" sched \
+    SLURM_ARRAY_TASK_ID=5 SLURM_ARRAY_TASK_MIN=5 SLURM_ARRAY_TASK_MAX=5 \
+    SLURM_ARRAY_TASK_COUNT=1 "$RENDER" "$MIRROR" -o "$TMP/x.exr" --shard auto
+  no_output "$TMP/x.exr"
+}
+
+# The temporary file of a run killed while writing (SIGKILL, a lost node: no chance to
+# remove it) is removed by the next run writing the same output; one of a process that
+# still runs here, and files of other outputs, are kept.
+test_rerun_removes_what_a_killed_writer_left() {
+  dead=$(sh -c 'echo $$')
+  for f in "x.bbc.tmp.$dead" "x.bbc.tmp.$dead.tmp.$dead" "x.bbc.tmp.$$" "x.bbc.tmp.12a" \
+    "y.bbc.tmp.$dead" "x.bbc.tmp."; do
+    echo partial >"$TMP/$f"
+  done
+  mirror -o "$TMP/x.bbc"
+  for f in "x.bbc.tmp.$dead" "x.bbc.tmp.$dead.tmp.$dead"; do
+    [ -e "$TMP/$f" ] && fail "$f was not removed"
+    grep -q "^bbc-precompute: note: removed $TMP/$f, left by a run that was stopped while" \
+      "$TMP/err" || fail "no note for $f: $(cat "$TMP/err")"
+  done
+  for f in "x.bbc.tmp.$$" "x.bbc.tmp.12a" "y.bbc.tmp.$dead" "x.bbc.tmp."; do
+    [ -e "$TMP/$f" ] || fail "$f was removed"
+  done
+  [ "$(wc -l <"$TMP/err")" -eq 2 ] || fail "stderr: $(cat "$TMP/err")"
+  # The merge and the render do the same for their outputs.
+  mirror -o "$TMP/s0.bbc" --shard 0/1
+  echo partial >"$TMP/m.bbc.tmp.$dead"
+  expect_status 0 "$INSPECT" merge "$TMP/m.bbc" "$TMP/s0.bbc"
+  [ -e "$TMP/m.bbc.tmp.$dead" ] && fail "merge: m.bbc.tmp.$dead was not removed"
+  echo partial >"$TMP/i.exr.tmp.$dead.tmp.$dead"
+  expect_status 0 "$RENDER" "$MIRROR" -o "$TMP/i.exr" --spp 1 --width 16 --no-progress
+  [ -e "$TMP/i.exr.tmp.$dead.tmp.$dead" ] && fail "render: i.exr.tmp.$dead.tmp.$dead is still there"
+  return 0
+}
+
+# render_shards DIR SHARD ARGS...: renders the orbit scene's images of ARGS into DIR
+# (path tracing only, 16 x 12 pixels: quick) as shard SHARD ("" for all).
+render_shards() {
+  dir=$1 shard=$2
+  shift 2
+  mkdir -p "$dir"
+  expect_status 0 sched "$RENDER" "$BBC_TEST_SCENES/orbit.gltf" -o "$dir/i.exr" --spp 2 \
+    --width 16 --height 12 --no-progress ${shard:+--shard "$shard"} "$@"
+}
+
+# bbc-render --shard I/N renders the images whose position in the list is I mod N, each
+# bit-identical to the same image of the whole list; a task with no image exits 0.
+test_render_shard_splits_frames_and_cameras() {
+  render_shards "$TMP/all" "" --frames 0:4
+  for s in 0 1 2; do
+    render_shards "$TMP/s$s" "$s/3" --frames 0:4
+    want=$(for f in 0 1 2 3 4; do [ $((f % 3)) -eq "$s" ] && echo "i.000$f.exr"; done)
+    [ "$(ls "$TMP/s$s")" = "$want" ] || fail "shard $s/3 wrote $(ls "$TMP/s$s"), not $want"
+    for f in $want; do
+      cmp "$TMP/all/$f" "$TMP/s$s/$f" >&2 || fail "shard $s/3: $f differs from the whole list's"
+    done
+  done
+  # From the scheduler, with a step in the frames: 0, 2, 4 as positions 0, 1, 2.
+  mkdir "$TMP/k"
+  expect_status 0 sched JOB_COMPLETION_INDEX=1 "$RENDER" "$BBC_TEST_SCENES/orbit.gltf" \
+    -o "$TMP/k/i.exr" --spp 2 --width 16 --height 12 --no-progress --shard auto/2 --frames 0:4:2
+  [ "$(ls "$TMP/k")" = i.0002.exr ] || fail "auto/2 as index 1 wrote $(ls "$TMP/k")"
+  cmp "$TMP/all/i.0002.exr" "$TMP/k/i.0002.exr" >&2 || fail "frame 2 differs"
+  # Cameras: camera 0 then camera 1 ("side").
+  render_shards "$TMP/c" 1/2 --all-cameras
+  [ "$(ls "$TMP/c")" = i.cam1.exr ] || fail "1/2 of the cameras wrote $(ls "$TMP/c")"
+  render_shards "$TMP/call" "" --all-cameras
+  cmp "$TMP/call/i.cam1.exr" "$TMP/c/i.cam1.exr" >&2 || fail "camera 1 differs"
+  # More tasks than images: nothing to do is no failure.
+  render_shards "$TMP/none" 2/3 --all-cameras
+  [ -z "$(ls "$TMP/none")" ] || fail "shard 2/3 of 2 images wrote $(ls "$TMP/none")"
+  grep -q "^bbc-render: note: shard 2/3: none of the 2 images asked for is this shard's" \
+    "$TMP/err" || fail "no note: $(cat "$TMP/err")"
+  # The single image of a plain render is shard 0's.
+  render_shards "$TMP/one" 0/2
+  [ "$(ls "$TMP/one")" = i.exr ] || fail "shard 0/2 of one image wrote $(ls "$TMP/one")"
+  ls "$TMP"/*/ | grep -q '\.tmp\.' && fail "a temporary file was left behind"
+  return 0
+}
+
+# examples/parallel/run.sh on this machine, and through --sshloginfile with ":" (GNU
+# parallel's name for this machine, reached the way remote ones are): the cache equals
+# the unsharded one and the frames the ones rendered in one process.
+test_parallel_example() {
+  command -v parallel >/dev/null || fail "GNU parallel is missing (sh scripts/install-deps.sh)"
+  "$BBC_BIN/scenes/bbc-scenegen" wavy-mirror --size 100 --orbit 3 --width 24 --height 18 \
+    -o "$TMP/scene.gltf" || fail "bbc-scenegen failed"
+  echo : >"$TMP/logins"
+  PATH="$BBC_BIN/bbc-precompute:$BBC_BIN/bbc-render:$BBC_BIN/bbc-inspect:$PATH"
+  export PATH
+  expect_status 0 env HOME="$TMP" sh "$BBC_SOURCE_DIR/examples/parallel/run.sh" --shards 3 \
+    --tasks 2 --jobs 2 --threads 1 "$TMP/scene.gltf" "$TMP/local" -- --frames 0:2 --spp 2
+  expect_status 0 env HOME="$TMP" sh "$BBC_SOURCE_DIR/examples/parallel/run.sh" --shards 3 \
+    --tasks 2 --sshloginfile "$TMP/logins" "$TMP/scene.gltf" "$TMP/ssh" -- --frames 0:2 --spp 2
+  expect_status 0 "$PRECOMPUTE" "$TMP/scene.gltf" -o "$TMP/one.bbc" --no-progress
+  mkdir "$TMP/one"
+  expect_status 0 "$RENDER" "$TMP/scene.gltf" --cache "$TMP/one.bbc" -o "$TMP/one/image.exr" \
+    --frames 0:2 --spp 2 --no-progress
+  for run in local ssh; do
+    cmp "$TMP/one.bbc" "$TMP/$run/cache.bbc" >&2 || fail "$run: the cache differs"
+    [ "$(ls "$TMP/$run/frames")" = "$(ls "$TMP/one")" ] || fail "$run: $(ls "$TMP/$run/frames")"
+    for f in "$TMP"/one/*; do
+      cmp "$f" "$TMP/$run/frames/${f##*/}" >&2 || fail "$run: ${f##*/} differs"
+    done
+  done
+  # --resume with every shard there computes none.
+  rm "$TMP/local/cache.bbc"
+  expect_status 0 env HOME="$TMP" sh "$BBC_SOURCE_DIR/examples/parallel/run.sh" --shards 3 \
+    --tasks 2 --resume "$TMP/scene.gltf" "$TMP/local" -- --frames 0:2 --spp 2
+  [ "$(wc -l <"$TMP/local/logs/shards.joblog")" -eq 4 ] || fail "--resume ran shards again"
+  cmp "$TMP/one.bbc" "$TMP/local/cache.bbc" >&2 || fail "--resume: the cache differs"
+}
+
 "test_$1"
