@@ -506,7 +506,7 @@ int main(int argc, char **argv) {
   cli_catch_interrupts();
   /* A rerun of a task that was killed while writing (so that libbbc could not remove
    * its temporary file) leaves nothing of that run behind. */
-  cli_remove_leftovers(output);
+  if (output) cli_remove_leftovers(output);
 
   double start = cli_now();
   bbc_scene_options scene_options = {on_error, cli_print_warning, &run, light_units};
