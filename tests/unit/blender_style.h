@@ -16,6 +16,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "json_text.h"
+
 typedef struct blender_style {
   const char *asset_extras; /* e.g. {"bbc":{"light_units":"radiometric"}}; NULL for none */
   const char *lights;       /* the KHR_lights_punctual lights array; NULL: none */
@@ -47,37 +49,6 @@ typedef struct blender_style {
   /* Further top-level members, e.g. "images":[...],"textures":[...]; NULL for none. */
   const char *more_json;
 } blender_style;
-
-typedef struct bs_text {
-  char *data;
-  size_t size, cap;
-} bs_text;
-
-static void bs_printf(bs_text *t, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void bs_printf(bs_text *t, const char *fmt, ...) {
-  va_list ap;
-  va_start(ap, fmt);
-  int n = vsnprintf(NULL, 0, fmt, ap);
-  va_end(ap);
-  if (t->size + (size_t)n + 1 > t->cap) {
-    t->cap = 2 * (t->size + (size_t)n + 1);
-    t->data = realloc(t->data, t->cap);
-  }
-  va_start(ap, fmt);
-  vsnprintf(t->data + t->size, t->cap - t->size, fmt, ap);
-  va_end(ap);
-  t->size += (size_t)n;
-}
-
-static void bs_base64(bs_text *t, const unsigned char *p, size_t n) {
-  static const char digits[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  for (size_t i = 0; i < n; i += 3) {
-    uint32_t v = (uint32_t)p[i] << 16 | (i + 1 < n ? (uint32_t)p[i + 1] << 8 : 0) |
-                 (i + 2 < n ? p[i + 2] : 0);
-    bs_printf(t, "%c%c%c%c", digits[v >> 18], digits[(v >> 12) & 63],
-              i + 1 < n ? digits[(v >> 6) & 63] : '=', i + 2 < n ? digits[v & 63] : '=');
-  }
-}
 
 /* The JSON text of the scene (malloc'd, NUL-terminated). */
 static char *blender_style_write(const blender_style *b) {
@@ -136,41 +107,41 @@ static char *blender_style_write(const blender_style *b) {
 #undef BS_PUT
   int caster_triangles = ntri;
 
-  bs_text t = {0};
-  bs_printf(&t, "{\"asset\":{\"generator\":\"Khronos glTF Blender I/O v3.4.50\",\"version\":\"2.0\"");
-  if (b->asset_extras) bs_printf(&t, ",\"extras\":%s", b->asset_extras);
-  bs_printf(&t, "},\"extensionsUsed\":[\"KHR_lights_punctual\",\"KHR_materials_transmission\"],");
-  if (b->lights) bs_printf(&t, "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":%s}},", b->lights);
-  bs_printf(&t, "\"scene\":0,\"scenes\":[{\"name\":\"Scene\",\"nodes\":[0,1,2,%d%s]}],\"nodes\":[",
+  json_text t = {0};
+  json_printf(&t, "{\"asset\":{\"generator\":\"Khronos glTF Blender I/O v3.4.50\",\"version\":\"2.0\"");
+  if (b->asset_extras) json_printf(&t, ",\"extras\":%s", b->asset_extras);
+  json_printf(&t, "},\"extensionsUsed\":[\"KHR_lights_punctual\",\"KHR_materials_transmission\"],");
+  if (b->lights) json_printf(&t, "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":%s}},", b->lights);
+  json_printf(&t, "\"scene\":0,\"scenes\":[{\"name\":\"Scene\",\"nodes\":[0,1,2,%d%s]}],\"nodes\":[",
             b->rig ? 4 : 3, b->more_cameras ? ",5" : "");
-  bs_printf(&t, "{\"name\":\"Plane\",\"mesh\":0},");
+  json_printf(&t, "{\"name\":\"Plane\",\"mesh\":0},");
   if (b->caster)
-    bs_printf(&t, "{\"name\":\"Ico\",\"mesh\":1},");
+    json_printf(&t, "{\"name\":\"Ico\",\"mesh\":1},");
   else
-    bs_printf(&t, "{\"name\":\"Empty\"},");
+    json_printf(&t, "{\"name\":\"Empty\"},");
   if (b->lights)
-    bs_printf(&t, "{\"name\":\"Light\",\"translation\":[0,3,0],"
+    json_printf(&t, "{\"name\":\"Light\",\"translation\":[0,3,0],"
                   "\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},");
   else
-    bs_printf(&t, "{\"name\":\"NoLight\"},");
-  bs_printf(&t, "{\"name\":\"Camera\",\"translation\":[0,1,4]%s%s%s},", b->cameras ? ",\"camera\":0" : "",
+    json_printf(&t, "{\"name\":\"NoLight\"},");
+  json_printf(&t, "{\"name\":\"Camera\",\"translation\":[0,1,4]%s%s%s},", b->cameras ? ",\"camera\":0" : "",
             b->camera_node_extras ? ",\"extras\":" : "",
             b->camera_node_extras ? b->camera_node_extras : "");
-  bs_printf(&t, "{\"name\":\"Rig\"%s}", b->rig ? ",\"children\":[3]" : "");
-  if (b->more_cameras) bs_printf(&t, ",%s", b->more_cameras);
-  bs_printf(&t, "]");
-  if (b->animations) bs_printf(&t, ",\"animations\":%s", b->animations);
-  if (b->cameras) bs_printf(&t, ",\"cameras\":%s", b->cameras);
-  if (b->more_json) bs_printf(&t, ",%s", b->more_json);
-  bs_printf(&t, ",\"materials\":%s", b->materials ? b->materials
+  json_printf(&t, "{\"name\":\"Rig\"%s}", b->rig ? ",\"children\":[3]" : "");
+  if (b->more_cameras) json_printf(&t, ",%s", b->more_cameras);
+  json_printf(&t, "]");
+  if (b->animations) json_printf(&t, ",\"animations\":%s", b->animations);
+  if (b->cameras) json_printf(&t, ",\"cameras\":%s", b->cameras);
+  if (b->more_json) json_printf(&t, ",%s", b->more_json);
+  json_printf(&t, ",\"materials\":%s", b->materials ? b->materials
                                                   : "[{\"name\":\"Floor\",\"pbrMetallicRoughness\":"
                                                     "{\"metallicFactor\":0,\"roughnessFactor\":1}}]");
-  bs_printf(&t, ",\"meshes\":[{\"name\":\"Plane\",\"primitives\":[{\"attributes\":{\"POSITION\":0,"
+  json_printf(&t, ",\"meshes\":[{\"name\":\"Plane\",\"primitives\":[{\"attributes\":{\"POSITION\":0,"
                 "\"NORMAL\":1,\"TEXCOORD_0\":2},\"indices\":3,\"material\":0}]}");
   if (b->caster)
-    bs_printf(&t, ",{\"name\":\"Ico\",\"primitives\":[{\"attributes\":{\"POSITION\":4,\"NORMAL\":5},"
+    json_printf(&t, ",{\"name\":\"Ico\",\"primitives\":[{\"attributes\":{\"POSITION\":4,\"NORMAL\":5},"
                   "\"indices\":6,\"material\":1}]}");
-  bs_printf(&t, "],\"accessors\":["
+  json_printf(&t, "],\"accessors\":["
                 "{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\","
                 "\"min\":[-1,0,-1],\"max\":[1,0,1]},"
                 "{\"bufferView\":1,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"},"
@@ -185,17 +156,17 @@ static char *blender_style_write(const blender_style *b) {
   size_t views[7][2] = {{floor_at[0], 48}, {floor_at[1], 48},    {floor_at[2], 32},
                         {floor_at[3], 12}, {caster_at[0], 72},  {caster_at[1], 72},
                         {caster_at[2], 6 * (size_t)caster_triangles}};
-  bs_printf(&t, "\"bufferViews\":[");
+  json_printf(&t, "\"bufferViews\":[");
   for (int v = 0; v < 7; v++)
-    bs_printf(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", v ? "," : "",
+    json_printf(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", v ? "," : "",
               views[v][0], views[v][1]);
   if (b->anim_floats)
-    bs_printf(&t, ",{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", anim_at,
+    json_printf(&t, ",{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", anim_at,
               b->anim_floats * sizeof(float));
-  bs_printf(&t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,",
+  json_printf(&t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,",
             at);
-  bs_base64(&t, buf, at);
-  bs_printf(&t, "\"}]}");
+  json_base64(&t, buf, at);
+  json_printf(&t, "\"}]}");
   return t.data;
 }
 

@@ -16,22 +16,21 @@ typedef struct fixture {
   void *bytes;
 } fixture;
 
-/* Returns 1 when every step succeeded and the cache matches the scene. */
-static int fixture_setup(fixture *f, const char *path, uint32_t chains, uint32_t max_level,
-                         int area_lights) {
-  memset(f, 0, sizeof *f);
-  if (bbc_scene_load(&f->scene, path, NULL) != BBC_OK) return 0;
-  if (bbc_accel_create(&f->accel, f->scene, NULL, NULL) != BBC_OK) return 0;
+/* Precomputes a cache of `source` (f->scene itself, or a scene differing from it in what
+ * the cache does not hold) with the default parameters but chains, level, grid and area
+ * lights into f, and checks it against f->scene. Returns 1 when every step succeeded. */
+static inline int fixture_cache(fixture *f, const bbc_scene *source, uint32_t chains,
+                         uint32_t max_level, uint32_t grid, int area_lights) {
   bbc_precompute_options o;
   memset(&o, 0, sizeof o);
   bbc_precompute_params_default(&o.params);
   o.params.chains = chains;
   o.params.max_level = max_level;
-  o.params.grid_resolution = 128;
+  o.params.grid_resolution = grid;
   o.params.area_lights = area_lights;
   o.params.area_double = area_lights && (chains & BBC_CHAIN_MASK_DOUBLE);
   bbc_cache_builder *b = NULL;
-  if (bbc_precompute(&b, f->scene, &o, NULL) != BBC_OK) return 0;
+  if (bbc_precompute(&b, source, &o, NULL) != BBC_OK) return 0;
   size_t size = 0;
   bbc_result r = bbc_cache_builder_write_memory(b, &f->bytes, &size, NULL);
   bbc_cache_builder_free(b);
@@ -40,7 +39,16 @@ static int fixture_setup(fixture *f, const char *path, uint32_t chains, uint32_t
          bbc_cache_check_scene(f->cache, f->scene) == BBC_OK;
 }
 
-static void teardown(fixture *f) {
+/* Returns 1 when every step succeeded and the cache matches the scene (grid 128). */
+static inline int fixture_setup(fixture *f, const char *path, uint32_t chains, uint32_t max_level,
+                                int area_lights) {
+  memset(f, 0, sizeof *f);
+  if (bbc_scene_load(&f->scene, path, NULL) != BBC_OK) return 0;
+  if (bbc_accel_create(&f->accel, f->scene, NULL, NULL) != BBC_OK) return 0;
+  return fixture_cache(f, f->scene, chains, max_level, 128, area_lights);
+}
+
+static inline void teardown(fixture *f) {
   bbc_cache_close(f->cache);
   free(f->bytes);
   bbc_accel_free(f->accel);
@@ -49,8 +57,8 @@ static void teardown(fixture *f) {
 
 /* A w x h render of f's scene with options o, through f's cache unless o.method is path
  * tracing, its statistics into stats (may be NULL); NULL on failure. */
-static bbc_image *fixture_render(const fixture *f, bbc_render_options o, uint32_t w, uint32_t h,
-                                 bbc_render_stats *stats) {
+static inline bbc_image *fixture_render(const fixture *f, bbc_render_options o, uint32_t w,
+                                        uint32_t h, bbc_render_stats *stats) {
   bbc_image *image = NULL;
   if (bbc_image_create(&image, w, h) != BBC_OK) return NULL;
   o.cache = o.method == BBC_METHOD_PT ? NULL : f->cache;

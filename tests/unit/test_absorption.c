@@ -21,6 +21,8 @@
 #include "bbc/bbc.h"
 #include "gltf_shim_internal.h"
 #include "harness.h"
+#include "json_text.h"
+#include "render_fixture.h"
 
 #define PI 3.14159265358979323846
 
@@ -36,37 +38,6 @@ typedef struct slab_scene {
   double albedo;      /* the floor's */
   uint32_t size;      /* the film's width and height */
 } slab_scene;
-
-typedef struct text {
-  char *data;
-  size_t size, cap;
-} text;
-
-static void put(text *t, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void put(text *t, const char *fmt, ...) {
-  va_list ap;
-  va_start(ap, fmt);
-  int n = vsnprintf(NULL, 0, fmt, ap);
-  va_end(ap);
-  if (t->size + (size_t)n + 1 > t->cap) {
-    t->cap = 2 * (t->size + (size_t)n + 1);
-    t->data = realloc(t->data, t->cap);
-  }
-  va_start(ap, fmt);
-  vsnprintf(t->data + t->size, t->cap - t->size, fmt, ap);
-  va_end(ap);
-  t->size += (size_t)n;
-}
-
-static void put_base64(text *t, const unsigned char *p, size_t n) {
-  static const char digits[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  for (size_t i = 0; i < n; i += 3) {
-    uint32_t v = (uint32_t)p[i] << 16 | (i + 1 < n ? (uint32_t)p[i + 1] << 8 : 0) |
-                 (i + 2 < n ? p[i + 2] : 0);
-    put(t, "%c%c%c%c", digits[v >> 18], digits[(v >> 12) & 63],
-        i + 1 < n ? digits[(v >> 6) & 63] : '=', i + 2 < n ? digits[v & 63] : '=');
-  }
-}
 
 /* A mesh's arrays: 4 vertices and 2 triangles per face. */
 typedef struct box_mesh {
@@ -117,15 +88,15 @@ static char *slab_gltf(const slab_scene *q) {
     memcpy(buf + at, m[k]->i, 4 * ni), at += 4 * ni;
   }
   const char *turn = "\"rotation\":[-0.7071067811865476,0,0,0.7071067811865476]";
-  text t = {0};
-  put(&t,
+  json_text t = {0};
+  json_printf(&t,
       "{\"asset\":{\"version\":\"2.0\",\"extras\":{\"bbc\":{\"light_units\":\"radiometric\"}}},"
       "\"extensionsUsed\":[\"KHR_lights_punctual\",\"KHR_materials_transmission\","
       "\"KHR_materials_volume\",\"KHR_materials_ior\"],"
       "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"name\":\"sun\","
       "\"type\":\"directional\",\"color\":[1,1,1],\"intensity\":1");
-  if (q->sun_angle > 0) put(&t, ",\"extras\":{\"bbc\":{\"angular_diameter\":%.17g}}", q->sun_angle);
-  put(&t,
+  if (q->sun_angle > 0) json_printf(&t, ",\"extras\":{\"bbc\":{\"angular_diameter\":%.17g}}", q->sun_angle);
+  json_printf(&t,
       "}]}},\"scene\":0,\"scenes\":[{\"nodes\":[0,1,2,3]}],\"nodes\":["
       "{\"name\":\"floor\",\"mesh\":0,\"extras\":{\"bbc\":{\"role\":\"receiver\"}}},"
       "{\"name\":\"glass\",\"mesh\":1,\"extras\":{\"bbc\":{\"role\":\"caster\"}}},"
@@ -133,31 +104,31 @@ static char *slab_gltf(const slab_scene *q) {
       "{\"name\":\"camera\",\"camera\":0,\"translation\":[0,0.3,0],%s,"
       "\"extras\":{\"bbc\":{\"width\":%u,\"height\":%u}}}],",
       turn, turn, q->size, q->size);
-  put(&t,
+  json_printf(&t,
       "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.6,"
       "\"aspectRatio\":1,\"znear\":0.01}}],");
-  put(&t,
+  json_printf(&t,
       "\"materials\":[{\"name\":\"floor\",\"pbrMetallicRoughness\":{\"baseColorFactor\":"
       "[%.17g,%.17g,%.17g,1],\"metallicFactor\":0,\"roughnessFactor\":1}},",
       q->albedo, q->albedo, q->albedo);
-  put(&t,
+  json_printf(&t,
       "{\"name\":\"tinted glass\",\"pbrMetallicRoughness\":{\"baseColorFactor\":"
       "[%.17g,%.17g,%.17g,1],\"metallicFactor\":0,\"roughnessFactor\":0},\"extensions\":{"
       "\"KHR_materials_transmission\":{\"transmissionFactor\":1},"
       "\"KHR_materials_volume\":{\"thicknessFactor\":%.17g%s%s},"
       "\"KHR_materials_ior\":{\"ior\":1.5}}}],",
       q->tint[0], q->tint[1], q->tint[2], q->d, q->volume ? "," : "", q->volume ? q->volume : "");
-  put(&t, "\"meshes\":[");
+  json_printf(&t, "\"meshes\":[");
   for (int k = 0; k < 2; k++)
-    put(&t,
+    json_printf(&t,
         "%s{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d},\"indices\":%d,"
         "\"material\":%d,\"mode\":4}]}",
         k ? "," : "", 3 * k, 3 * k + 1, 3 * k + 2, k);
-  put(&t, "],\"accessors\":[");
+  json_printf(&t, "],\"accessors\":[");
   for (int k = 0; k < 2; k++) {
     const double *lo = k ? blo : flo, *hi = k ? bhi : fhi;
     int nv = 4 * m[k]->faces;
-    put(&t,
+    json_printf(&t,
         "%s{\"bufferView\":%d,\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\","
         "\"min\":[%.9g,%.9g,%.9g],\"max\":[%.9g,%.9g,%.9g]},"
         "{\"bufferView\":%d,\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\"},"
@@ -165,13 +136,13 @@ static char *slab_gltf(const slab_scene *q) {
         k ? "," : "", 3 * k, nv, (float)lo[0], (float)lo[1], (float)lo[2], (float)hi[0],
         (float)hi[1], (float)hi[2], 3 * k + 1, nv, 3 * k + 2, 6 * m[k]->faces);
   }
-  put(&t, "],\"bufferViews\":[");
+  json_printf(&t, "],\"bufferViews\":[");
   for (int v = 0; v < 6; v++)
-    put(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", v ? "," : "", view[v][0],
+    json_printf(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", v ? "," : "", view[v][0],
         view[v][1]);
-  put(&t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,", at);
-  put_base64(&t, buf, at);
-  put(&t, "\"}]}");
+  json_printf(&t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,", at);
+  json_base64(&t, buf, at);
+  json_printf(&t, "\"}]}");
   return t.data;
 }
 
@@ -358,20 +329,6 @@ static double disk_radiance(const slab_scene *q, const attenuation *a, int k, in
 
 /* ------------------------------------------------------------------ rendering */
 
-typedef struct fixture {
-  bbc_scene *scene;
-  bbc_accel *accel;
-  bbc_cache *cache;
-  void *bytes;
-} fixture;
-
-static void teardown(fixture *f) {
-  bbc_cache_close(f->cache);
-  free(f->bytes);
-  bbc_accel_free(f->accel);
-  bbc_scene_free(f->scene);
-}
-
 /* Loads q; with cache_of (may be q itself) precomputes a TT cache of that scene (which
  * may differ from q in its colours) and checks it against q's. */
 static int setup(fixture *f, const slab_scene *q, const slab_scene *cache_of) {
@@ -382,21 +339,9 @@ static int setup(fixture *f, const slab_scene *q, const slab_scene *cache_of) {
   if (!cache_of) return 1;
   bbc_scene *source = NULL;
   if (load(cache_of, &source, &m) != BBC_OK) return 0;
-  bbc_precompute_options o;
-  memset(&o, 0, sizeof o);
-  bbc_precompute_params_default(&o.params);
-  o.params.chains = BBC_CHAIN_BIT(BBC_CHAIN_TT);
-  o.params.max_level = 4;
-  o.params.grid_resolution = 64;
-  bbc_cache_builder *b = NULL;
-  bbc_result r = bbc_precompute(&b, source, &o, NULL);
+  int ok = fixture_cache(f, source, BBC_CHAIN_BIT(BBC_CHAIN_TT), 4, 64, 0);
   bbc_scene_free(source);
-  if (r != BBC_OK) return 0;
-  size_t size = 0;
-  r = bbc_cache_builder_write_memory(b, &f->bytes, &size, NULL);
-  bbc_cache_builder_free(b);
-  return r == BBC_OK && bbc_cache_open_memory(&f->cache, f->bytes, size, NULL) == BBC_OK &&
-         bbc_cache_check_scene(f->cache, f->scene) == BBC_OK;
+  return ok;
 }
 
 static bbc_image *render(const fixture *f, bbc_method method, uint32_t spp, uint32_t max_depth,

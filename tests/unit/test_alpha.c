@@ -21,6 +21,8 @@
 #include "floor_footprint.h"
 #include "gltf_shim_internal.h"
 #include "harness.h"
+#include "json_text.h"
+#include "render_fixture.h"
 #include "vec_internal.h"
 
 #define PI 3.14159265358979323846
@@ -63,37 +65,6 @@ static double checker_alpha(double y, double z) {
 
 /* ------------------------------------------------------------------ the scene */
 
-typedef struct text {
-  char *data;
-  size_t size, cap;
-} text;
-
-static void put(text *t, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void put(text *t, const char *fmt, ...) {
-  va_list ap;
-  va_start(ap, fmt);
-  int n = vsnprintf(NULL, 0, fmt, ap);
-  va_end(ap);
-  if (t->size + (size_t)n + 1 > t->cap) {
-    t->cap = 2 * (t->size + (size_t)n + 1);
-    t->data = realloc(t->data, t->cap);
-  }
-  va_start(ap, fmt);
-  vsnprintf(t->data + t->size, t->cap - t->size, fmt, ap);
-  va_end(ap);
-  t->size += (size_t)n;
-}
-
-static void put_base64(text *t, const unsigned char *p, size_t n) {
-  static const char d[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  for (size_t i = 0; i < n; i += 3) {
-    uint32_t v = (uint32_t)p[i] << 16 | (i + 1 < n ? (uint32_t)p[i + 1] << 8 : 0) |
-                 (i + 2 < n ? p[i + 2] : 0);
-    put(t, "%c%c%c%c", d[v >> 18], d[(v >> 12) & 63], i + 1 < n ? d[(v >> 6) & 63] : '=',
-        i + 2 < n ? d[v & 63] : '=');
-  }
-}
-
 /* The glTF text of the scene with the mirror's material given as JSON members after
  * its name (alphaMode, alphaCutoff, ...) and its baseColorFactor alpha; the texture's
  * PNG (base64) is the checker unless png says otherwise. Malloc'd. */
@@ -116,55 +87,55 @@ static char *scene_json(const char *mirror_members, double factor_alpha, const c
     memcpy(buf + at, parts[k], sizes[k]);
     at = (at + sizes[k] + 3) & ~(size_t)3;
   }
-  text t = {0};
-  put(&t,
+  json_text t = {0};
+  json_printf(&t,
       "{\"asset\":{\"version\":\"2.0\",\"extras\":{\"bbc\":{\"light_units\":\"radiometric\"}}},"
       "\"extensionsUsed\":[\"KHR_lights_punctual\"],\"extensions\":{\"KHR_lights_punctual\":"
       "{\"lights\":[{\"type\":\"directional\",\"intensity\":%g}]}},",
       SUN_E);
   /* The sun's -Z is (1, -1, 0) / sqrt 2; the camera at (0.5, 3, 0) looks straight down. */
   const double s = sqrt(0.5);
-  put(&t,
+  json_printf(&t,
       "\"scene\":0,\"scenes\":[{\"nodes\":[0,1,2,3]}],\"nodes\":[{\"name\":\"Floor\",\"mesh\":0},"
       "{\"name\":\"Mirror\",\"mesh\":1},{\"name\":\"Sun\",\"matrix\":[0,0,1,0,%.17g,%.17g,0,0,"
       "%.17g,%.17g,0,0,0,0,0,1],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},"
       "{\"name\":\"Camera\",\"camera\":0,\"matrix\":[1,0,0,0,0,0,-1,0,0,1,0,0,0.5,3,0,1]}],",
       s, s, -s, s);
-  put(&t,
+  json_printf(&t,
       "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.3,\"znear\":0.01,"
       "\"aspectRatio\":1}}],");
-  put(&t,
+  json_printf(&t,
       "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1},"
       "\"indices\":2,\"material\":0}]},{\"primitives\":[{\"attributes\":{\"POSITION\":3,"
       "\"NORMAL\":4,\"TEXCOORD_0\":5},\"indices\":6,\"material\":1}]}],");
-  put(&t,
+  json_printf(&t,
       "\"materials\":[{\"name\":\"Floor\",\"pbrMetallicRoughness\":{\"baseColorFactor\":"
       "[0.8,0.8,0.8,1],\"metallicFactor\":0,\"roughnessFactor\":1}},{\"name\":\"Mirror\"%s,"
       "\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,%g],\"metallicFactor\":1,"
       "\"roughnessFactor\":0,\"baseColorTexture\":{\"index\":0}}}],",
       mirror_members, factor_alpha);
-  put(&t,
+  json_printf(&t,
       "\"images\":[{\"uri\":\"data:image/png;base64,%s\"}],\"samplers\":[{\"magFilter\":9728,"
       "\"minFilter\":9728}],\"textures\":[{\"source\":0,\"sampler\":0}],",
       png ? png : PNG_CHECKER);
-  put(&t, "\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,", at);
-  put_base64(&t, buf, at);
-  put(&t, "\"}],\"bufferViews\":[");
+  json_printf(&t, "\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,", at);
+  json_base64(&t, buf, at);
+  json_printf(&t, "\"}],\"bufferViews\":[");
   for (int k = 0; k < 7; k++)
-    put(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", k ? "," : "", view[k],
+    json_printf(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", k ? "," : "", view[k],
         len[k]);
-  put(&t, "],\"accessors\":[");
+  json_printf(&t, "],\"accessors\":[");
   static const char *const types[7] = {"VEC3", "VEC3", "SCALAR", "VEC3", "VEC3", "VEC2", "SCALAR"};
   static const int counts[7] = {4, 4, 6, 4, 4, 4, 6};
   for (int k = 0; k < 7; k++) {
     int index = k == 2 || k == 6;
-    put(&t, "%s{\"bufferView\":%d,\"componentType\":%d,\"count\":%d,\"type\":\"%s\"", k ? "," : "",
+    json_printf(&t, "%s{\"bufferView\":%d,\"componentType\":%d,\"count\":%d,\"type\":\"%s\"", k ? "," : "",
         k, index ? 5123 : 5126, counts[k], types[k]);
-    if (k == 0) put(&t, ",\"min\":[-2,0,-2],\"max\":[2,0,2]");
-    if (k == 3) put(&t, ",\"min\":[0,0,-0.5],\"max\":[0,1,0.5]");
-    put(&t, "}");
+    if (k == 0) json_printf(&t, ",\"min\":[-2,0,-2],\"max\":[2,0,2]");
+    if (k == 3) json_printf(&t, ",\"min\":[0,0,-0.5],\"max\":[0,1,0.5]");
+    json_printf(&t, "}");
   }
-  put(&t, "]}");
+  json_printf(&t, "]}");
   return t.data;
 }
 
@@ -198,14 +169,7 @@ static bbc_scene *load(const char *mirror_members, double factor_alpha, const ch
   return s;
 }
 
-/* A loaded scene, its ray tracer and a cache of its R tuples (level 6, 128 x 128 grid). */
-typedef struct fixture {
-  bbc_scene *scene;
-  bbc_accel *accel;
-  bbc_cache *cache;
-  void *bytes;
-} fixture;
-
+/* The scene, its ray tracer and a cache of its R tuples (level 6, 128 x 128 grid). */
 static int setup_png(fixture *f, const char *mirror_members, double factor_alpha,
                      const char *png) {
   memset(f, 0, sizeof *f);
@@ -216,20 +180,8 @@ static int setup_png(fixture *f, const char *mirror_members, double factor_alpha
     fprintf(stderr, "load: %s\n", m.error);
     return 0;
   }
-  if (bbc_accel_create(&f->accel, f->scene, NULL, NULL) != BBC_OK) return 0;
-  bbc_precompute_options o;
-  memset(&o, 0, sizeof o);
-  bbc_precompute_params_default(&o.params);
-  o.params.chains = BBC_CHAIN_BIT(BBC_CHAIN_R);
-  o.params.max_level = 6;
-  o.params.grid_resolution = 128;
-  bbc_cache_builder *b = NULL;
-  if (bbc_precompute(&b, f->scene, &o, NULL) != BBC_OK) return 0;
-  size_t size = 0;
-  r = bbc_cache_builder_write_memory(b, &f->bytes, &size, NULL);
-  bbc_cache_builder_free(b);
-  return r == BBC_OK && bbc_cache_open_memory(&f->cache, f->bytes, size, NULL) == BBC_OK &&
-         bbc_cache_check_scene(f->cache, f->scene) == BBC_OK;
+  return bbc_accel_create(&f->accel, f->scene, NULL, NULL) == BBC_OK &&
+         fixture_cache(f, f->scene, BBC_CHAIN_BIT(BBC_CHAIN_R), 6, 128, 0);
 }
 
 static int setup(fixture *f, const char *mirror_members, double factor_alpha) {
@@ -240,13 +192,6 @@ static uint32_t tuple_count(const bbc_cache *cache) {
   bbc_cache_info info;
   bbc_cache_get_info(cache, &info);
   return info.tuple_count;
-}
-
-static void teardown(fixture *f) {
-  bbc_cache_close(f->cache);
-  free(f->bytes);
-  bbc_accel_free(f->accel);
-  bbc_scene_free(f->scene);
 }
 
 #define MASK ",\"alphaMode\":\"MASK\""

@@ -14,6 +14,7 @@
 
 #include "bbc/bbc.h"
 #include "harness.h"
+#include "json_text.h"
 #include "render_fixture.h"
 
 /* 8 x 1, 8-bit RGB: texels 0-3 (0, 0, 255) (roughness 0, metallic 1), texels 4-7
@@ -37,18 +38,6 @@ static void on_warning(void *user, bbc_result code, const char *message) {
   messages *m = user;
   if (m->warnings < 8) snprintf(m->warning[m->warnings], sizeof m->warning[0], "%s", message);
   m->warnings++;
-}
-
-static void base64(FILE *f, const unsigned char *p, size_t n) {
-  static const char *d = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  for (size_t i = 0; i < n; i += 3) {
-    unsigned v = (unsigned)p[i] << 16 | (i + 1 < n ? (unsigned)p[i + 1] << 8 : 0) |
-                 (i + 2 < n ? p[i + 2] : 0);
-    fputc(d[v >> 18 & 63], f);
-    fputc(d[v >> 12 & 63], f);
-    fputc(i + 1 < n ? d[v >> 6 & 63] : '=', f);
-    fputc(i + 2 < n ? d[v & 63] : '=', f);
-  }
 }
 
 /* Writes the scene with the strip's material `strip_material` (JSON object) and the
@@ -86,9 +75,8 @@ static void write_scene(char *path, size_t size, const char *strip_material, con
     memcpy(buf + n, part[i], len[i]);
     n += (len[i] + 3) & ~(size_t)3;
   }
-  FILE *f = fopen(path, "w");
-  if (!f) harness_fail(__FILE__, __LINE__, "cannot write %s", path);
-  fprintf(f,
+  json_text t = {0};
+  json_printf(&t,
           "{\"asset\":{\"version\":\"2.0\",\"extras\":{\"bbc\":{\"light_units\":\"radiometric\"}}},"
           "\"extensionsUsed\":[\"KHR_lights_punctual\",\"KHR_materials_transmission\"],"
           "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"point\","
@@ -104,27 +92,30 @@ static void write_scene(char *path, size_t size, const char *strip_material, con
           "{\"name\":\"Floor\",\"primitives\":[{\"attributes\":{\"POSITION\":4,\"NORMAL\":5},"
           "\"indices\":6,\"material\":1}]}],",
           strip_material);
-  fprintf(f, "\"accessors\":[");
+  json_printf(&t, "\"accessors\":[");
   const int type3[7] = {1, 1, 0, -1, 1, 1, -1};
   const size_t count[7] = {STRIP_VERTICES, STRIP_VERTICES, STRIP_VERTICES, STRIP_QUADS * 6, 4, 4, 6};
   for (int i = 0; i < 7; i++) {
-    fprintf(f, "%s{\"bufferView\":%d,\"componentType\":%d,\"count\":%zu,\"type\":\"%s\"", i ? "," : "",
+    json_printf(&t, "%s{\"bufferView\":%d,\"componentType\":%d,\"count\":%zu,\"type\":\"%s\"", i ? "," : "",
             i, type3[i] < 0 ? 5123 : 5126, count[i],
             type3[i] < 0 ? "SCALAR" : type3[i] ? "VEC3" : "VEC2");
     if (i == 0 || i == 4)
-      fprintf(f, ",\"min\":[%d,%d,%d],\"max\":[%d,%d,%d]", i ? -2 : -1, i ? 0 : 1, i ? -2 : -1,
+      json_printf(&t, ",\"min\":[%d,%d,%d],\"max\":[%d,%d,%d]", i ? -2 : -1, i ? 0 : 1, i ? -2 : -1,
               i ? 2 : 1, i ? 0 : 1, i ? 2 : 1);
-    fprintf(f, "}");
+    json_printf(&t, "}");
   }
-  fprintf(f, "],\"bufferViews\":[");
+  json_printf(&t, "],\"bufferViews\":[");
   for (int i = 0; i < 7; i++)
-    fprintf(f, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", i ? "," : "", off[i],
+    json_printf(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", i ? "," : "", off[i],
             len[i]);
-  fprintf(f, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,",
+  json_printf(&t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,",
           n);
-  base64(f, buf, n);
-  fprintf(f, "\"}]%s%s}", more ? "," : "", more ? more : "");
-  fclose(f);
+  json_base64(&t, buf, n);
+  json_printf(&t, "\"}]%s%s}", more ? "," : "", more ? more : "");
+  FILE *f = fopen(path, "w");
+  if (!f || fwrite(t.data, 1, t.size, f) != t.size || fclose(f) != 0)
+    harness_fail(__FILE__, __LINE__, "cannot write %s", path);
+  free(t.data);
 }
 
 static bbc_scene *load(const char *path, messages *m) {
