@@ -108,63 +108,71 @@ static char *blender_style_write(const blender_style *b) {
   int caster_triangles = ntri;
 
   json_text t = {0};
-  json_printf(&t, "{\"asset\":{\"generator\":\"Khronos glTF Blender I/O v3.4.50\",\"version\":\"2.0\"");
+  json_printf(&t,
+              "{\"asset\":{\"generator\":\"Khronos glTF Blender I/O v3.4.50\",\"version\":\"2.0\"");
   if (b->asset_extras) json_printf(&t, ",\"extras\":%s", b->asset_extras);
   json_printf(&t, "},\"extensionsUsed\":[\"KHR_lights_punctual\",\"KHR_materials_transmission\"],");
-  if (b->lights) json_printf(&t, "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":%s}},", b->lights);
-  json_printf(&t, "\"scene\":0,\"scenes\":[{\"name\":\"Scene\",\"nodes\":[0,1,2,%d%s]}],\"nodes\":[",
-            b->rig ? 4 : 3, b->more_cameras ? ",5" : "");
+  if (b->lights)
+    json_printf(&t, "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":%s}},", b->lights);
+  json_printf(&t,
+              "\"scene\":0,\"scenes\":[{\"name\":\"Scene\",\"nodes\":[0,1,2,%d%s]}],\"nodes\":[",
+              b->rig ? 4 : 3, b->more_cameras ? ",5" : "");
   json_printf(&t, "{\"name\":\"Plane\",\"mesh\":0},");
   if (b->caster)
     json_printf(&t, "{\"name\":\"Ico\",\"mesh\":1},");
   else
     json_printf(&t, "{\"name\":\"Empty\"},");
   if (b->lights)
-    json_printf(&t, "{\"name\":\"Light\",\"translation\":[0,3,0],"
-                  "\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},");
+    json_printf(&t,
+                "{\"name\":\"Light\",\"translation\":[0,3,0],"
+                "\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},");
   else
     json_printf(&t, "{\"name\":\"NoLight\"},");
-  json_printf(&t, "{\"name\":\"Camera\",\"translation\":[0,1,4]%s%s%s},", b->cameras ? ",\"camera\":0" : "",
-            b->camera_node_extras ? ",\"extras\":" : "",
-            b->camera_node_extras ? b->camera_node_extras : "");
+  json_printf(&t, "{\"name\":\"Camera\",\"translation\":[0,1,4]%s%s%s},",
+              b->cameras ? ",\"camera\":0" : "", b->camera_node_extras ? ",\"extras\":" : "",
+              b->camera_node_extras ? b->camera_node_extras : "");
   json_printf(&t, "{\"name\":\"Rig\"%s}", b->rig ? ",\"children\":[3]" : "");
   if (b->more_cameras) json_printf(&t, ",%s", b->more_cameras);
   json_printf(&t, "]");
   if (b->animations) json_printf(&t, ",\"animations\":%s", b->animations);
   if (b->cameras) json_printf(&t, ",\"cameras\":%s", b->cameras);
   if (b->more_json) json_printf(&t, ",%s", b->more_json);
-  json_printf(&t, ",\"materials\":%s", b->materials ? b->materials
-                                                  : "[{\"name\":\"Floor\",\"pbrMetallicRoughness\":"
-                                                    "{\"metallicFactor\":0,\"roughnessFactor\":1}}]");
-  json_printf(&t, ",\"meshes\":[{\"name\":\"Plane\",\"primitives\":[{\"attributes\":{\"POSITION\":0,"
-                "\"NORMAL\":1,\"TEXCOORD_0\":2},\"indices\":3,\"material\":0}]}");
+  json_printf(&t, ",\"materials\":%s",
+              b->materials ? b->materials
+                           : "[{\"name\":\"Floor\",\"pbrMetallicRoughness\":"
+                             "{\"metallicFactor\":0,\"roughnessFactor\":1}}]");
+  json_printf(&t,
+              ",\"meshes\":[{\"name\":\"Plane\",\"primitives\":[{\"attributes\":{\"POSITION\":0,"
+              "\"NORMAL\":1,\"TEXCOORD_0\":2},\"indices\":3,\"material\":0}]}");
   if (b->caster)
-    json_printf(&t, ",{\"name\":\"Ico\",\"primitives\":[{\"attributes\":{\"POSITION\":4,\"NORMAL\":5},"
-                  "\"indices\":6,\"material\":1}]}");
-  json_printf(&t, "],\"accessors\":["
-                "{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\","
-                "\"min\":[-1,0,-1],\"max\":[1,0,1]},"
-                "{\"bufferView\":1,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"},"
-                "{\"bufferView\":2,\"componentType\":5126,\"count\":4,\"type\":\"VEC2\"},"
-                "{\"bufferView\":3,\"componentType\":5123,\"count\":6,\"type\":\"SCALAR\"},"
-                "{\"bufferView\":4,\"componentType\":5126,\"count\":6,\"type\":\"VEC3\","
-                "\"min\":[-0.5,0.5,-0.5],\"max\":[0.5,1.5,0.5]},"
-                "{\"bufferView\":5,\"componentType\":5126,\"count\":6,\"type\":\"VEC3\"},"
-                "{\"bufferView\":6,\"componentType\":5123,\"count\":%d,\"type\":\"SCALAR\"}%s%s],",
-            3 * caster_triangles, b->anim_accessors ? "," : "",
-            b->anim_accessors ? b->anim_accessors : "");
+    json_printf(&t,
+                ",{\"name\":\"Ico\",\"primitives\":[{\"attributes\":{\"POSITION\":4,\"NORMAL\":5},"
+                "\"indices\":6,\"material\":1}]}");
+  json_printf(&t,
+              "],\"accessors\":["
+              "{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\","
+              "\"min\":[-1,0,-1],\"max\":[1,0,1]},"
+              "{\"bufferView\":1,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"},"
+              "{\"bufferView\":2,\"componentType\":5126,\"count\":4,\"type\":\"VEC2\"},"
+              "{\"bufferView\":3,\"componentType\":5123,\"count\":6,\"type\":\"SCALAR\"},"
+              "{\"bufferView\":4,\"componentType\":5126,\"count\":6,\"type\":\"VEC3\","
+              "\"min\":[-0.5,0.5,-0.5],\"max\":[0.5,1.5,0.5]},"
+              "{\"bufferView\":5,\"componentType\":5126,\"count\":6,\"type\":\"VEC3\"},"
+              "{\"bufferView\":6,\"componentType\":5123,\"count\":%d,\"type\":\"SCALAR\"}%s%s],",
+              3 * caster_triangles, b->anim_accessors ? "," : "",
+              b->anim_accessors ? b->anim_accessors : "");
   size_t views[7][2] = {{floor_at[0], 48}, {floor_at[1], 48},    {floor_at[2], 32},
                         {floor_at[3], 12}, {caster_at[0], 72},  {caster_at[1], 72},
                         {caster_at[2], 6 * (size_t)caster_triangles}};
   json_printf(&t, "\"bufferViews\":[");
   for (int v = 0; v < 7; v++)
     json_printf(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", v ? "," : "",
-              views[v][0], views[v][1]);
+                views[v][0], views[v][1]);
   if (b->anim_floats)
     json_printf(&t, ",{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", anim_at,
-              b->anim_floats * sizeof(float));
-  json_printf(&t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,",
-            at);
+                b->anim_floats * sizeof(float));
+  json_printf(
+      &t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,", at);
   json_base64(&t, buf, at);
   json_printf(&t, "\"}]}");
   return t.data;

@@ -89,58 +89,62 @@ static char *slab_gltf(const slab_scene *q) {
   }
   const char *turn = "\"rotation\":[-0.7071067811865476,0,0,0.7071067811865476]";
   json_text t = {0};
-  json_printf(&t,
+  json_printf(
+      &t,
       "{\"asset\":{\"version\":\"2.0\",\"extras\":{\"bbc\":{\"light_units\":\"radiometric\"}}},"
       "\"extensionsUsed\":[\"KHR_lights_punctual\",\"KHR_materials_transmission\","
       "\"KHR_materials_volume\",\"KHR_materials_ior\"],"
       "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"name\":\"sun\","
       "\"type\":\"directional\",\"color\":[1,1,1],\"intensity\":1");
-  if (q->sun_angle > 0) json_printf(&t, ",\"extras\":{\"bbc\":{\"angular_diameter\":%.17g}}", q->sun_angle);
+  if (q->sun_angle > 0)
+    json_printf(&t, ",\"extras\":{\"bbc\":{\"angular_diameter\":%.17g}}", q->sun_angle);
   json_printf(&t,
-      "}]}},\"scene\":0,\"scenes\":[{\"nodes\":[0,1,2,3]}],\"nodes\":["
-      "{\"name\":\"floor\",\"mesh\":0,\"extras\":{\"bbc\":{\"role\":\"receiver\"}}},"
-      "{\"name\":\"glass\",\"mesh\":1,\"extras\":{\"bbc\":{\"role\":\"caster\"}}},"
-      "{\"name\":\"sun\",%s,\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},"
-      "{\"name\":\"camera\",\"camera\":0,\"translation\":[0,0.3,0],%s,"
-      "\"extras\":{\"bbc\":{\"width\":%u,\"height\":%u}}}],",
-      turn, turn, q->size, q->size);
+              "}]}},\"scene\":0,\"scenes\":[{\"nodes\":[0,1,2,3]}],\"nodes\":["
+              "{\"name\":\"floor\",\"mesh\":0,\"extras\":{\"bbc\":{\"role\":\"receiver\"}}},"
+              "{\"name\":\"glass\",\"mesh\":1,\"extras\":{\"bbc\":{\"role\":\"caster\"}}},"
+              "{\"name\":\"sun\",%s,\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},"
+              "{\"name\":\"camera\",\"camera\":0,\"translation\":[0,0.3,0],%s,"
+              "\"extras\":{\"bbc\":{\"width\":%u,\"height\":%u}}}],",
+              turn, turn, q->size, q->size);
   json_printf(&t,
-      "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.6,"
-      "\"aspectRatio\":1,\"znear\":0.01}}],");
+              "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.6,"
+              "\"aspectRatio\":1,\"znear\":0.01}}],");
   json_printf(&t,
-      "\"materials\":[{\"name\":\"floor\",\"pbrMetallicRoughness\":{\"baseColorFactor\":"
-      "[%.17g,%.17g,%.17g,1],\"metallicFactor\":0,\"roughnessFactor\":1}},",
-      q->albedo, q->albedo, q->albedo);
+              "\"materials\":[{\"name\":\"floor\",\"pbrMetallicRoughness\":{\"baseColorFactor\":"
+              "[%.17g,%.17g,%.17g,1],\"metallicFactor\":0,\"roughnessFactor\":1}},",
+              q->albedo, q->albedo, q->albedo);
   json_printf(&t,
-      "{\"name\":\"tinted glass\",\"pbrMetallicRoughness\":{\"baseColorFactor\":"
-      "[%.17g,%.17g,%.17g,1],\"metallicFactor\":0,\"roughnessFactor\":0},\"extensions\":{"
-      "\"KHR_materials_transmission\":{\"transmissionFactor\":1},"
-      "\"KHR_materials_volume\":{\"thicknessFactor\":%.17g%s%s},"
-      "\"KHR_materials_ior\":{\"ior\":1.5}}}],",
-      q->tint[0], q->tint[1], q->tint[2], q->d, q->volume ? "," : "", q->volume ? q->volume : "");
+              "{\"name\":\"tinted glass\",\"pbrMetallicRoughness\":{\"baseColorFactor\":"
+              "[%.17g,%.17g,%.17g,1],\"metallicFactor\":0,\"roughnessFactor\":0},\"extensions\":{"
+              "\"KHR_materials_transmission\":{\"transmissionFactor\":1},"
+              "\"KHR_materials_volume\":{\"thicknessFactor\":%.17g%s%s},"
+              "\"KHR_materials_ior\":{\"ior\":1.5}}}],",
+              q->tint[0], q->tint[1], q->tint[2], q->d, q->volume ? "," : "",
+              q->volume ? q->volume : "");
   json_printf(&t, "\"meshes\":[");
   for (int k = 0; k < 2; k++)
     json_printf(&t,
-        "%s{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d},\"indices\":%d,"
-        "\"material\":%d,\"mode\":4}]}",
-        k ? "," : "", 3 * k, 3 * k + 1, 3 * k + 2, k);
+                "%s{\"primitives\":[{\"attributes\":{\"POSITION\":%d,\"NORMAL\":%d},\"indices\":%d,"
+                "\"material\":%d,\"mode\":4}]}",
+                k ? "," : "", 3 * k, 3 * k + 1, 3 * k + 2, k);
   json_printf(&t, "],\"accessors\":[");
   for (int k = 0; k < 2; k++) {
     const double *lo = k ? blo : flo, *hi = k ? bhi : fhi;
     int nv = 4 * m[k]->faces;
     json_printf(&t,
-        "%s{\"bufferView\":%d,\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\","
-        "\"min\":[%.9g,%.9g,%.9g],\"max\":[%.9g,%.9g,%.9g]},"
-        "{\"bufferView\":%d,\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\"},"
-        "{\"bufferView\":%d,\"componentType\":5125,\"count\":%d,\"type\":\"SCALAR\"}",
-        k ? "," : "", 3 * k, nv, (float)lo[0], (float)lo[1], (float)lo[2], (float)hi[0],
-        (float)hi[1], (float)hi[2], 3 * k + 1, nv, 3 * k + 2, 6 * m[k]->faces);
+                "%s{\"bufferView\":%d,\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\","
+                "\"min\":[%.9g,%.9g,%.9g],\"max\":[%.9g,%.9g,%.9g]},"
+                "{\"bufferView\":%d,\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\"},"
+                "{\"bufferView\":%d,\"componentType\":5125,\"count\":%d,\"type\":\"SCALAR\"}",
+                k ? "," : "", 3 * k, nv, (float)lo[0], (float)lo[1], (float)lo[2], (float)hi[0],
+                (float)hi[1], (float)hi[2], 3 * k + 1, nv, 3 * k + 2, 6 * m[k]->faces);
   }
   json_printf(&t, "],\"bufferViews\":[");
   for (int v = 0; v < 6; v++)
-    json_printf(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", v ? "," : "", view[v][0],
-        view[v][1]);
-  json_printf(&t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,", at);
+    json_printf(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", v ? "," : "",
+                view[v][0], view[v][1]);
+  json_printf(
+      &t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,", at);
   json_base64(&t, buf, at);
   json_printf(&t, "\"}]}");
   return t.data;
@@ -471,9 +475,10 @@ static void pixel_mean(const bbc_image *im, int k, double *mean, double *error) 
  * its own Fresnel factors and path length d / cos(theta_t). 32 x 32 pixels x 1024
  * samples give a standard error of about 0.2 % per channel, measured from the pixels'
  * spread (the independent sampler converges to the same mean); the tolerance is 4
- * of them plus 1e-4 for the Fresnel-sampled refraction's float rounding. Without absorption red would be 3.2 times brighter and blue 5 % (many
- * standard errors: the check below says so); the blue-to-red ratio, nearly free of
- * noise because every path carries all three channels, must match within 0.2 %. */
+ * of them plus 1e-4 for the Fresnel-sampled refraction's float rounding. Without absorption red
+ * would be 3.2 times brighter and blue 5 % (many standard errors: the check below says so); the
+ * blue-to-red ratio, nearly free of noise because every path carries all three channels, must match
+ * within 0.2 %. */
 TEST(path_tracer_slab_follows_beer_lambert) {
   slab_scene q = default_slab();
   q.sun_angle = 20;

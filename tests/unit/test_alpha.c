@@ -38,12 +38,12 @@
   "iVBORw0KGgoAAAANSUhEUgAAAAIAAAABCAYAAAD0In+KAAAAEUlEQVR42mP4//9/CgMDw38AF+cEYWQ3WlsAAAAASUVO" \
   "RK5CYII="
 /* 2 x 1 RGBA, both texels (255, 255, 255, 255): an alpha channel with nothing in it. */
-#define PNG_OPAQUE_RGBA                                                                          \
+#define PNG_OPAQUE_RGBA                                                                  \
   "iVBORw0KGgoAAAANSUhEUgAAAAIAAAABCAYAAAD0In+KAAAAC0lEQVR42mP4DwUAI+UH+RmQD1QAAAAASUVO" \
   "RK5CYII="
 
 /* 8 x 8 RGBA, opaque, (255, 64, 0) where column + row is even, else (32, 255, 128). */
-#define PNG_COLOUR_CHECKER                                                                       \
+#define PNG_COLOUR_CHECKER                                                                         \
   "iVBORw0KGgoAAAANSUhEUgAAAAgAAAAICAYAAADED76LAAAAHElEQVR42mP478DwX+F/w39cNAM+SRDNMCxMAAAV2JuBMj" \
   "dqpwAAAABJRU5ErkJggg=="
 
@@ -88,49 +88,53 @@ static char *scene_json(const char *mirror_members, double factor_alpha, const c
     at = (at + sizes[k] + 3) & ~(size_t)3;
   }
   json_text t = {0};
-  json_printf(&t,
+  json_printf(
+      &t,
       "{\"asset\":{\"version\":\"2.0\",\"extras\":{\"bbc\":{\"light_units\":\"radiometric\"}}},"
       "\"extensionsUsed\":[\"KHR_lights_punctual\"],\"extensions\":{\"KHR_lights_punctual\":"
       "{\"lights\":[{\"type\":\"directional\",\"intensity\":%g}]}},",
       SUN_E);
   /* The sun's -Z is (1, -1, 0) / sqrt 2; the camera at (0.5, 3, 0) looks straight down. */
   const double s = sqrt(0.5);
-  json_printf(&t,
+  json_printf(
+      &t,
       "\"scene\":0,\"scenes\":[{\"nodes\":[0,1,2,3]}],\"nodes\":[{\"name\":\"Floor\",\"mesh\":0},"
       "{\"name\":\"Mirror\",\"mesh\":1},{\"name\":\"Sun\",\"matrix\":[0,0,1,0,%.17g,%.17g,0,0,"
       "%.17g,%.17g,0,0,0,0,0,1],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},"
       "{\"name\":\"Camera\",\"camera\":0,\"matrix\":[1,0,0,0,0,0,-1,0,0,1,0,0,0.5,3,0,1]}],",
       s, s, -s, s);
   json_printf(&t,
-      "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.3,\"znear\":0.01,"
-      "\"aspectRatio\":1}}],");
+              "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.3,\"znear\":0.01,"
+              "\"aspectRatio\":1}}],");
   json_printf(&t,
-      "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1},"
-      "\"indices\":2,\"material\":0}]},{\"primitives\":[{\"attributes\":{\"POSITION\":3,"
-      "\"NORMAL\":4,\"TEXCOORD_0\":5},\"indices\":6,\"material\":1}]}],");
+              "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"NORMAL\":1},"
+              "\"indices\":2,\"material\":0}]},{\"primitives\":[{\"attributes\":{\"POSITION\":3,"
+              "\"NORMAL\":4,\"TEXCOORD_0\":5},\"indices\":6,\"material\":1}]}],");
   json_printf(&t,
-      "\"materials\":[{\"name\":\"Floor\",\"pbrMetallicRoughness\":{\"baseColorFactor\":"
-      "[0.8,0.8,0.8,1],\"metallicFactor\":0,\"roughnessFactor\":1}},{\"name\":\"Mirror\"%s,"
-      "\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,%g],\"metallicFactor\":1,"
-      "\"roughnessFactor\":0,\"baseColorTexture\":{\"index\":0}}}],",
-      mirror_members, factor_alpha);
-  json_printf(&t,
+              "\"materials\":[{\"name\":\"Floor\",\"pbrMetallicRoughness\":{\"baseColorFactor\":"
+              "[0.8,0.8,0.8,1],\"metallicFactor\":0,\"roughnessFactor\":1}},{\"name\":\"Mirror\"%s,"
+              "\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,%g],\"metallicFactor\":1,"
+              "\"roughnessFactor\":0,\"baseColorTexture\":{\"index\":0}}}],",
+              mirror_members, factor_alpha);
+  json_printf(
+      &t,
       "\"images\":[{\"uri\":\"data:image/png;base64,%s\"}],\"samplers\":[{\"magFilter\":9728,"
       "\"minFilter\":9728}],\"textures\":[{\"source\":0,\"sampler\":0}],",
       png ? png : PNG_CHECKER);
-  json_printf(&t, "\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,", at);
+  json_printf(
+      &t, "\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,", at);
   json_base64(&t, buf, at);
   json_printf(&t, "\"}],\"bufferViews\":[");
   for (int k = 0; k < 7; k++)
     json_printf(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", k ? "," : "", view[k],
-        len[k]);
+                len[k]);
   json_printf(&t, "],\"accessors\":[");
   static const char *const types[7] = {"VEC3", "VEC3", "SCALAR", "VEC3", "VEC3", "VEC2", "SCALAR"};
   static const int counts[7] = {4, 4, 6, 4, 4, 4, 6};
   for (int k = 0; k < 7; k++) {
     int index = k == 2 || k == 6;
-    json_printf(&t, "%s{\"bufferView\":%d,\"componentType\":%d,\"count\":%d,\"type\":\"%s\"", k ? "," : "",
-        k, index ? 5123 : 5126, counts[k], types[k]);
+    json_printf(&t, "%s{\"bufferView\":%d,\"componentType\":%d,\"count\":%d,\"type\":\"%s\"",
+                k ? "," : "", k, index ? 5123 : 5126, counts[k], types[k]);
     if (k == 0) json_printf(&t, ",\"min\":[-2,0,-2],\"max\":[2,0,2]");
     if (k == 3) json_printf(&t, ",\"min\":[0,0,-0.5],\"max\":[0,1,0.5]");
     json_printf(&t, "}");
@@ -170,8 +174,7 @@ static bbc_scene *load(const char *mirror_members, double factor_alpha, const ch
 }
 
 /* The scene, its ray tracer and a cache of its R tuples (level 6, 128 x 128 grid). */
-static int setup_png(fixture *f, const char *mirror_members, double factor_alpha,
-                     const char *png) {
+static int setup_png(fixture *f, const char *mirror_members, double factor_alpha, const char *png) {
   memset(f, 0, sizeof *f);
   messages m;
   bbc_result r;
@@ -254,7 +257,8 @@ TEST(alpha_mode_cutoff_and_linear_alpha_are_read) {
   REQUIRE(r == BBC_OK);
   CHECK_INT(s->materials[1].alpha_mode, BBC_ALPHA_BLEND);
   CHECK_INT(m.warnings, 1);
-  CHECK_STR_CONTAINS(m.warning[0], "material 1 (\"Mirror\"): alphaMode BLEND is rendered as coverage");
+  CHECK_STR_CONTAINS(m.warning[0],
+                     "material 1 (\"Mirror\"): alphaMode BLEND is rendered as coverage");
   CHECK_NEAR(bbc_scene_coverage(s, s->meshes[1].first_triangle, 0.2, 0.2), 0.3, 1e-7);
   bbc_scene_free(s);
 
@@ -453,8 +457,8 @@ TEST(mirror_reflectance_follows_its_base_colour_texture) {
     for (int i = 0; i < 8; i++) {
       double y = 1 - (j + 0.37) / 8, z = (i + 0.41) / 8 - 0.5;
       floor_point q = floor_below(&f, y, z);
-      bbc_vec3 e = bbc__caustics_estimate(&c, &t, q.p, v3(0, 1, 0), q.triangle, q.b1, q.b2, 2, 1,
-                                          NULL);
+      bbc_vec3 e =
+          bbc__caustics_estimate(&c, &t, q.p, v3(0, 1, 0), q.triangle, q.b1, q.b2, 2, 1, NULL);
       const double *want = present(y, z) ? even : odd;
       const double got[3] = {e.x, e.y, e.z};
       for (int k = 0; k < 3; k++) {

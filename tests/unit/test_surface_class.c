@@ -19,11 +19,12 @@
 
 /* 8 x 1, 8-bit RGB: texels 0-3 (0, 0, 255) (roughness 0, metallic 1), texels 4-7
  * (0, 255, 0) (roughness 1, metallic 0). Written by Python's zlib. */
-#define PNG_HALF_MIRROR                                                          \
+#define PNG_HALF_MIRROR                                                            \
   "iVBORw0KGgoAAAANSUhEUgAAAAgAAAABCAIAAABsYngUAAAAD0lEQVR42mNgYPiPQEhMAF+5B/kEnq" \
   "fEAAAAAElFTkSuQmCC"
 /* 1 x 1, 8-bit RGB (0, 5, 0): roughness 5/255 = 0.0196, metallic 0. */
-#define PNG_SMOOTH "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAIAAACQd1PeAAAADElEQVR42mNgYGUAAAAOAAYJIdQrAAAAAElFTkSuQmCC"
+#define PNG_SMOOTH \
+  "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAIAAACQd1PeAAAADElEQVR42mNgYGUAAAAOAAYJIdQrAAAAAElFTkSuQmCC"
 
 #define STRIP_QUADS 8
 #define STRIP_VERTICES (2 * (STRIP_QUADS + 1))
@@ -59,8 +60,12 @@ static void write_scene(char *path, size_t size, const char *strip_material, con
       su[v][1] = (float)j;
     }
   for (int k = 0; k < STRIP_QUADS; k++) {
-    uint16_t a = (uint16_t)(2 * k), q[6] = {a, (uint16_t)(a + 1), (uint16_t)(a + 2),
-                                            (uint16_t)(a + 1), (uint16_t)(a + 3), (uint16_t)(a + 2)};
+    uint16_t a = (uint16_t)(2 * k), q[6] = {a,
+                                            (uint16_t)(a + 1),
+                                            (uint16_t)(a + 2),
+                                            (uint16_t)(a + 1),
+                                            (uint16_t)(a + 3),
+                                            (uint16_t)(a + 2)};
     memcpy(si + 6 * k, q, sizeof q);
   }
   float fp[4][3] = {{-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}};
@@ -76,40 +81,44 @@ static void write_scene(char *path, size_t size, const char *strip_material, con
     n += (len[i] + 3) & ~(size_t)3;
   }
   json_text t = {0};
-  json_printf(&t,
-          "{\"asset\":{\"version\":\"2.0\",\"extras\":{\"bbc\":{\"light_units\":\"radiometric\"}}},"
-          "\"extensionsUsed\":[\"KHR_lights_punctual\",\"KHR_materials_transmission\"],"
-          "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"point\","
-          "\"intensity\":10}]}},\"scene\":0,\"scenes\":[{\"nodes\":[0,1,2,3]}],"
-          "\"nodes\":[{\"mesh\":0,\"name\":\"Strip\"},{\"mesh\":1,\"name\":\"Floor\"},"
-          "{\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}},\"translation\":[0.1,3,0.05]},"
-          "{\"camera\":0,\"translation\":[0,4,0],\"rotation\":[-0.7071068,0,0,0.7071068]}],"
-          "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":1.0,\"znear\":0.1,"
-          "\"aspectRatio\":1}}],"
-          "\"materials\":[%s,{\"name\":\"Floor\",\"pbrMetallicRoughness\":{\"metallicFactor\":0}}],"
-          "\"meshes\":[{\"name\":\"Strip\",\"primitives\":[{\"attributes\":{\"POSITION\":0,"
-          "\"NORMAL\":1,\"TEXCOORD_0\":2},\"indices\":3,\"material\":0}]},"
-          "{\"name\":\"Floor\",\"primitives\":[{\"attributes\":{\"POSITION\":4,\"NORMAL\":5},"
-          "\"indices\":6,\"material\":1}]}],",
-          strip_material);
+  json_printf(
+      &t,
+      "{\"asset\":{\"version\":\"2.0\",\"extras\":{\"bbc\":{\"light_units\":\"radiometric\"}}},"
+      "\"extensionsUsed\":[\"KHR_lights_punctual\",\"KHR_materials_transmission\"],"
+      "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"point\","
+      "\"intensity\":10}]}},\"scene\":0,\"scenes\":[{\"nodes\":[0,1,2,3]}],"
+      "\"nodes\":[{\"mesh\":0,\"name\":\"Strip\"},{\"mesh\":1,\"name\":\"Floor\"},"
+      "{\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}},\"translation\":[0.1,3,0.05]},"
+      "{\"camera\":0,\"translation\":[0,4,0],\"rotation\":[-0.7071068,0,0,0.7071068]}],"
+      "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":1.0,\"znear\":0.1,"
+      "\"aspectRatio\":1}}],"
+      "\"materials\":[%s,{\"name\":\"Floor\",\"pbrMetallicRoughness\":{\"metallicFactor\":0}}],"
+      "\"meshes\":[{\"name\":\"Strip\",\"primitives\":[{\"attributes\":{\"POSITION\":0,"
+      "\"NORMAL\":1,\"TEXCOORD_0\":2},\"indices\":3,\"material\":0}]},"
+      "{\"name\":\"Floor\",\"primitives\":[{\"attributes\":{\"POSITION\":4,\"NORMAL\":5},"
+      "\"indices\":6,\"material\":1}]}],",
+      strip_material);
   json_printf(&t, "\"accessors\":[");
   const int type3[7] = {1, 1, 0, -1, 1, 1, -1};
-  const size_t count[7] = {STRIP_VERTICES, STRIP_VERTICES, STRIP_VERTICES, STRIP_QUADS * 6, 4, 4, 6};
+  const size_t count[7] = {
+      STRIP_VERTICES, STRIP_VERTICES, STRIP_VERTICES, STRIP_QUADS * 6, 4, 4, 6};
   for (int i = 0; i < 7; i++) {
-    json_printf(&t, "%s{\"bufferView\":%d,\"componentType\":%d,\"count\":%zu,\"type\":\"%s\"", i ? "," : "",
-            i, type3[i] < 0 ? 5123 : 5126, count[i],
-            type3[i] < 0 ? "SCALAR" : type3[i] ? "VEC3" : "VEC2");
+    json_printf(&t, "%s{\"bufferView\":%d,\"componentType\":%d,\"count\":%zu,\"type\":\"%s\"",
+                i ? "," : "", i, type3[i] < 0 ? 5123 : 5126, count[i],
+                type3[i] < 0 ? "SCALAR"
+                : type3[i]   ? "VEC3"
+                             : "VEC2");
     if (i == 0 || i == 4)
       json_printf(&t, ",\"min\":[%d,%d,%d],\"max\":[%d,%d,%d]", i ? -2 : -1, i ? 0 : 1, i ? -2 : -1,
-              i ? 2 : 1, i ? 0 : 1, i ? 2 : 1);
+                  i ? 2 : 1, i ? 0 : 1, i ? 2 : 1);
     json_printf(&t, "}");
   }
   json_printf(&t, "],\"bufferViews\":[");
   for (int i = 0; i < 7; i++)
     json_printf(&t, "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", i ? "," : "", off[i],
-            len[i]);
-  json_printf(&t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,",
-          n);
+                len[i]);
+  json_printf(
+      &t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,", n);
   json_base64(&t, buf, n);
   json_printf(&t, "\"}]%s%s}", more ? "," : "", more ? more : "");
   FILE *f = fopen(path, "w");
@@ -140,8 +149,9 @@ static const char *warning_with(const messages *m, const char *what) {
   return NULL;
 }
 
-#define TEXTURES(png, sampler)                                                             \
-  "\"images\":[{\"uri\":\"data:image/png;base64," png "\"}],\"textures\":[{\"source\":0,"   \
+#define TEXTURES(png, sampler)                        \
+  "\"images\":[{\"uri\":\"data:image/png;base64," png \
+  "\"}],\"textures\":[{\"source\":0,"                 \
   "\"sampler\":0}],\"samplers\":[" sampler "]"
 
 TEST(half_mirror_texture_splits_the_strip) {
@@ -165,8 +175,9 @@ TEST(half_mirror_texture_splits_the_strip) {
   const char *w = warning_with(&m, "metallicRoughnessTexture");
   REQUIRE(w != NULL);
   CHECK_STR_CONTAINS(w, "material 0 (\"Half\")");
-  CHECK_STR_CONTAINS(w, "6 triangles are ideal mirrors, 0 smooth dielectrics and 10 receivers "
-                        "(4 of them because their texels disagree)");
+  CHECK_STR_CONTAINS(w,
+                     "6 triangles are ideal mirrors, 0 smooth dielectrics and 10 receivers "
+                     "(4 of them because their texels disagree)");
   /* Each mirror triangle lies in u <= 3/8; the mirror part is a caster, the rest a
    * glossy receiver whose roughness at a point is the texture's. */
   for (uint32_t t = 0; t < s->triangle_count; t++) {

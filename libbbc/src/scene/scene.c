@@ -254,8 +254,8 @@ static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32
   m->metallic_roughness.uv_transform[0] = m->metallic_roughness.uv_transform[4] = 1.0;
   m->transmission.uv_transform[0] = m->transmission.uv_transform[4] = 1.0;
   m->emissive.uv_transform[0] = m->emissive.uv_transform[4] = 1.0;
-  if (!(g->metallic >= 0.0 && g->metallic <= 1.0 && g->roughness >= 0.0 &&
-        g->roughness <= 1.0 && g->transmission >= 0.0 && g->transmission <= 1.0))
+  if (!(g->metallic >= 0.0 && g->metallic <= 1.0 && g->roughness >= 0.0 && g->roughness <= 1.0 &&
+        g->transmission >= 0.0 && g->transmission <= 1.0))
     return fail(ld, BBC_ERR_SCENE,
                 "%s: metallic %g, roughness %g and transmission %g must lie in [0, 1]", label,
                 g->metallic, g->roughness, g->transmission);
@@ -283,8 +283,10 @@ static bbc_result classify(const loader *ld, const bbc__gltf_material *g, uint32
                 (m->type == BBC_MATERIAL_MIRROR ? g->metallic == 1.0
                                                 : g->metallic == 0.0 && g->transmission == 1.0);
     if (!exact)
-      warn(ld, "%s (metallic %g, roughness %g, transmission %g) is rendered as %s (within %g of "
-               "ideal)", label, g->metallic, g->roughness, g->transmission, class_name(m->type),
+      warn(ld,
+           "%s (metallic %g, roughness %g, transmission %g) is rendered as %s (within %g of "
+           "ideal)",
+           label, g->metallic, g->roughness, g->transmission, class_name(m->type),
            BBC_IDEAL_TOLERANCE);
   } else if (g->transmission <= BBC_IDEAL_TOLERANCE) {
     /* Lambertian for glTF's metallic 0 with roughness 1; otherwise a glossy receiver,
@@ -386,8 +388,10 @@ static bbc_result use_texture(const loader *ld, const bbc__gltf_data *g, bbc_sce
   const char *alone = data ? "its factor alone" : "its baseColorFactor alone";
   const bbc__gltf_texture *t = &g->textures[ref->texture];
   if (ref->texcoord != 0) {
-    warn(ld, "%s uses TEXCOORD_%d; bbc reads TEXCOORD_0 only, so the surface has %s (as "
-             "under a white texture)", what, ref->texcoord, alone);
+    warn(ld,
+         "%s uses TEXCOORD_%d; bbc reads TEXCOORD_0 only, so the surface has %s (as "
+         "under a white texture)",
+         what, ref->texcoord, alone);
     return BBC_OK;
   }
   if (t->image < 0) {
@@ -455,8 +459,7 @@ static bbc_result load_textures(const loader *ld, const bbc__gltf_data *g, bbc_s
       r = use_texture(ld, g, s, slot, i, &gm->transmission_texture, "transmissionTexture", 1,
                       &m->transmission);
     if (r == BBC_OK && (m->emission[0] > 0 || m->emission[1] > 0 || m->emission[2] > 0))
-      r = use_texture(ld, g, s, slot, i, &gm->emissive_texture, "emissiveTexture", 0,
-                      &m->emissive);
+      r = use_texture(ld, g, s, slot, i, &gm->emissive_texture, "emissiveTexture", 0, &m->emissive);
   }
   free(slot);
   return r;
@@ -758,14 +761,15 @@ static bbc_result class_variant(const loader *ld, const bbc__gltf_data *g, const
     }
     out->ior = (float)gm->ior;
     char label[128];
-    bbc_result r = volume_absorption(ld, gm, material_label(gm, (uint32_t)base->source, label,
-                                                            sizeof label), out);
+    bbc_result r = volume_absorption(
+        ld, gm, material_label(gm, (uint32_t)base->source, label, sizeof label), out);
     if (r != BBC_OK) return r;
   }
   if (type == BBC_MATERIAL_DIFFUSE) {
     /* The glossy model with the factors, times the texture at each point when it has
      * one (bbc_bsdf_at); transmission of a rough surface is not rendered. */
-    out->glossy = base->metallic_roughness.texture || !(gm->metallic == 0.0 && gm->roughness == 1.0);
+    out->glossy =
+        base->metallic_roughness.texture || !(gm->metallic == 0.0 && gm->roughness == 1.0);
     out->metallic = (float)gm->metallic;
     out->roughness = (float)gm->roughness;
     if (!base->metallic_roughness.texture && out->roughness < BBC_BSDF_MIN_ROUGHNESS)
@@ -788,7 +792,8 @@ static void class_notes(const loader *ld, const bbc__gltf_data *g, const bbc_sce
                (unsigned long long)mixed[i]);
     warn(ld,
          "%s: by its %s%s%s, %llu triangles are ideal mirrors, %llu smooth dielectrics and "
-         "%llu receivers%s", label, m->metallic_roughness.texture ? "metallicRoughnessTexture" : "",
+         "%llu receivers%s",
+         label, m->metallic_roughness.texture ? "metallicRoughnessTexture" : "",
          m->metallic_roughness.texture && m->transmission.texture ? " and " : "",
          m->transmission.texture ? "transmissionTexture" : "", (unsigned long long)count[i][1],
          (unsigned long long)count[i][2], (unsigned long long)count[i][0], why);
@@ -939,9 +944,8 @@ static bbc_result load_geometry(const loader *ld, const bbc__gltf_data *g, bbc_s
         part.indices = filtered;
         part.index_count = n;
       }
-      uint32_t mm = c == (unsigned)s->materials[material].type
-                        ? material
-                        : variant[3 * (size_t)material + c];
+      uint32_t mm =
+          c == (unsigned)s->materials[material].type ? material : variant[3 * (size_t)material + c];
       bbc_role role = BBC_ROLE_NONE;
       r = parse_role(ld, &part, s->materials[mm].type, &role);
       if (r == BBC_OK) r = add_mesh(ld, &part, s, mesh++, mm, role, &next_vertex, &next_triangle);
