@@ -408,18 +408,18 @@ def setup_cycles(scene):
 # ---------------------------------------------------------------------------- compositor
 
 def compositor_tree(scene):
-    """The scene's compositing node tree, created if needed: scene.node_tree up to 4.5,
-    scene.compositing_node_group from 5.0."""
+    """The scene's compositing node tree, created if needed, and whether it is a node
+    group (5.0 and later: scene.compositing_node_group, its result on a Group Output
+    node) rather than the scene's own tree (up to 4.5: scene.node_tree and a Composite
+    node)."""
     if hasattr(scene, "compositing_node_group"):
         tree = scene.compositing_node_group
         if tree is None:
             tree = bpy.data.node_groups.new("Compositing", "CompositorNodeTree")
             scene.compositing_node_group = tree
-        if hasattr(scene, "use_nodes"):
-            scene.use_nodes = True
-        return tree
+        return tree, True
     scene.use_nodes = True
-    return scene.node_tree
+    return scene.node_tree, False
 
 
 def _node(tree, idname, name, location):
@@ -438,27 +438,48 @@ def _color_inputs(node):
     return [s for s in node.inputs if s.type == "RGBA" and getattr(s, "enabled", True)]
 
 
+def _color_output(node):
+    """The colour result: MixRGB's only output; the shared Mix node's enabled RGBA one (it
+    has a float, a vector and a colour Result, one enabled per data type)."""
+    return next(s for s in node.outputs if s.type == "RGBA" and getattr(s, "enabled", True))
+
+
 def _mix_node(tree, name, blend, location):
-    """A colour mix node: CompositorNodeMixRGB up to 4.5, the shared Mix node after."""
-    if hasattr(bpy.types, "CompositorNodeMixRGB"):
-        node = _node(tree, "CompositorNodeMixRGB", name, location)
-    else:
-        node = _node(tree, "ShaderNodeMix", name, location)
+    """A colour mix node: the compositor's MixRGB up to 4.5; from 5.0 the compositor uses
+    the shared Mix node (ShaderNodeMix, data type RGBA; 5.0 converts old MixRGB nodes to
+    it when it reads a file), and MixRGB can no longer be added."""
+    node = tree.nodes.get(name)
+    if node is not None and node.bl_idname not in ("CompositorNodeMixRGB", "ShaderNodeMix"):
+        tree.nodes.remove(node)
+        node = None
+    if node is None:
+        try:
+            node = tree.nodes.new("CompositorNodeMixRGB")
+        except RuntimeError:  # "undefined" type or the tree refuses it (5.0 and later)
+            node = tree.nodes.new("ShaderNodeMix")
+        node.name = name
+    if node.bl_idname == "ShaderNodeMix":
         node.data_type = "RGBA"
-    node.blend_type = blend
-    if hasattr(node, "use_clamp"):
-        node.use_clamp = False
-    if hasattr(node, "clamp_result"):
+        node.clamp_factor = False
         node.clamp_result = False
-    node.inputs[0].default_value = 1.0
+    else:
+        node.use_clamp = False
+    node.label = name
+    node.location = location
+    node.blend_type = blend
+    node.inputs[0].default_value = 1.0  # the factor
     return node
 
 
-def _linear_colorspace():
-    items = bpy.types.ColorManagedInputColorspaceSettings.bl_rna.properties["name"].enum_items
-    names = [i.identifier for i in items]
+def _set_linear(image):
+    """Marks the image as scene-linear Rec.709, the space bbc writes: "Linear" in 3.x's
+    OCIO configuration, "Linear Rec.709" from 4.0. The names are read from the image's own
+    colour space enum (its items come from the configuration Blender runs with)."""
+    settings = image.colorspace_settings
+    names = {i.identifier for i in settings.bl_rna.properties["name"].enum_items}
     for n in ("Linear Rec.709", "Linear"):
         if n in names:
+            settings.name = n
             return n
     return None
 
@@ -469,16 +490,15 @@ def setup_compositor(scene, image_path, frames=None):
     before, so the user's own compositing applies to the sum. The addition happens in
     scene-linear light, before the view transform; bbc's EXR is linear Rec.709, Blender's
     scene-linear space. Running it again updates the nodes (names start with "bbc ")."""
-    tree = compositor_tree(scene)
+    tree, is_group = compositor_tree(scene)
     layers = next((n for n in tree.nodes if n.bl_idname == "CompositorNodeRLayers"), None)
     if layers is None:
         layers = tree.nodes.new("CompositorNodeRLayers")
         layers.location = (-300, 300)
-    out_type = ("CompositorNodeComposite" if hasattr(bpy.types, "CompositorNodeComposite")
-                else "NodeGroupOutput")
+    out_type = "NodeGroupOutput" if is_group else "CompositorNodeComposite"
     output = next((n for n in tree.nodes if n.bl_idname == out_type), None)
     if output is None:
-        if out_type == "NodeGroupOutput" and not any(
+        if is_group and not any(
                 i.in_out == "OUTPUT" for i in tree.interface.items_tree
                 if getattr(i, "item_type", "") == "SOCKET"):
             tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
@@ -502,9 +522,7 @@ def setup_compositor(scene, image_path, frames=None):
         img_node.frame_offset = a - 1
     else:
         image.source = "FILE"
-    space = _linear_colorspace()
-    if space:
-        image.colorspace_settings.name = space
+    _set_linear(image)
     image.reload()
     img_node.image = image
 
@@ -516,12 +534,12 @@ def setup_compositor(scene, image_path, frames=None):
         a_in, b_in = _color_inputs(mul)[:2]
         b_in.default_value = (exposure, exposure, exposure, 1.0)
         tree.links.new(source, a_in)
-        source = mul.outputs[0] if mul.bl_idname == "CompositorNodeMixRGB" else mul.outputs[2]
+        source = _color_output(mul)
     elif old is not None:
         tree.nodes.remove(old)
 
     first, second = _color_inputs(add)[:2]
-    result = add.outputs[0] if add.bl_idname == "CompositorNodeMixRGB" else add.outputs[2]
+    result = _color_output(add)
     # Whatever read the render layer's image now reads the sum (done once: later runs
     # find the links already going through the add node).
     image_out = layers.outputs["Image"]

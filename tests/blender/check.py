@@ -147,10 +147,70 @@ def luminance(px, k):
 
 # ---------------------------------------------------------------------------- tests
 
+# The extension manifest's rules, from the Blender manual (4.2 and later: "How to Create
+# Extensions", its Manifest section, and "Extensions Tags").
+MANIFEST_REQUIRED = ("schema_version", "id", "version", "name", "tagline", "maintainer",
+                     "type", "blender_version_min", "license")
+MANIFEST_PERMISSIONS = ("files", "network", "clipboard", "camera", "microphone")
+ADDON_TAGS = ("3D View", "Add Curve", "Add Mesh", "Animation", "Bake", "Camera",
+              "Compositing", "Development", "Game Engine", "Geometry Nodes",
+              "Grease Pencil", "Import-Export", "Lighting", "Material", "Modeling", "Mesh",
+              "Node", "Object", "Paint", "Pipeline", "Physics", "Render", "Rigging",
+              "Scene", "Sculpt", "Sequencer", "System", "Text Editor", "Tracking",
+              "User Interface", "UV")
+
+
+def check_manifest():
+    """blender_manifest.toml in the zip, against the manual's rules (Blender 3.4 cannot
+    validate an extension itself): the required values present and not empty; the
+    tagline and each permission's reason one line of at most 64 characters without final
+    punctuation; known permissions and tags; semantic versions, the same as bl_info's;
+    the id the name of the zip's folder, which is the add-on's module."""
+    import re
+    import tomllib
+    import zipfile
+    with zipfile.ZipFile(ZIP) as z:
+        folders = {n.split("/")[0] for n in z.namelist()}
+        m = tomllib.loads(z.read("bbc_blender/blender_manifest.toml").decode("utf-8"))
+    for key in MANIFEST_REQUIRED:
+        if not m.get(key):
+            fail("manifest: %s missing or empty" % key)
+    for key, value in m.items():
+        if value in ("", [], {}):
+            fail("manifest: %s is empty (leave it out instead)" % key)
+    short = [("tagline", m["tagline"])] + [("permission " + k, v) for k, v in
+                                           m.get("permissions", {}).items()]
+    for what, text in short:
+        if len(text) > 64 or "\n" in text or text[-1] in ".,;:!?":
+            fail("manifest: %s %r: at most 64 characters, one line, no final punctuation"
+                 % (what, text))
+    for k in m.get("permissions", {}):
+        if k not in MANIFEST_PERMISSIONS:
+            fail("manifest: unknown permission %s" % k)
+    for t in m.get("tags", []):
+        if t not in ADDON_TAGS:
+            fail("manifest: %r is not an add-on tag" % t)
+    semver = re.compile(r"^(\d+)\.(\d+)\.(\d+)$")
+    for key in ("schema_version", "version", "blender_version_min"):
+        if not semver.match(m[key]):
+            fail("manifest: %s %r is not MAJOR.MINOR.PATCH" % (key, m[key]))
+    if tuple(int(x) for x in m["blender_version_min"].split(".")) < (4, 2, 0):
+        fail("manifest: blender_version_min below 4.2.0")
+    if m["type"] != "add-on" or not all(l.startswith("SPDX:") for l in m["license"]):
+        fail("manifest: type %r, license %r" % (m["type"], m["license"]))
+    if folders != {m["id"]} or m["id"] != "bbc_blender":
+        fail("manifest: id %r, zip folders %s" % (m["id"], sorted(folders)))
+    import bbc_blender
+    if ".".join(str(v) for v in bbc_blender.bl_info["version"]) != m["version"]:
+        fail("manifest version %s, bl_info %s" % (m["version"], bbc_blender.bl_info["version"]))
+
+
 def test_install():
     """The zip installs and enables; the operators and the panel exist; without the tools
-    the operators refuse in one line instead of failing later."""
+    the operators refuse in one line instead of failing later. The extension manifest
+    follows the manual's rules."""
     install_addon()
+    check_manifest()
     for name in ("precompute", "render_caustics"):
         if not hasattr(bpy.ops.bbc, name):
             fail("bpy.ops.bbc.%s missing" % name)
