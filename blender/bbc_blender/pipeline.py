@@ -112,14 +112,28 @@ def frame_path(p, frame):
 
 # ---------------------------------------------------------------------------- scene
 
+# The exporter's options the export cannot do without (checked in the exporter's source,
+# io_scene_gltf2/__init__.py of Blender 3.4, 3.6, 4.2, 4.5, 5.0, 5.1 and 5.2: all have
+# them), and the lighting mode's two names: convert_lighting_mode in 3.4 and 3.5,
+# export_import_convert_lighting_mode from 3.6 on.
+EXPORT_REQUIRED = ("filepath", "export_format", "export_cameras", "export_lights",
+                   "export_apply", "export_yup", "export_animations")
+LIGHTING_MODE = ("export_import_convert_lighting_mode", "convert_lighting_mode")
+
+
 def export_scene(path, animations):
     """Exports the scene with Blender's glTF exporter: lights, cameras and materials as
     they are, modifiers applied, custom properties as extras (bbc reads its extras.bbc
-    there), only what renders. Options are passed only when this Blender's exporter has
-    them (3.4 calls the lighting mode convert_lighting_mode, later versions
-    export_import_convert_lighting_mode)."""
+    there), only what renders. An exporter without one of EXPORT_REQUIRED or a lighting
+    mode is refused in one line rather than writing a scene bbc would misread; the other
+    options are passed when this exporter has them."""
     os.makedirs(os.path.dirname(path), exist_ok=True)
     known = set(bpy.ops.export_scene.gltf.get_rna_type().properties.keys())
+    lighting = next((k for k in LIGHTING_MODE if k in known), None)
+    missing = [k for k in EXPORT_REQUIRED if k not in known]
+    if missing or lighting is None:
+        raise BBCError("this Blender's glTF exporter has no option %s"
+                       % (missing[0] if missing else " or ".join(LIGHTING_MODE)))
     wanted = {
         "filepath": path,
         "export_format": "GLB",
@@ -132,8 +146,7 @@ def export_scene(path, animations):
         "export_yup": True,
         "export_animations": animations,
         # Standard: W -> candela at 683 lm/W, which bbc reads back as W/sr (docs/scenes.md).
-        "convert_lighting_mode": "SPEC",
-        "export_import_convert_lighting_mode": "SPEC",
+        lighting: "SPEC",
     }
     options = {k: v for k, v in wanted.items() if k in known}
     result = bpy.ops.export_scene.gltf(**options)
@@ -434,14 +447,16 @@ def _node(tree, idname, name, location):
     return node
 
 
-def _color_inputs(node):
-    return [s for s in node.inputs if s.type == "RGBA" and getattr(s, "enabled", True)]
-
-
-def _color_output(node):
-    """The colour result: MixRGB's only output; the shared Mix node's enabled RGBA one (it
-    has a float, a vector and a colour Result, one enabled per data type)."""
-    return next(s for s in node.outputs if s.type == "RGBA" and getattr(s, "enabled", True))
+def _mix_sockets(node):
+    """(factor, A, B, result) of a colour mix node. MixRGB: Fac, Image, Image_001 and
+    Image. The shared Mix node has a float, a vector and a colour variant of each, told
+    apart by identifier (Factor_Float, A_Color, B_Color, Result_Color, the names 5.0's
+    versioning gives a converted MixRGB), whatever sockets are shown."""
+    if node.bl_idname == "ShaderNodeMix":
+        ins = {s.identifier: s for s in node.inputs}
+        outs = {s.identifier: s for s in node.outputs}
+        return ins["Factor_Float"], ins["A_Color"], ins["B_Color"], outs["Result_Color"]
+    return node.inputs[0], node.inputs[1], node.inputs[2], node.outputs[0]
 
 
 def _mix_node(tree, name, blend, location):
@@ -467,7 +482,7 @@ def _mix_node(tree, name, blend, location):
     node.label = name
     node.location = location
     node.blend_type = blend
-    node.inputs[0].default_value = 1.0  # the factor
+    _mix_sockets(node)[0].default_value = 1.0
     return node
 
 
@@ -531,15 +546,14 @@ def setup_compositor(scene, image_path, frames=None):
     old = tree.nodes.get(NODE_PREFIX + "exposure")
     if exposure != 1.0:
         mul = _mix_node(tree, NODE_PREFIX + "exposure", "MULTIPLY", (x + 200, y - 400))
-        a_in, b_in = _color_inputs(mul)[:2]
+        _, a_in, b_in, mul_out = _mix_sockets(mul)
         b_in.default_value = (exposure, exposure, exposure, 1.0)
         tree.links.new(source, a_in)
-        source = _color_output(mul)
+        source = mul_out
     elif old is not None:
         tree.nodes.remove(old)
 
-    first, second = _color_inputs(add)[:2]
-    result = _color_output(add)
+    _, first, second, result = _mix_sockets(add)
     # Whatever read the render layer's image now reads the sum (done once: later runs
     # find the links already going through the add node).
     image_out = layers.outputs["Image"]

@@ -257,6 +257,24 @@ def test_composite():
         write_png(os.path.join(figures, "blender-cycles.png"), w, h, cyc)
         write_png(os.path.join(figures, "blender-composite.png"), w, h, comp)
         write_png(os.path.join(figures, "blender-caustics.png"), w, h, caus)
+    # Film exposure 2: Cycles doubles its render and the add-on's Multiply node ("bbc
+    # exposure", added when the operator runs again) doubles the pass; the composite is
+    # still their sum, exactly.
+    scene.cycles.film_exposure = 2.0
+    run(bpy.ops.bbc.render_caustics)
+    if scene.node_tree.nodes.get("bbc exposure") is None:
+        fail("no exposure node with film exposure 2")
+    (_, _, comp2), (_, _, cyc2) = render_with_layers(WORK)
+    scaled = [f32(2.0 * v) for v in caus]
+    worst = max_sum_error(comp2, cyc2, scaled)
+    doubled = max(abs(cyc2[k] - 2.0 * cyc[k]) for k in range(len(cyc)) if k % 4 != 3)
+    print("composite with exposure 2 - (cycles + 2 caustics): max |difference| %g; "
+          "cycles at exposure 2 - 2 cycles: %g" % (worst, doubled))
+    if worst != 0.0:
+        fail("with film exposure 2 the composite differs from Cycles + 2 x caustics by %g"
+             % worst)
+    if doubled > 1e-5 * max(cyc):
+        fail("Cycles' film exposure 2 is not twice its render (%g)" % doubled)
 
 
 def compare_means(pixels, comp, ref):
