@@ -385,6 +385,17 @@ def test_floor():
         fail("the comparison cannot tell Cycles alone from the composite")
 
 
+def test_prepare_window():
+    """Not a test by itself: the first step of test_blender.sh's interactive test. The
+    add-on installed and enabled in the saved preferences of the test's user folder (a
+    window session starts from them), and the test scene saved with its settings."""
+    install_addon()
+    bpy.context.preferences.use_preferences_save = True
+    bpy.ops.wm.save_userpref()
+    open_scene()
+    bpy.ops.wm.save_mainfile()
+
+
 def test_camera_reuses():
     """Moving the camera keeps the cache: bbc accepts it for the new export (the camera
     is not part of the scene's fingerprint) and the add-on leaves the file alone."""
