@@ -6,7 +6,7 @@
 # (docs/blender/panel.png: the whole window, its Properties editor maximised on the
 # Render tab with the add-on's panel open; blender/screenshot.py). Needs a build with
 # the tools and the add-on zip, and Xvfb
-# (sh scripts/install-deps.sh --screenshot).
+# (sh scripts/install-deps.sh installs it).
 #   sh blender/screenshot.sh [BUILD]      (default ./build)
 set -eu
 root=$(cd "$(dirname "$0")/.." && pwd)
