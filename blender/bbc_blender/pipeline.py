@@ -459,19 +459,22 @@ def _mix_sockets(node):
     return node.inputs[0], node.inputs[1], node.inputs[2], node.outputs[0]
 
 
-def _mix_node(tree, name, blend, location):
-    """A colour mix node: the compositor's MixRGB up to 4.5; from 5.0 the compositor uses
-    the shared Mix node (ShaderNodeMix, data type RGBA; 5.0 converts old MixRGB nodes to
-    it when it reads a file), and MixRGB can no longer be added."""
+def _mix_node(tree, name, blend, location, shared):
+    """A colour mix node: the compositor's MixRGB up to 4.5; from 5.0 (shared: the tree
+    is a node group) the shared Mix node (ShaderNodeMix, data type RGBA), which 5.0's
+    Add menu offers as "Mix Color" and into which it converts old MixRGB nodes when it
+    reads a file. The other is tried when the tree refuses the first."""
+    kinds = ("ShaderNodeMix", "CompositorNodeMixRGB")
     node = tree.nodes.get(name)
-    if node is not None and node.bl_idname not in ("CompositorNodeMixRGB", "ShaderNodeMix"):
+    if node is not None and node.bl_idname not in kinds:
         tree.nodes.remove(node)
         node = None
     if node is None:
+        first, second = kinds if shared else reversed(kinds)
         try:
-            node = tree.nodes.new("CompositorNodeMixRGB")
-        except RuntimeError:  # "undefined" type or the tree refuses it (5.0 and later)
-            node = tree.nodes.new("ShaderNodeMix")
+            node = tree.nodes.new(first)
+        except RuntimeError:  # an undefined type, or one this tree does not accept
+            node = tree.nodes.new(second)
         node.name = name
     if node.bl_idname == "ShaderNodeMix":
         node.data_type = "RGBA"
@@ -522,7 +525,7 @@ def setup_compositor(scene, image_path, frames=None):
 
     x, y = layers.location
     img_node = _node(tree, "CompositorNodeImage", NODE_PREFIX + "caustics", (x, y - 400))
-    add = _mix_node(tree, NODE_PREFIX + "add caustics", "ADD", (x + 450, y))
+    add = _mix_node(tree, NODE_PREFIX + "add caustics", "ADD", (x + 450, y), is_group)
 
     path = bpy.path.relpath(image_path) if bpy.data.filepath else image_path
     image = img_node.image
@@ -545,7 +548,8 @@ def setup_compositor(scene, image_path, frames=None):
     exposure = getattr(getattr(scene, "cycles", None), "film_exposure", 1.0)
     old = tree.nodes.get(NODE_PREFIX + "exposure")
     if exposure != 1.0:
-        mul = _mix_node(tree, NODE_PREFIX + "exposure", "MULTIPLY", (x + 200, y - 400))
+        mul = _mix_node(tree, NODE_PREFIX + "exposure", "MULTIPLY", (x + 200, y - 400),
+                        is_group)
         _, a_in, b_in, mul_out = _mix_sockets(mul)
         b_in.default_value = (exposure, exposure, exposure, 1.0)
         tree.links.new(source, a_in)
