@@ -3,8 +3,10 @@
 # (tests/blender/scene.py) at 400x300, its Cycles render without caustics beside the
 # composite with bbc's caustics (docs/blender/cycles.png, composite.png, caustics.png),
 # and a screenshot of the add-on's panel in a Blender window under Xvfb
-# (docs/blender/panel.png). Needs a build with the tools and the add-on zip, and Xvfb
-# (sh scripts/install-deps.sh --screenshot).
+# (docs/blender/panel.png: the whole window, its Properties editor maximised on the
+# Render tab with the add-on's panel open; blender/screenshot.py). Needs a build with
+# the tools and the add-on zip, and Xvfb
+# (sh scripts/install-deps.sh installs it).
 #   sh blender/screenshot.sh [BUILD]      (default ./build)
 set -eu
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -43,7 +45,9 @@ tree.nodes.remove(fo)
 os.replace('$work/cycles0001.png', '$out/cycles.png')
 bpy.ops.wm.save_mainfile()
 " >"$work/log" 2>&1 || { cat "$work/log" >&2; exit 1; }
-xvfb-run -a -s "-screen 0 1280x900x24" blender "$work/scene.blend" \
-  --python "$root/blender/screenshot.py" -- "$out/panel.png" >"$work/log" 2>&1 ||
-  { cat "$work/log" >&2; exit 1; }
+# A window 900 px wide and tall enough for the Render tab's panels with the add-on's open.
+rm -f "$out/panel.png"
+timeout 300 xvfb-run -a -s "-screen 0 900x1250x24" blender "$work/scene.blend" \
+  --python "$root/blender/screenshot.py" -- "$out/panel.png" >"$work/log" 2>&1 &&
+  [ -f "$out/panel.png" ] || { cat "$work/log" >&2; echo "no screenshot" >&2; exit 1; }
 ls -l "$out"

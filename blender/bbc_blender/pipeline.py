@@ -112,14 +112,28 @@ def frame_path(p, frame):
 
 # ---------------------------------------------------------------------------- scene
 
+# The exporter's options the export cannot do without (checked in the exporter's source,
+# io_scene_gltf2/__init__.py of Blender 3.4, 3.6, 4.2, 4.5, 5.0, 5.1 and 5.2: all have
+# them), and the lighting mode's two names: convert_lighting_mode in 3.4 and 3.5,
+# export_import_convert_lighting_mode from 3.6 on.
+EXPORT_REQUIRED = ("filepath", "export_format", "export_cameras", "export_lights",
+                   "export_apply", "export_yup", "export_animations")
+LIGHTING_MODE = ("export_import_convert_lighting_mode", "convert_lighting_mode")
+
+
 def export_scene(path, animations):
     """Exports the scene with Blender's glTF exporter: lights, cameras and materials as
     they are, modifiers applied, custom properties as extras (bbc reads its extras.bbc
-    there), only what renders. Options are passed only when this Blender's exporter has
-    them (3.4 calls the lighting mode convert_lighting_mode, later versions
-    export_import_convert_lighting_mode)."""
+    there), only what renders. An exporter without one of EXPORT_REQUIRED or a lighting
+    mode is refused in one line rather than writing a scene bbc would misread; the other
+    options are passed when this exporter has them."""
     os.makedirs(os.path.dirname(path), exist_ok=True)
     known = set(bpy.ops.export_scene.gltf.get_rna_type().properties.keys())
+    lighting = next((k for k in LIGHTING_MODE if k in known), None)
+    missing = [k for k in EXPORT_REQUIRED if k not in known]
+    if missing or lighting is None:
+        raise BBCError("this Blender's glTF exporter has no option %s"
+                       % (missing[0] if missing else " or ".join(LIGHTING_MODE)))
     wanted = {
         "filepath": path,
         "export_format": "GLB",
@@ -132,8 +146,7 @@ def export_scene(path, animations):
         "export_yup": True,
         "export_animations": animations,
         # Standard: W -> candela at 683 lm/W, which bbc reads back as W/sr (docs/scenes.md).
-        "convert_lighting_mode": "SPEC",
-        "export_import_convert_lighting_mode": "SPEC",
+        lighting: "SPEC",
     }
     options = {k: v for k, v in wanted.items() if k in known}
     result = bpy.ops.export_scene.gltf(**options)
@@ -408,18 +421,18 @@ def setup_cycles(scene):
 # ---------------------------------------------------------------------------- compositor
 
 def compositor_tree(scene):
-    """The scene's compositing node tree, created if needed: scene.node_tree up to 4.5,
-    scene.compositing_node_group from 5.0."""
+    """The scene's compositing node tree, created if needed, and whether it is a node
+    group (5.0 and later: scene.compositing_node_group, its result on a Group Output
+    node) rather than the scene's own tree (up to 4.5: scene.node_tree and a Composite
+    node)."""
     if hasattr(scene, "compositing_node_group"):
         tree = scene.compositing_node_group
         if tree is None:
             tree = bpy.data.node_groups.new("Compositing", "CompositorNodeTree")
             scene.compositing_node_group = tree
-        if hasattr(scene, "use_nodes"):
-            scene.use_nodes = True
-        return tree
+        return tree, True
     scene.use_nodes = True
-    return scene.node_tree
+    return scene.node_tree, False
 
 
 def _node(tree, idname, name, location):
@@ -434,31 +447,57 @@ def _node(tree, idname, name, location):
     return node
 
 
-def _color_inputs(node):
-    return [s for s in node.inputs if s.type == "RGBA" and getattr(s, "enabled", True)]
+def _mix_sockets(node):
+    """(factor, A, B, result) of a colour mix node. MixRGB: Fac, Image, Image_001 and
+    Image. The shared Mix node has a float, a vector and a colour variant of each, told
+    apart by identifier (Factor_Float, A_Color, B_Color, Result_Color, the names 5.0's
+    versioning gives a converted MixRGB), whatever sockets are shown."""
+    if node.bl_idname == "ShaderNodeMix":
+        ins = {s.identifier: s for s in node.inputs}
+        outs = {s.identifier: s for s in node.outputs}
+        return ins["Factor_Float"], ins["A_Color"], ins["B_Color"], outs["Result_Color"]
+    return node.inputs[0], node.inputs[1], node.inputs[2], node.outputs[0]
 
 
-def _mix_node(tree, name, blend, location):
-    """A colour mix node: CompositorNodeMixRGB up to 4.5, the shared Mix node after."""
-    if hasattr(bpy.types, "CompositorNodeMixRGB"):
-        node = _node(tree, "CompositorNodeMixRGB", name, location)
-    else:
-        node = _node(tree, "ShaderNodeMix", name, location)
+def _mix_node(tree, name, blend, location, shared):
+    """A colour mix node: the compositor's MixRGB up to 4.5; from 5.0 (shared: the tree
+    is a node group) the shared Mix node (ShaderNodeMix, data type RGBA), which 5.0's
+    Add menu offers as "Mix Color" and into which it converts old MixRGB nodes when it
+    reads a file. The other is tried when the tree refuses the first."""
+    kinds = ("ShaderNodeMix", "CompositorNodeMixRGB")
+    node = tree.nodes.get(name)
+    if node is not None and node.bl_idname not in kinds:
+        tree.nodes.remove(node)
+        node = None
+    if node is None:
+        first, second = kinds if shared else reversed(kinds)
+        try:
+            node = tree.nodes.new(first)
+        except RuntimeError:  # an undefined type, or one this tree does not accept
+            node = tree.nodes.new(second)
+        node.name = name
+    if node.bl_idname == "ShaderNodeMix":
         node.data_type = "RGBA"
-    node.blend_type = blend
-    if hasattr(node, "use_clamp"):
-        node.use_clamp = False
-    if hasattr(node, "clamp_result"):
+        node.clamp_factor = False
         node.clamp_result = False
-    node.inputs[0].default_value = 1.0
+    else:
+        node.use_clamp = False
+    node.label = name
+    node.location = location
+    node.blend_type = blend
+    _mix_sockets(node)[0].default_value = 1.0
     return node
 
 
-def _linear_colorspace():
-    items = bpy.types.ColorManagedInputColorspaceSettings.bl_rna.properties["name"].enum_items
-    names = [i.identifier for i in items]
+def _set_linear(image):
+    """Marks the image as scene-linear Rec.709, the space bbc writes: "Linear" in 3.x's
+    OCIO configuration, "Linear Rec.709" from 4.0. The names are read from the image's own
+    colour space enum (its items come from the configuration Blender runs with)."""
+    settings = image.colorspace_settings
+    names = {i.identifier for i in settings.bl_rna.properties["name"].enum_items}
     for n in ("Linear Rec.709", "Linear"):
         if n in names:
+            settings.name = n
             return n
     return None
 
@@ -469,16 +508,15 @@ def setup_compositor(scene, image_path, frames=None):
     before, so the user's own compositing applies to the sum. The addition happens in
     scene-linear light, before the view transform; bbc's EXR is linear Rec.709, Blender's
     scene-linear space. Running it again updates the nodes (names start with "bbc ")."""
-    tree = compositor_tree(scene)
+    tree, is_group = compositor_tree(scene)
     layers = next((n for n in tree.nodes if n.bl_idname == "CompositorNodeRLayers"), None)
     if layers is None:
         layers = tree.nodes.new("CompositorNodeRLayers")
         layers.location = (-300, 300)
-    out_type = ("CompositorNodeComposite" if hasattr(bpy.types, "CompositorNodeComposite")
-                else "NodeGroupOutput")
+    out_type = "NodeGroupOutput" if is_group else "CompositorNodeComposite"
     output = next((n for n in tree.nodes if n.bl_idname == out_type), None)
     if output is None:
-        if out_type == "NodeGroupOutput" and not any(
+        if is_group and not any(
                 i.in_out == "OUTPUT" for i in tree.interface.items_tree
                 if getattr(i, "item_type", "") == "SOCKET"):
             tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
@@ -487,7 +525,7 @@ def setup_compositor(scene, image_path, frames=None):
 
     x, y = layers.location
     img_node = _node(tree, "CompositorNodeImage", NODE_PREFIX + "caustics", (x, y - 400))
-    add = _mix_node(tree, NODE_PREFIX + "add caustics", "ADD", (x + 450, y))
+    add = _mix_node(tree, NODE_PREFIX + "add caustics", "ADD", (x + 450, y), is_group)
 
     path = bpy.path.relpath(image_path) if bpy.data.filepath else image_path
     image = img_node.image
@@ -502,9 +540,7 @@ def setup_compositor(scene, image_path, frames=None):
         img_node.frame_offset = a - 1
     else:
         image.source = "FILE"
-    space = _linear_colorspace()
-    if space:
-        image.colorspace_settings.name = space
+    _set_linear(image)
     image.reload()
     img_node.image = image
 
@@ -512,16 +548,16 @@ def setup_compositor(scene, image_path, frames=None):
     exposure = getattr(getattr(scene, "cycles", None), "film_exposure", 1.0)
     old = tree.nodes.get(NODE_PREFIX + "exposure")
     if exposure != 1.0:
-        mul = _mix_node(tree, NODE_PREFIX + "exposure", "MULTIPLY", (x + 200, y - 400))
-        a_in, b_in = _color_inputs(mul)[:2]
+        mul = _mix_node(tree, NODE_PREFIX + "exposure", "MULTIPLY", (x + 200, y - 400),
+                        is_group)
+        _, a_in, b_in, mul_out = _mix_sockets(mul)
         b_in.default_value = (exposure, exposure, exposure, 1.0)
         tree.links.new(source, a_in)
-        source = mul.outputs[0] if mul.bl_idname == "CompositorNodeMixRGB" else mul.outputs[2]
+        source = mul_out
     elif old is not None:
         tree.nodes.remove(old)
 
-    first, second = _color_inputs(add)[:2]
-    result = add.outputs[0] if add.bl_idname == "CompositorNodeMixRGB" else add.outputs[2]
+    _, first, second, result = _mix_sockets(add)
     # Whatever read the render layer's image now reads the sum (done once: later runs
     # find the links already going through the add node).
     image_out = layers.outputs["Image"]

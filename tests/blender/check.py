@@ -147,10 +147,70 @@ def luminance(px, k):
 
 # ---------------------------------------------------------------------------- tests
 
+# The extension manifest's rules, from the Blender manual (4.2 and later: "How to Create
+# Extensions", its Manifest section, and "Extensions Tags").
+MANIFEST_REQUIRED = ("schema_version", "id", "version", "name", "tagline", "maintainer",
+                     "type", "blender_version_min", "license")
+MANIFEST_PERMISSIONS = ("files", "network", "clipboard", "camera", "microphone")
+ADDON_TAGS = ("3D View", "Add Curve", "Add Mesh", "Animation", "Bake", "Camera",
+              "Compositing", "Development", "Game Engine", "Geometry Nodes",
+              "Grease Pencil", "Import-Export", "Lighting", "Material", "Modeling", "Mesh",
+              "Node", "Object", "Paint", "Pipeline", "Physics", "Render", "Rigging",
+              "Scene", "Sculpt", "Sequencer", "System", "Text Editor", "Tracking",
+              "User Interface", "UV")
+
+
+def check_manifest():
+    """blender_manifest.toml in the zip, against the manual's rules (Blender 3.4 cannot
+    validate an extension itself): the required values present and not empty; the
+    tagline and each permission's reason one line of at most 64 characters without final
+    punctuation; known permissions and tags; semantic versions, the same as bl_info's;
+    the id the name of the zip's folder, which is the add-on's module."""
+    import re
+    import tomllib
+    import zipfile
+    with zipfile.ZipFile(ZIP) as z:
+        folders = {n.split("/")[0] for n in z.namelist()}
+        m = tomllib.loads(z.read("bbc_blender/blender_manifest.toml").decode("utf-8"))
+    for key in MANIFEST_REQUIRED:
+        if not m.get(key):
+            fail("manifest: %s missing or empty" % key)
+    for key, value in m.items():
+        if value in ("", [], {}):
+            fail("manifest: %s is empty (leave it out instead)" % key)
+    short = [("tagline", m["tagline"])] + [("permission " + k, v) for k, v in
+                                           m.get("permissions", {}).items()]
+    for what, text in short:
+        if len(text) > 64 or "\n" in text or text[-1] in ".,;:!?":
+            fail("manifest: %s %r: at most 64 characters, one line, no final punctuation"
+                 % (what, text))
+    for k in m.get("permissions", {}):
+        if k not in MANIFEST_PERMISSIONS:
+            fail("manifest: unknown permission %s" % k)
+    for t in m.get("tags", []):
+        if t not in ADDON_TAGS:
+            fail("manifest: %r is not an add-on tag" % t)
+    semver = re.compile(r"^(\d+)\.(\d+)\.(\d+)$")
+    for key in ("schema_version", "version", "blender_version_min"):
+        if not semver.match(m[key]):
+            fail("manifest: %s %r is not MAJOR.MINOR.PATCH" % (key, m[key]))
+    if tuple(int(x) for x in m["blender_version_min"].split(".")) < (4, 2, 0):
+        fail("manifest: blender_version_min below 4.2.0")
+    if m["type"] != "add-on" or not all(l.startswith("SPDX:") for l in m["license"]):
+        fail("manifest: type %r, license %r" % (m["type"], m["license"]))
+    if folders != {m["id"]} or m["id"] != "bbc_blender":
+        fail("manifest: id %r, zip folders %s" % (m["id"], sorted(folders)))
+    import bbc_blender
+    if ".".join(str(v) for v in bbc_blender.bl_info["version"]) != m["version"]:
+        fail("manifest version %s, bl_info %s" % (m["version"], bbc_blender.bl_info["version"]))
+
+
 def test_install():
     """The zip installs and enables; the operators and the panel exist; without the tools
-    the operators refuse in one line instead of failing later."""
+    the operators refuse in one line instead of failing later. The extension manifest
+    follows the manual's rules."""
     install_addon()
+    check_manifest()
     for name in ("precompute", "render_caustics"):
         if not hasattr(bpy.ops.bbc, name):
             fail("bpy.ops.bbc.%s missing" % name)
@@ -197,6 +257,57 @@ def test_composite():
         write_png(os.path.join(figures, "blender-cycles.png"), w, h, cyc)
         write_png(os.path.join(figures, "blender-composite.png"), w, h, comp)
         write_png(os.path.join(figures, "blender-caustics.png"), w, h, caus)
+    # Film exposure 2: Cycles doubles its render and the add-on's Multiply node ("bbc
+    # exposure", added when the operator runs again) doubles the pass; the composite is
+    # still their sum, exactly.
+    scene.cycles.film_exposure = 2.0
+    run(bpy.ops.bbc.render_caustics)
+    if scene.node_tree.nodes.get("bbc exposure") is None:
+        fail("no exposure node with film exposure 2")
+    (_, _, comp2), (_, _, cyc2) = render_with_layers(WORK)
+    scaled = [f32(2.0 * v) for v in caus]
+    worst = max_sum_error(comp2, cyc2, scaled)
+    doubled = max(abs(cyc2[k] - 2.0 * cyc[k]) for k in range(len(cyc)) if k % 4 != 3)
+    print("composite with exposure 2 - (cycles + 2 caustics): max |difference| %g; "
+          "cycles at exposure 2 - 2 cycles: %g" % (worst, doubled))
+    if worst != 0.0:
+        fail("with film exposure 2 the composite differs from Cycles + 2 x caustics by %g"
+             % worst)
+    if doubled > 1e-5 * max(cyc):
+        fail("Cycles' film exposure 2 is not twice its render (%g)" % doubled)
+
+
+def compare_means(pixels, comp, ref):
+    """The mean of the composite over the pixels against the mean of bbc's render there:
+    comp / ref - 1 of the sums, with its standard error from the per-pixel differences
+    (sd(comp - ref) sqrt(n) / sum ref; the pixels' noise is independent). Returns
+    (difference, standard error)."""
+    n = len(pixels)
+    diff = [luminance(comp, k) - luminance(ref, k) for k in pixels]
+    total = sum(luminance(ref, k) for k in pixels)
+    mean = sum(diff) / n
+    sd = math.sqrt(sum((e - mean) ** 2 for e in diff) / (n - 1))
+    return sum(diff) / total, sd * math.sqrt(n) / total
+
+
+def compare_medians(pixels, comp, ref):
+    """The median of the per-pixel relative differences comp / ref - 1 and its standard
+    error (1.2533 sd / sqrt(n) for a median)."""
+    rel = sorted((luminance(comp, k) - luminance(ref, k)) / luminance(ref, k)
+                 for k in pixels if luminance(ref, k) > 0.0)
+    n = len(rel)
+    median = 0.5 * (rel[(n - 1) // 2] + rel[n // 2])
+    mean = sum(rel) / n
+    sd = math.sqrt(sum((e - mean) ** 2 for e in rel) / (n - 1))
+    return median, 1.2533 * sd / math.sqrt(n)
+
+
+# What Cycles' and bbc's direct light on the Lambert floor may differ by apart from noise:
+# single-precision rounding (the exporter's light intensity, 32-bit images, Cycles' float
+# shading), a few 1e-7 each. Measured, Cycles' Lambert floor against bbc-render --only
+# direct on the 4,981 floor pixels without caustic: -0.001 % with a standard error of
+# 0.0007 %; 0.01 % is ten times that.
+MODEL_MARGIN = 1e-4
 
 
 def test_floor():
@@ -204,10 +315,12 @@ def test_floor():
     directly, the composite (Cycles without caustics + bbc's caustic pass) matches bbc's
     own render of the same export and cache, direct light and caustics (bbc-render --only
     direct,caustics): the two agree on the point light's units, the camera and the
-    diffuse floor, and nothing is counted twice or lost (the tolerance is below). bbc's full render also
-    holds caustics lit by the floor's own glow (light, floor, glass, floor, eye), which
-    Cycles without caustics drops and the caustic pass does not hold: 0.5 % of this lit
-    floor on average, measured, left out of the comparison and said in docs/blender.md."""
+    diffuse floor, and nothing is counted twice or lost. Both the means over each set of
+    pixels and the medians of the per-pixel differences must agree within 4 standard
+    errors plus MODEL_MARGIN. bbc's full render also holds caustics lit by the floor's
+    own glow (light, floor, glass, floor, eye), which Cycles without caustics drops and
+    the caustic pass does not hold: 0.5 % of this lit floor on average, measured, left out
+    of the comparison and said in docs/blender.md."""
     install_addon()
     open_scene()
     run(bpy.ops.bbc.render_caustics)
@@ -222,42 +335,66 @@ def test_floor():
     diffuse.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
     diffuse.inputs["Roughness"].default_value = 0.0
     links.new(diffuse.outputs[0], nodes["Material Output"].inputs["Surface"])
-    (w, h, comp), _ = render_with_layers(WORK)
+    (w, h, comp), (_, _, cyc) = render_with_layers(WORK)
     from bbc_blender import pipeline
     p = pipeline.paths(scene.bbc)
+    bbc_render = [pipeline.find_tool(scene.bbc, "bbc-render"), p["scene"], "--cache",
+                  p["cache"], "--camera", "View", "--width", str(w), "--height", str(h),
+                  "--threads", "2", "--no-progress"]
     full = os.path.join(WORK, "bbc-full.exr")
-    argv = [pipeline.find_tool(scene.bbc, "bbc-render"), p["scene"], "--cache", p["cache"],
-            "-o", full, "--camera", "View", "--width", str(w), "--height", str(h),
-            "--spp", "64", "--threads", "2", "--no-progress", "--only", "direct,caustics"]
-    subprocess.run(argv, check=True, stderr=subprocess.DEVNULL)
+    subprocess.run(bbc_render + ["-o", full, "--spp", "64", "--only", "direct,caustics"],
+                   check=True, stderr=subprocess.DEVNULL)
+    # The pixels are chosen on a third image, bbc's caustics alone with another seed (every
+    # tuple evaluated at each sample): its noise is independent of both images compared.
+    # Choosing them on the caustic pass itself biases both sets: where its 16 samples
+    # missed a faint caustic, that pixel joins the lit floor while the reference's 64
+    # samples see the caustic (-0.52 % over that set), and where one sample met a thin
+    # bright caustic line, the pixel joins the caustic set with its pass above the
+    # reference's (+1.6 %). docs/blender.md, "Tests", gives the figures.
+    chooser = os.path.join(WORK, "bbc-chooser.exr")
+    subprocess.run(bbc_render + ["-o", chooser, "--spp", "64", "--only", "caustics",
+                                 "--method", "enumerate", "--seed", "1"],
+                   check=True, stderr=subprocess.DEVNULL)
     _, _, ref = read_exr(full)
-    _, _, caus = read_exr(p["caustics"])
+    _, _, chosen = read_exr(chooser)
     floor = floor_pixels(w, h)
-    direct = [k for k, _ in floor if luminance(caus, k) == 0.0]
-    caustic = [k for k, _ in floor if luminance(caus, k) > 0.1]
+    direct = [k for k, _ in floor if luminance(chosen, k) == 0.0]
+    caustic = [k for k, _ in floor if luminance(chosen, k) > 0.1]
     print("floor pixels seen directly: %d; without caustic %d, with caustic > 0.1: %d"
           % (len(floor), len(direct), len(caustic)))
     if len(caustic) < 30 or len(direct) < 300:
         fail("too few pixels to compare")
     for name, pixels in (("lit floor", direct), ("caustic", caustic)):
-        # Relative differences per pixel; their median, robust to the few pixels on
-        # shadow and silhouette edges where the two renderers' pixel sampling differs
-        # most, must be within 4 of its standard errors (1.2533 sd / sqrt(n) for a
-        # median) plus 0.5 % for what the models may still differ by.
-        rel = sorted((luminance(comp, k) - luminance(ref, k)) / luminance(ref, k)
-                     for k in pixels if luminance(ref, k) > 0.0)
-        n = len(rel)
-        median = 0.5 * (rel[(n - 1) // 2] + rel[n // 2])
-        mean = sum(rel) / n
-        sd = math.sqrt(sum((e - mean) ** 2 for e in rel) / (n - 1))
-        se = 1.2533 * sd / math.sqrt(n)
-        tol = 4.0 * se + 0.005
-        print("%s: %d pixels, composite / bbc - 1: median %+.3f%%, mean %+.3f%%, standard "
-              "error of the median %.3f%%, tolerance %.3f%%"
-              % (name, n, 100 * median, 100 * mean, 100 * se, 100 * tol))
-        if abs(median) > tol:
-            fail("%s: the composite differs from bbc's render by %+.3f%% (median), beyond "
-                 "%.3f%%" % (name, 100 * median, 100 * tol))
+        mean, mean_se = compare_means(pixels, comp, ref)
+        median, median_se = compare_medians(pixels, comp, ref)
+        mean_tol = 4.0 * mean_se + MODEL_MARGIN
+        median_tol = 4.0 * median_se + MODEL_MARGIN
+        print("%s: %d pixels, composite / bbc - 1: mean %+.4f%% (standard error %.4f%%, "
+              "tolerance %.4f%%), median %+.4f%% (standard error %.4f%%, tolerance %.4f%%)"
+              % (name, len(pixels), 100 * mean, 100 * mean_se, 100 * mean_tol,
+                 100 * median, 100 * median_se, 100 * median_tol))
+        if abs(mean) > mean_tol:
+            fail("%s: the composite's mean differs from bbc's render's by %+.4f%%, beyond "
+                 "%.4f%%" % (name, 100 * mean, 100 * mean_tol))
+        if abs(median) > median_tol:
+            fail("%s: the composite differs from bbc's render by %+.4f%% (median), beyond "
+                 "%.4f%%" % (name, 100 * median, 100 * median_tol))
+    # The control: Cycles' render alone, without the caustic pass, is far outside.
+    mean, mean_se = compare_means(caustic, cyc, ref)
+    print("caustic set, Cycles alone / bbc - 1: mean %+.2f%%" % (100 * mean))
+    if abs(mean) <= 4.0 * mean_se + MODEL_MARGIN:
+        fail("the comparison cannot tell Cycles alone from the composite")
+
+
+def test_prepare_window():
+    """Not a test by itself: the first step of test_blender.sh's interactive test. The
+    add-on installed and enabled in the saved preferences of the test's user folder (a
+    window session starts from them), and the test scene saved with its settings."""
+    install_addon()
+    bpy.context.preferences.use_preferences_save = True
+    bpy.ops.wm.save_userpref()
+    open_scene()
+    bpy.ops.wm.save_mainfile()
 
 
 def test_camera_reuses():

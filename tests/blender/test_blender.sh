@@ -31,4 +31,21 @@ test_camera_reuses() { check camera_reuses; }
 test_glass_recomputes() { check glass_recomputes; }
 test_frames() { check frames; }
 
+# The operators as the panel's buttons run them (their modal path), in a Blender window
+# on a virtual display: tests/blender/window.py, after check.py's prepare_window has
+# installed the add-on in the test's user folder and saved the scene.
+test_interactive() {
+  command -v xvfb-run >/dev/null 2>&1 || { echo "xvfb-run is not installed: skipped"; exit 77; }
+  check prepare_window
+  BLENDER_USER_SCRIPTS="$TMP/user/scripts" BLENDER_USER_CONFIG="$TMP/user/config" \
+  PATH="$BBC_BIN/bbc-precompute:$BBC_BIN/bbc-render:$PATH" \
+    timeout 600 xvfb-run -a -s "-screen 0 1280x900x24" blender --enable-event-simulate \
+      "$TMP/work/scene.blend" --python "$BBC_SOURCE_DIR/tests/blender/window.py" -- \
+      "$TMP/work" >"$TMP/log" 2>&1
+  status=$?
+  grep "^window.py" "$TMP/log"
+  grep -q "^ok" "$TMP/work/window.txt" 2>/dev/null ||
+    { cat "$TMP/log" >&2; fail "the window test failed (exit status $status)"; }
+}
+
 "test_$1"
