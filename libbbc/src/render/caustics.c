@@ -145,7 +145,6 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
   absorb(scene, medium, x[0], x[1], factor);
   for (int i = 0; i < length; i++) {
     const uint32_t tri = tuple->specular[i];
-    const bbc_material *m = bbc_scene_triangle_material(scene, tri);
     /* A specular vertex in a cut-out is no vertex: the path does not exist. Partial
      * coverage (BLEND) scales it, the expectation of the path tracer's coin flip. */
     const double *u = i == 0 ? s->u1 : s->u2;
@@ -172,7 +171,7 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
       /* The medium rule (media_internal.h), for the point the light comes from. */
       if (!bbc__media_refract(scene, medium, tri, bbc__media_side(scene, tri, x[i]), &medium))
         return 0;
-      double eta = dn < 0 ? 1.0 / m->ior : m->ior;
+      double eta = bbc__media_eta(scene, tri, dn < 0 ? 1 : -1);
       double f = c->no_fresnel ? 0.0 : fresnel(fabs(dn), eta);
       /* Transmitted light is tinted by the base colour at every refraction. */
       double tint[3];

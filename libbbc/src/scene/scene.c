@@ -1360,5 +1360,6 @@ void bbc_scene_free(bbc_scene *scene) {
   free(scene->emitter_cdf);
   bbc__camera_motion_free(scene->camera_motion, scene->camera_count);
   free(scene->cameras);
+  free(scene->media);
   free(scene);
 }
