@@ -64,6 +64,7 @@ scene glass-sphere --size 320 -o "$out/glass-sphere.gltf"
 # Media from the geometry (test_media): a hollow glass ball of two separate closed meshes,
 # fine enough for its rays to follow the analytic ones, and a glass of water.
 scene hollow-sphere --size 20000 -o "$out/hollow-sphere.gltf"
+scene hollow-sphere --size 640 -o "$out/hollow-sphere-small.gltf"
 scene glass-of-water --size 600 -o "$out/glass-of-water.gltf"
 scene glass-slab --size 500 -o "$out/glass-slab.gltf"
 scene pool --size 800 -o "$out/pool.gltf"

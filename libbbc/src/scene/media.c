@@ -157,7 +157,8 @@ static uint32_t find_root(uint32_t *parent, uint32_t i) {
  * inner surfaces of one glass are one medium). In front lies the medium whose closed
  * meshes hold a point just in front of its centroid (an odd number of their crossings
  * along a ray; the nearest crossed when several do); when no closed medium holds it,
- * what a ray along the front normal meets first: the inside of the dielectric it meets
+ * the cavity's own air in front of a cavity's wall (mesh_count + 1 + the wall's mesh),
+ * else what a ray along the front normal meets first: the inside of the dielectric it meets
  * from behind, else the medium in front of the one it meets from the front, else (no
  * dielectric, or a cycle of fronts: an enclosed cavity) air. */
 static bbc_result find_media(bbc_scene *scene, double extent) {
@@ -233,6 +234,12 @@ static bbc_result find_media(bbc_scene *scene, double extent) {
       value[t] = held + 1;
       continue;
     }
+    /* In front of a cavity's wall with no closed medium in it: the cavity, air of its
+     * own (so that light outside the glass is not taken to be in it). */
+    if (scene->meshes[scene->triangle_mesh[t]].cavity) {
+      value[t] = scene->mesh_count + 1 + scene->triangle_mesh[t];
+      continue;
+    }
     int side = 0;
     uint32_t hit = probe(scene, accel, t, c, nf, tmin, &side);
     if (hit == UINT32_MAX) continue;
@@ -283,6 +290,7 @@ bbc_result bbc__scene_media(bbc_scene *scene) {
     bbc_mesh *m = &scene->meshes[i];
     m->closed = 0;
     m->outward = 1;
+    m->cavity = 0;
     if (scene->materials[m->material].type != BBC_MATERIAL_DIELECTRIC) continue;
     int closed = mesh_closed(scene, m);
     if (closed < 0) return BBC_ERR_OUT_OF_MEMORY;
@@ -321,6 +329,7 @@ bbc_result bbc__scene_media(bbc_scene *scene) {
       for (uint32_t j = 0; j < scene->mesh_count; j++)
         if (j != i && scene->meshes[j].closed && point_inside(scene, &scene->meshes[j], x)) {
           m->outward = -m->outward;
+          m->cavity = 1;
           break;
         }
     }
@@ -393,7 +402,8 @@ int bbc__media_refract(const bbc_scene *scene, uint32_t medium, uint32_t t, int 
 
 /* The index of refraction of medium `medium` (1 for air). */
 static double medium_ior(const bbc_scene *scene, uint32_t medium) {
-  return medium ? (double)scene->materials[scene->meshes[medium - 1].material].ior : 1.0;
+  if (!medium || medium > scene->mesh_count) return 1.0;
+  return (double)scene->materials[scene->meshes[medium - 1].material].ior;
 }
 
 double bbc__media_ior(const bbc_scene *scene, uint32_t t) {
@@ -421,4 +431,11 @@ int bbc__media_interface(const bbc_scene *scene, uint32_t medium, uint32_t t, in
   }
   *eta = bbc__media_eta(scene, t, side);
   return 1;
+}
+
+uint32_t bbc__media_enclosure(const bbc_scene *scene, uint32_t t, int side) {
+  const uint32_t mesh = scene->triangle_mesh[t];
+  const bbc_mesh *m = &scene->meshes[mesh];
+  if (!m->closed || side == 0) return 0;
+  return (side > 0) != (m->cavity != 0) ? mesh + 1 : 0;
 }

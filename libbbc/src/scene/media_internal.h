@@ -45,6 +45,13 @@ int bbc__media_refract(const bbc_scene *scene, uint32_t medium, uint32_t t, int 
  * the path tracer's camera's. */
 uint32_t bbc__media_at(const bbc_scene *scene, bbc_vec3 x);
 
+/* Where light refracted at dielectric triangle t, met from `side`, is enclosed: m + 1
+ * when t's mesh m is closed and the light goes into the volume it encloses (through the
+ * front of a solid, through the back of a cavity's wall), else 0. Such light reaches
+ * only what may lie inside that volume (the tuple search's receivers, whose boxes must
+ * meet the mesh's) before it meets another specular surface. */
+uint32_t bbc__media_enclosure(const bbc_scene *scene, uint32_t t, int side);
+
 /* The index of refraction of dielectric triangle t relative to its front: the index of
  * the medium behind it over that of the medium in front (the material's ior for glass
  * in air, 1.5 / 1.33 for glass behind water). */
@@ -75,13 +82,16 @@ static inline bbc_vec3 bbc__media_transmit(bbc_vec3 dir, bbc_vec3 n, double eta,
 }
 
 /* Beer-Lambert: the fraction of light per RGB channel left after a length x (>= 0, may
- * be infinite) inside `medium` (0 air, m + 1 inside mesh m), exp(-absorption x) with the
- * mesh material's absorption (bbc_material); 1 in air and where nothing is absorbed.
+ * be infinite) inside `medium` (0 air, m + 1 inside mesh m, above mesh_count an air
+ * cavity), exp(-absorption x) with the mesh material's absorption (bbc_material); 1 in
+ * air and where nothing is absorbed.
  * Each factor lies in [0, 1], so the cache's irradiance bounds, which leave it out,
  * stay bounds. */
 static inline void bbc__media_transmittance(const bbc_scene *scene, uint32_t medium, double x,
                                             double t[3]) {
-  const bbc_material *m = medium ? &scene->materials[scene->meshes[medium - 1].material] : NULL;
+  const bbc_material *m = medium && medium <= scene->mesh_count
+                              ? &scene->materials[scene->meshes[medium - 1].material]
+                              : NULL;
   for (int k = 0; k < 3; k++) {
     const double a = m ? m->absorption[k] : 0.0;
     t[k] = a > 0.0 ? exp(-a * x) : 1.0;
