@@ -937,11 +937,9 @@ const kind_info KINDS[KIND_COUNT] = {
     {"diamond", 280, "a faceted gem (ior 2.42) in the set-up of the shared diamond", gen_diamond},
     {"wide-pool", 4000, "wide wavy water in the set-up of the shared pools (paper's Pool)",
      gen_wide_pool},
-    {"hollow-sphere", 1280,
-     "a hollow glass ball (radii 1 and 0.85, ior 1.5) of two separate meshes on the floor",
+    {"hollow-sphere", 1280, "a hollow glass ball (radii 1, 0.85): two separate meshes",
      gen_hollow_sphere},
-    {"glass-of-water", 1000,
-     "a glass with a thick base, water inside (ior 1.33, a separate mesh), on the floor",
+    {"glass-of-water", 1000, "a thick-based glass with water (ior 1.33, its own mesh) in it",
      gen_glass_of_water},
 };
 
