@@ -397,3 +397,79 @@ TEST(separate_dielectrics_keep_the_mesh_rule) {
     bbc_scene_free(s);
   }
 }
+
+/* Each dielectric mesh cut in two open pieces (its first half of triangles and the rest),
+ * as a file may hold a surface in several primitives; the media found again. */
+static void cut_dielectrics(bbc_scene *s) {
+  bbc_mesh *meshes = calloc(2 * (size_t)s->mesh_count, sizeof *meshes);
+  REQUIRE(meshes);
+  uint32_t k = 0;
+  for (uint32_t i = 0; i < s->mesh_count; i++) {
+    bbc_mesh m = s->meshes[i];
+    const int cut = s->materials[m.material].type == BBC_MATERIAL_DIELECTRIC;
+    const uint32_t half = cut ? m.triangle_count / 2 : m.triangle_count;
+    meshes[k] = m;
+    meshes[k].triangle_count = half;
+    for (uint32_t t = m.first_triangle; t < m.first_triangle + half; t++) s->triangle_mesh[t] = k;
+    k++;
+    if (!cut) continue;
+    meshes[k] = m;
+    meshes[k].first_triangle = m.first_triangle + half;
+    meshes[k].triangle_count = m.triangle_count - half;
+    snprintf(meshes[k].name, sizeof meshes[k].name, "%.56s (cut)", m.name);
+    for (uint32_t t = meshes[k].first_triangle; t < m.first_triangle + m.triangle_count; t++)
+      s->triangle_mesh[t] = k;
+    k++;
+  }
+  free(s->meshes);
+  s->meshes = meshes;
+  s->mesh_count = k;
+  REQUIRE(bbc__scene_media(s) == BBC_OK);
+}
+
+/* A hollow ball whose outer and inner surfaces are each two open pieces: every piece has
+ * the one glass behind it, air in front (the cavity is air: an open wall encloses
+ * nothing by itself), and a ray off centre refracts four times by Snell's law, glass and
+ * air alternating. */
+TEST(hollow_sphere_open_pieces) {
+  bbc_scene *s = NULL;
+  REQUIRE(bbc_scene_load(&s, TEST_SCENE("hollow-sphere-small.gltf"), NULL) == BBC_OK);
+  cut_dielectrics(s);
+  REQUIRE(s->media != NULL);
+  const uint32_t outer = mesh_named(s, "hollow_sphere_outer");
+  REQUIRE(outer != UINT32_MAX);
+  const uint32_t glass = outer + 1;
+  long open = 0, wrong = 0;
+  for (uint32_t i = 0; i < s->mesh_count; i++) {
+    const bbc_mesh *m = &s->meshes[i];
+    if (s->materials[m->material].type != BBC_MATERIAL_DIELECTRIC) continue;
+    open += !m->closed;
+    for (uint32_t t = m->first_triangle; t < m->first_triangle + m->triangle_count; t++)
+      wrong += medium_on(s, t, 1) != 0 || medium_on(s, t, -1) != glass ||
+               bbc__media_eta(s, t, 1) != 1.0 / 1.5 || bbc__media_eta(s, t, -1) != 1.5;
+  }
+  CHECK_INT(open, 4);
+  CHECK_INT(wrong, 0);
+  CHECK_INT(bbc__media_at(s, v3(0, 1, 0)), 0);
+  CHECK_INT(bbc__media_at(s, v3(0.1, 1.92, 0)), glass);
+  bbc_accel *accel = NULL;
+  REQUIRE(bbc_accel_create(&accel, s, NULL, NULL) == BBC_OK);
+  crossing x[8];
+  bbc_vec3 out;
+  uint32_t medium;
+  int n = trace(s, accel, v3(-4, 1.5, 0.05), v3(1, 0, 0), x, 8, &out, &medium);
+  CHECK_INT(n, 4);
+  CHECK_INT(medium, 0);
+  for (int i = 0; i < n && i < 4; i++) {
+    CHECK_INT(x[i].passed, 0);
+    CHECK_INT(x[i].before, i % 2 ? glass : 0);
+    CHECK(snell_error(&x[i], i % 2 ? 1.5 : 1.0 / 1.5) < 1e-12);
+  }
+  /* Control: one medium per mesh refuses light in one piece's glass at another's. */
+  old_rule(s);
+  uint32_t after;
+  const bbc_mesh *o2 = &s->meshes[outer + 1];
+  CHECK(!bbc__media_refract(s, glass, o2->first_triangle, -1, &after));
+  bbc_accel_free(accel);
+  bbc_scene_free(s);
+}

@@ -151,10 +151,59 @@ static uint32_t find_root(uint32_t *parent, uint32_t i) {
   return i;
 }
 
+static void join(uint32_t *parent, uint32_t a, uint32_t b) {
+  uint32_t ra = find_root(parent, a), rb = find_root(parent, b);
+  if (ra < rb)
+    parent[rb] = ra;
+  else
+    parent[ra] = rb;
+}
+
+typedef struct mesh_edge {
+  edge e;
+  uint32_t mesh;
+} mesh_edge;
+
+static int compare_mesh_edge(const void *x, const void *y) {
+  return memcmp(x, y, sizeof(edge));
+}
+
+/* Joins dielectric meshes of one material that share an edge (by vertex positions): the
+ * pieces of one surface held in several primitives. 0 when out of memory. */
+static int join_neighbours(const bbc_scene *scene, uint32_t *parent) {
+  size_t n = 0;
+  for (uint32_t t = 0; t < scene->triangle_count; t++) n += 3 * (size_t)is_dielectric(scene, t);
+  mesh_edge *e = malloc((n ? n : 1) * sizeof *e);
+  if (!e) return 0;
+  size_t k = 0;
+  for (uint32_t t = 0; t < scene->triangle_count; t++) {
+    if (!is_dielectric(scene, t)) continue;
+    const uint32_t *idx = scene->indices + 3 * (size_t)t;
+    for (int j = 0; j < 3; j++) {
+      const float *p = scene->positions + 3 * (size_t)idx[j];
+      const float *q = scene->positions + 3 * (size_t)idx[(j + 1) % 3];
+      mesh_edge *x = &e[k++];
+      memset(x, 0, sizeof *x);
+      int swap = memcmp(p, q, 3 * sizeof(float)) > 0;
+      memcpy(x->e.a, swap ? q : p, 3 * sizeof(float));
+      memcpy(x->e.b, swap ? p : q, 3 * sizeof(float));
+      x->mesh = scene->triangle_mesh[t];
+    }
+  }
+  qsort(e, n, sizeof *e, compare_mesh_edge);
+  for (size_t i = 1; i < n; i++)
+    if (compare_mesh_edge(&e[i - 1], &e[i]) == 0 && e[i - 1].mesh != e[i].mesh &&
+        scene->meshes[e[i - 1].mesh].material == scene->meshes[e[i].mesh].material)
+      join(parent, e[i - 1].mesh, e[i].mesh);
+  free(e);
+  return 1;
+}
+
 /* The media on both sides of every dielectric triangle, from the geometry (docs/
  * materials.md, "Media"). Behind a triangle lies its own mesh's material, named by the
- * least mesh of that material whose inside a ray from behind reaches (the outer and
- * inner surfaces of one glass are one medium). In front lies the medium whose closed
+ * least mesh of that material whose inside a ray from behind reaches or which shares an
+ * edge with it (the outer and inner surfaces of one glass are one medium, and so are the
+ * pieces of one surface). In front lies the medium whose closed
  * meshes hold a point just in front of its centroid (an odd number of their crossings
  * along a ray; the nearest crossed when several do); when no closed medium holds it,
  * the cavity's own air in front of a cavity's wall (mesh_count + 1 + the wall's mesh),
@@ -192,11 +241,11 @@ static bbc_result find_media(bbc_scene *scene, double extent) {
     if (hit == UINT32_MAX || side > 0) continue;
     const uint32_t b = scene->triangle_mesh[hit];
     if (scene->meshes[a].material != scene->meshes[b].material) continue; /* overlapping */
-    uint32_t ra = find_root(parent, a), rb = find_root(parent, b);
-    if (ra < rb)
-      parent[rb] = ra;
-    else
-      parent[ra] = rb;
+    join(parent, a, b);
+  }
+  if (!join_neighbours(scene, parent)) {
+    r = BBC_ERR_OUT_OF_MEMORY;
+    goto done;
   }
   /* A medium is closed when all its meshes are. */
   for (uint32_t i = 0; i < scene->mesh_count; i++) closed[i] = 1;
