@@ -470,7 +470,14 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       throughput = v3_mul(throughput, v3(reflectance[0], reflectance[1], reflectance[2]));
       count_emission = 1;
     } else {
-      double eta = front ? 1.0 / m->ior : m->ior;
+      double eta;
+      uint32_t after;
+      if (!bbc__media_interface(scene, medium, s.triangle, front, &eta, &after)) {
+        /* Not a boundary of the ray's medium (the part of a liquid's wall inside its
+         * glass): the ray goes on unchanged. */
+        origin = v3_offset_origin(s.p, s.ng, dir);
+        continue;
+      }
       bbc_vec3 n = front ? s.ns : v3_neg(s.ns);
       bbc_vec3 ng = front ? s.ng : v3_neg(s.ng);
       double cos_i = -v3_dot(dir, n);
@@ -490,7 +497,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         dir = reflect(dir, n);
         if (v3_dot(dir, ng) <= 0) break;
       } else {
-        dir = v3_normalize(v3_add(v3_scale(dir, eta), v3_scale(n, eta * cos_i - cos_t)));
+        dir = bbc__media_transmit(dir, n, eta, cos_i, cos_t);
         if (v3_dot(dir, ng) >= 0) break;
         /* Radiance is scaled by (n_t / n_i)^2 across the boundary; along a camera path
          * the factor is its inverse, eta^2. The transmitted light is tinted by the base
@@ -499,7 +506,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         double tint[3];
         bbc__media_tint(scene, s.triangle, s.b1, s.b2, tint);
         throughput = v3_mul(throughput, v3(tint[0], tint[1], tint[2]));
-        medium = front ? scene->triangle_mesh[s.triangle] + 1 : 0;
+        medium = after;
       }
       count_emission = 1;
     }
