@@ -567,7 +567,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
   uint32_t *splat_count = NULL;
   const int light_trace = ctx.caustics && opts.light_trace &&
                           (ctx.components & BBC_COMPONENT_CAUSTICS);
-  const uint64_t photons_per_spp = opts.photons_per_spp ? opts.photons_per_spp : region_pixels;
+  uint64_t photons_per_spp = opts.photons_per_spp;
   bbc_result lt_ok = BBC_OK;
   if (sum && light_trace) {
     const uint32_t region[4] = {x0, y0, x1, y1};
@@ -577,6 +577,9 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     traced = calloc(pixels * 3, sizeof *traced);
     splats = malloc((size_t)PHOTON_BATCHES * PHOTON_BATCH * sizeof *splats);
     splat_count = calloc(PHOTON_BATCHES, sizeof *splat_count);
+    if (!photons_per_spp)
+      photons_per_spp =
+          bbc__light_tracer_default_photons(&tracer, thread_state[0].cursor, region_pixels);
   }
   if (!sum || lt_ok != BBC_OK || (light_trace && (!traced || !splats || !splat_count))) {
     free(sum);
@@ -697,7 +700,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
   /* Nothing of a damaged cache reaches the image. */
   double scale = done && !damaged ? 1.0 / done : 0.0;
   /* Each photon estimates the pixels' mean radiance; photons_per_spp x done of them. */
-  double traced_scale = scale / (double)photons_per_spp;
+  double traced_scale = photons_per_spp ? scale / (double)photons_per_spp : 0.0;
   for (size_t i = 0; i < pixels * 3; i++)
     image->rgb[i] = (float)(sum[i] * scale + (traced ? traced[i] * traced_scale : 0.0));
   free(sum);

@@ -138,6 +138,30 @@ bbc_result bbc__light_tracer_init(bbc__light_tracer *lt, const bbc_scene *scene,
   return BBC_OK;
 }
 
+uint64_t bbc__light_tracer_default_photons(const bbc__light_tracer *lt, bbc_cache_cursor *cursor,
+                                           uint64_t pixels) {
+  const bbc_scene *scene = lt->scene;
+  const bbc__caustics *c = lt->caustics;
+  for (uint32_t mi = 0; mi < scene->mesh_count; mi++)
+    if (scene->meshes[mi].role == BBC_ROLE_CASTER &&
+        scene->materials[scene->meshes[mi].material].type == BBC_MATERIAL_DIELECTRIC)
+      return pixels;
+  if (c && c->light_trace && !isnan(c->light_trace_bound)) {
+    bbc_cache_info info;
+    bbc_cache_get_info(c->cache, &info);
+    for (uint64_t cell = 0; cell < info.cell_count; cell++) {
+      const bbc_cache_entry *e = NULL;
+      uint32_t n = 0;
+      if (bbc_cache_cell(cursor, cell, &e, &n) != BBC_OK) return pixels;
+      for (uint32_t i = 0; i < n; i++)
+        if (bbc__light_traced_light(scene, c->tuples[e[i].tuple].light) &&
+            !(e[i].bound < c->light_trace_bound))
+          return pixels;
+    }
+  }
+  return pixels / 16 ? pixels / 16 : 1;
+}
+
 void bbc__light_tracer_free(bbc__light_tracer *lt) {
   if (!lt) return;
   free(lt->sources);
