@@ -96,8 +96,9 @@ static char *slabs_gltf(int slabs, int point) {
               point ? "point" : "directional", slabs == 2 ? ",3,4" : ",3",
               point ? "\"translation\":[0,3,0]" : turn, turn, FILM, FILM);
   for (int k = 0; k < slabs; k++)
-    json_printf(&t, ",{\"name\":\"glass%d\",\"mesh\":%d,\"extras\":{\"bbc\":{\"role\":\"caster\"}}}",
-                k, 1 + k);
+    json_printf(&t,
+                ",{\"name\":\"glass%d\",\"mesh\":%d,\"extras\":{\"bbc\":{\"role\":\"caster\"}}}", k,
+                1 + k);
   json_printf(&t,
               "],\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":1.2,"
               "\"aspectRatio\":1,\"znear\":0.01}}],"
@@ -340,8 +341,7 @@ static double point_slab_exact(const bbc_camera *camera, double pixels[FILM * FI
       double pixel = 0;
       for (int k = 0; k < 64; k++) {
         bbc_vec3 o, d;
-        bbc_camera_ray(camera, FILM, FILM, px + (k % 8 + 0.5) / 8, py + (k / 8 + 0.5) / 8, &o,
-                       &d);
+        bbc_camera_ray(camera, FILM, FILM, px + (k % 8 + 0.5) / 8, py + (k / 8 + 0.5) / 8, &o, &d);
         double t = -o.y / d.y;
         pixel += ALBEDO / PI * point_slab_irradiance(hypot(o.x + t * d.x, o.z + t * d.z)) / 64;
       }
@@ -383,10 +383,10 @@ TEST(partition_counts_each_path_once) {
    * tracing's alone. */
   int from_estimator = 0, from_tracing = 0;
   for (size_t i = 0; i < FILM * FILM; i++) {
-    from_estimator += both->rgb[3 * i] == estimator->rgb[3 * i] &&
-                      both->rgb[3 * i] != traced->rgb[3 * i];
-    from_tracing += both->rgb[3 * i] == traced->rgb[3 * i] &&
-                    both->rgb[3 * i] != estimator->rgb[3 * i];
+    from_estimator +=
+        both->rgb[3 * i] == estimator->rgb[3 * i] && both->rgb[3 * i] != traced->rgb[3 * i];
+    from_tracing +=
+        both->rgb[3 * i] == traced->rgb[3 * i] && both->rgb[3 * i] != estimator->rgb[3 * i];
   }
   CHECK(from_estimator > FILM * FILM / 8);
   CHECK(from_tracing > FILM * FILM / 8);

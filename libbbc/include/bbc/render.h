@@ -117,12 +117,14 @@ typedef struct bbc_render_options {
    * directly in a cell whose tuples of a chain type include one with a bound (per unit
    * intensity, as stored) of at least light_trace_bound, that chain type's paths, which
    * the caustic estimator then leaves out there: each path counted once. */
-  int light_trace;                /* 1: on; default 0 */
-  double light_trace_bound;       /* the cells' threshold: INFINITY (or 0) only cells with an
-                                     unbounded tuple, a negative value every cell, NaN
-                                     none (only the chains the cache cannot hold) */
-  uint32_t photons_per_spp;       /* photons traced per sample per pixel of the image; 0 =
-                                     the region's pixel count (one per pixel per sample) */
+  int light_trace;          /* 1: on; default 0 */
+  double light_trace_bound; /* the cells' threshold: INFINITY (or 0) only cells with an
+                               unbounded tuple, a negative value every cell, NaN
+                               none (only the chains the cache cannot hold) */
+  uint32_t photons_per_spp; /* photons traced per sample; 0 = the region's pixel
+                               count (one per pixel per sample), a sixteenth of it
+                               when no caster is a dielectric and no cell is
+                               light-traced (only chains of 3+ mirrors remain) */
 } bbc_render_options;
 
 typedef struct bbc_render_stats {

@@ -492,7 +492,8 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
   uint32_t m = 0;
   for (uint32_t i = 0; i < n; i++) {
     const bbc_tuple *tuple = &c->tuples[entries[i].tuple];
-    if ((tuple->receiver == triangle || tuple->receiver == plane) && (c->chains & (1u << tuple->chain)) &&
+    if ((tuple->receiver == triangle || tuple->receiver == plane) &&
+        (c->chains & (1u << tuple->chain)) &&
         bbc_chain_length((bbc_chain)tuple->chain) <= max_vertices &&
         !((traced & (1u << tuple->chain)) && bbc__light_traced_light(c->scene, tuple->light)))
       t->candidates[m++] = entries[i];

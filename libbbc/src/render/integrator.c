@@ -547,8 +547,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     if (opts.gamma_mode == BBC_GAMMA_VARIANCE) value *= reference * reference;
     caustics.sampling.value = value;
     caustics.light_trace = opts.light_trace;
-    caustics.light_trace_bound =
-        opts.light_trace_bound == 0 ? INFINITY : opts.light_trace_bound;
+    caustics.light_trace_bound = opts.light_trace_bound == 0 ? INFINITY : opts.light_trace_bound;
     ctx.caustics = &caustics;
     for (int i = 0; i < threads; i++) {
       if (bbc__caustics_thread_init(&thread_state[i], opts.cache) != BBC_OK) {
@@ -565,8 +564,8 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
   double *traced = NULL;
   bbc__splat *splats = NULL;
   uint32_t *splat_count = NULL;
-  const int light_trace = ctx.caustics && opts.light_trace &&
-                          (ctx.components & BBC_COMPONENT_CAUSTICS);
+  const int light_trace =
+      ctx.caustics && opts.light_trace && (ctx.components & BBC_COMPONENT_CAUSTICS);
   uint64_t photons_per_spp = opts.photons_per_spp;
   bbc_result lt_ok = BBC_OK;
   if (sum && light_trace) {

@@ -195,8 +195,8 @@ static int land(const bbc__light_tracer *lt, bbc__caustics_thread *ct, const bbc
   /* The partition with the caustic estimator. */
   const bbc_mesh *mesh = &scene->meshes[scene->triangle_mesh[s->triangle]];
   const bbc__caustics *c = lt->caustics;
-  const int cached = chain >= 0 && c && (c->cache_chains & (1u << chain)) &&
-                     mesh->role == BBC_ROLE_RECEIVER;
+  const int cached =
+      chain >= 0 && c && (c->cache_chains & (1u << chain)) && mesh->role == BBC_ROLE_RECEIVER;
   if (lt->chains && !(chain >= 0 && (lt->chains & (1u << chain)))) return 0;
   if (cached) {
     if (ct->damage != BBC_OK) return 0;
@@ -213,8 +213,7 @@ static int land(const bbc__light_tracer *lt, bbc__caustics_thread *ct, const bbc
   /* Seen directly: nothing between the camera and x. */
   (*rays)++;
   bbc_vec3 target = v3_offset_origin(s->p, s->ng, v3_neg(to_x));
-  if (bbc_accel_occluded(lt->accel, cam->position, v3_sub(target, cam->position), 0.0,
-                         1.0 - 1e-6))
+  if (bbc_accel_occluded(lt->accel, cam->position, v3_sub(target, cam->position), 0.0, 1.0 - 1e-6))
     return 0;
   double r2 = v3_dot(to_x, to_x), r = sqrt(r2);
   double cos_x = fabs(v3_dot(to_x, s->ng)) / r, cos_c = z / r;
@@ -240,8 +239,8 @@ static int land(const bbc__light_tracer *lt, bbc__caustics_thread *ct, const bbc
   return isfinite(out->rgb[0]) && isfinite(out->rgb[1]) && isfinite(out->rgb[2]);
 }
 
-int bbc__light_trace_photon(const bbc__light_tracer *lt, bbc__caustics_thread *ct,
-                            uint64_t index, bbc__splat *out, uint64_t *rays) {
+int bbc__light_trace_photon(const bbc__light_tracer *lt, bbc__caustics_thread *ct, uint64_t index,
+                            bbc__splat *out, uint64_t *rays) {
   if (lt->source_count == 0 || lt->max_depth < 3) return 0;
   const bbc_scene *scene = lt->scene;
   bbc_rng rng = {bbc__mix64(lt->key ^ bbc__mix64(index + 0x2545F4914F6CDD1Dull)), 0};
@@ -296,8 +295,7 @@ int bbc__light_trace_photon(const bbc__light_tracer *lt, bbc__caustics_thread *c
        * segments (to x and on to the camera); the depth limit was checked at the last
        * specular vertex. */
       if (made == 0) return 0;
-      return land(lt, ct, &s, dir, flux, made <= 2 ? chain_of((int)made, letters) : -1, out,
-                  rays);
+      return land(lt, ct, &s, dir, flux, made <= 2 ? chain_of((int)made, letters) : -1, out, rays);
     }
     /* Specular vertices on the casters only (the photons are aimed at them), while a
      * path through one more would stay within the depth limit. */

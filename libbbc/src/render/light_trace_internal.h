@@ -70,8 +70,8 @@ uint64_t bbc__light_tracer_default_photons(const bbc__light_tracer *lt, bbc_cach
  * pixel's mean radiance from one photon (to be divided by the number of photons), when it
  * lands on a point the camera sees directly after one or more specular vertices and the
  * partition gives the path to light tracing; else 0. ct supplies the cache cursor. */
-int bbc__light_trace_photon(const bbc__light_tracer *lt, bbc__caustics_thread *ct,
-                            uint64_t index, bbc__splat *out, uint64_t *rays);
+int bbc__light_trace_photon(const bbc__light_tracer *lt, bbc__caustics_thread *ct, uint64_t index,
+                            bbc__splat *out, uint64_t *rays);
 
 /* The chain types (BBC_CHAIN_BIT mask) that light tracing counts for points seen directly
  * by the camera on receiver triangle `triangle` whose cell holds entries e[0..n): those of

@@ -76,8 +76,8 @@ typedef struct bbc__scatter {
  * unless totally reflected). Returns 0 where the path ends (the shading normal sends it
  * to the wrong side of the geometric surface). Refraction switches the medium: into the
  * mesh met from its front, out to air when met from behind. */
-static inline int bbc__scatter_specular(const bbc_scene *scene, const bbc__surface *s,
-                                        bbc_vec3 dir, uint32_t medium, double u, int no_fresnel,
+static inline int bbc__scatter_specular(const bbc_scene *scene, const bbc__surface *s, bbc_vec3 dir,
+                                        uint32_t medium, double u, int no_fresnel,
                                         bbc__scatter *out) {
   const bbc_material *m = s->material;
   const int front = v3_dot(dir, s->ng) < 0;
