@@ -240,6 +240,30 @@ TEST(light_tracing_is_thread_count_independent) {
   teardown(&f);
 }
 
+/* A region's pixels are those of the whole image, light tracing included. */
+TEST(light_tracing_region_matches_whole_image) {
+  fixture f;
+  REQUIRE(setup(&f, 1, 1));
+  bbc_render_options o = caustic_options(1, split_cell_bound(&f), 0, 0);
+  bbc_image *whole = fixture_render(&f, o, FILM, FILM, NULL);
+  const uint32_t region[4] = {3, 5, 11, 13};
+  memcpy(o.region, region, sizeof region);
+  bbc_image *part = fixture_render(&f, o, FILM, FILM, NULL);
+  REQUIRE(whole && part);
+  int same = 1, lit = 0;
+  for (uint32_t y = region[1]; y < region[3]; y++)
+    for (uint32_t x = region[0]; x < region[2]; x++) {
+      const float *a = whole->rgb + 3 * (y * FILM + x), *b = part->rgb + 3 * (y * FILM + x);
+      same &= memcmp(a, b, 3 * sizeof(float)) == 0;
+      lit += a[0] > 0;
+    }
+  CHECK(same);
+  CHECK(lit > 0);
+  bbc_image_free(whole);
+  bbc_image_free(part);
+  teardown(&f);
+}
+
 /* Two slabs: every light path to the floor has four or more specular vertices, which no
  * cache holds. Without light tracing the floor is black; with it (default cells), exact. */
 TEST(light_tracing_renders_four_vertex_chains) {

@@ -121,8 +121,10 @@ typedef struct bbc_render_options {
   double light_trace_bound; /* the cells' threshold: INFINITY (or 0) only cells with an
                                unbounded tuple, a negative value every cell, NaN
                                none (only the chains the cache cannot hold) */
-  uint32_t photons_per_spp; /* photons traced per sample; 0 = the region's pixel
-                               count (one per pixel per sample), a sixteenth of it
+  uint32_t photons_per_spp; /* photons traced per sample; 0 = the image's pixel
+                               count (one per pixel per sample; the same for a region,
+                               so that its pixels stay those of the whole image), a
+                               sixteenth of it
                                when no caster is a dielectric and no cell is
                                light-traced (only chains of 3+ mirrors remain) */
 } bbc_render_options;
