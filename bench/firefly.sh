@@ -7,8 +7,11 @@
 # and each render's CPU-seconds (user + sys). Writes bench/results/firefly.md.
 #
 #   sh bench/firefly.sh [--seeds "1 2 ... 32"] [--spp 256] [--width 320] [--photons N]
-#                       [--threads 2] [SHARED_SCENES_DIR]
+#                       [--threads 2] [--report] [SHARED_SCENES_DIR]
 #
+# Each seed's line is appended to bench/work/firefly/firefly.dat as it is measured;
+# --report writes the results from that file as it stands (after a run cut short)
+# without rendering.
 # SHARED_SCENES_DIR as in bench/compare.sh (default $BBC_SHARED_DIR/scenes); without
 # ball320 there the script says so in one line and exits 0. The precompute and the
 # reference are kept in bench/work/firefly and reused while their inputs are unchanged.
@@ -23,6 +26,7 @@ width=320
 photons=1000000000
 threads=2
 dir=
+report=0
 while [ $# -gt 0 ]; do
   case $1 in
     --seeds) seeds=$2; shift 2 ;;
@@ -30,6 +34,7 @@ while [ $# -gt 0 ]; do
     --width) width=$2; shift 2 ;;
     --photons) photons=$2; shift 2 ;;
     --threads) threads=$2; shift 2 ;;
+    --report) report=1; shift ;;
     -*) echo "$tool: unknown option $1" >&2; exit 2 ;;
     *) dir=$1; shift ;;
   esac
@@ -54,7 +59,8 @@ if [ ! -f "$ref" ]; then
 fi
 
 dat=$work/firefly.dat
-: > "$dat"
+[ $report = 1 ] && seeds=
+[ $report = 1 ] || : > "$dat"
 for seed in $seeds; do
   for mode in off on; do
     c=$(cpu "$work/render.log" "$bin/bbc-render/bbc-render" "$gltf" --cache "$cache" \
