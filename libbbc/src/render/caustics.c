@@ -25,6 +25,7 @@
  * number of draws of K does not shift the path's later random numbers. */
 #include "caustics_internal.h"
 #include "light_internal.h"
+#include "light_trace_internal.h"
 #include "media_internal.h"
 
 #include <math.h>
@@ -507,11 +508,16 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
     t->candidates = grown;
     t->candidate_capacity = capacity;
   }
+  /* The chain types light tracing counts here, from the lights it handles
+   * (docs/light-tracing.md). */
+  const uint32_t traced = t->seen_directly ? bbc__light_traced_chains(c, entries, n, triangle) : 0;
   uint32_t m = 0;
   for (uint32_t i = 0; i < n; i++) {
     const bbc_tuple *tuple = &c->tuples[entries[i].tuple];
-    if ((tuple->receiver == triangle || tuple->receiver == plane) && (c->chains & (1u << tuple->chain)) &&
-        bbc_chain_length((bbc_chain)tuple->chain) <= max_vertices)
+    if ((tuple->receiver == triangle || tuple->receiver == plane) &&
+        (c->chains & (1u << tuple->chain)) &&
+        bbc_chain_length((bbc_chain)tuple->chain) <= max_vertices &&
+        !((traced & (1u << tuple->chain)) && bbc__light_traced_light(c->scene, tuple->light)))
       t->candidates[m++] = entries[i];
   }
   t->candidate_count += m;
