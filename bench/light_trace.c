@@ -152,21 +152,26 @@ static void land(const tracer *tr, uint32_t t, bbc_vec3 x, bbc_vec3 d, const dou
 static int chain_length(int c) { return c < 2 ? 1 : 2; }
 static int letter_at(int c, int i) { return c < 2 ? c : i == 0 ? (c - 2) >> 1 : (c - 2) & 1; }
 
+/* The first hit along d from origin, on a triangle other than `from`: a ray that leaves
+ * a triangle cannot meet its plane again, so a hit on `from` is the rounding of the start
+ * point (Embree's are in single precision), and the search looks past it. 0: none. */
+static int next_hit(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d, bbc_hit *hit) {
+  double tmin = 0;
+  for (int tries = 0; tries < 4; tries++) {
+    if (!bbc_accel_intersect(tr->accel, origin, d, tmin, INFINITY, hit)) return 0;
+    if (hit->triangle != from) return 1;
+    tmin = hit->t * (1 + 1e-6) + 1e-9;
+  }
+  return 0;
+}
+
 /* Follows a photon from origin along d (unit) that has made `made` specular vertices of
  * the chain letters[0..made) (0 R, 1 T). */
 static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d, double flux[3],
                    int made, int letters, double *lane) {
   const bbc_scene *s = tr->scene;
   bbc_hit hit;
-  /* A ray that leaves a triangle cannot meet its plane again: a hit on `from` is the
-   * rounding of the start point (Embree's are in single precision), so look past it. */
-  double tmin = 0;
-  for (int tries = 0;; tries++) {
-    if (!bbc_accel_intersect(tr->accel, origin, d, tmin, INFINITY, &hit)) return;
-    if (hit.triangle != from) break;
-    if (tries == 3) return;
-    tmin = hit.t * (1 + 1e-6) + 1e-9;
-  }
+  if (!next_hit(tr, origin, from, d, &hit)) return;
   uint32_t t = hit.triangle;
   const bbc_mesh *mesh = &s->meshes[s->triangle_mesh[t]];
   const bbc_material *m = &s->materials[mesh->material];
@@ -254,13 +259,7 @@ static void follow_any(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec
   int made = 0;
   for (int steps = 0; steps < 4 * tr->any_chain + 16; steps++) {
     bbc_hit hit;
-    double tmin = 0;
-    for (int tries = 0;; tries++) {
-      if (!bbc_accel_intersect(tr->accel, origin, d, tmin, INFINITY, &hit)) return;
-      if (hit.triangle != from) break;
-      if (tries == 3) return;
-      tmin = hit.t * (1 + 1e-6) + 1e-9;
-    }
+    if (!next_hit(tr, origin, from, d, &hit)) return;
     uint32_t t = hit.triangle;
     const bbc_mesh *mesh = &s->meshes[s->triangle_mesh[t]];
     const bbc_material *m = &s->materials[mesh->material];
