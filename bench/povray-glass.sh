@@ -137,13 +137,14 @@ EOF
     glass-sphere-5120)
       gltf=$work/$s.gltf
       "$bin/scenes/bbc-scenegen" glass-sphere --size 5120 -o "$work/$s.new.gltf" > /dev/null
+      sed 's/"[^"]*\.new\.bin"/"'"$s"'.bin"/' "$work/$s.new.gltf" > "$work/$s.new.txt"
+      rm "$work/$s.new.gltf"
       # Rewritten only when it changed, so that what is cached stays valid.
-      if cmp -s "$work/$s.new.gltf" "$gltf" && cmp -s "$work/$s.new.bin" "$work/$s.bin"; then
-        rm "$work/$s.new.gltf" "$work/$s.new.bin"
+      if cmp -s "$work/$s.new.txt" "$gltf" && cmp -s "$work/$s.new.bin" "$work/$s.bin"; then
+        rm "$work/$s.new.txt" "$work/$s.new.bin"
       else
         mv "$work/$s.new.bin" "$work/$s.bin"
-        sed 's/"[^"]*\.new\.bin"/"'"$s"'.bin"/' "$work/$s.new.gltf" > "$gltf"
-        rm "$work/$s.new.gltf"
+        mv "$work/$s.new.txt" "$gltf"
       fi ;;
     *) gltf=$scenes/$s.gltf ;;
   esac
