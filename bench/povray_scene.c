@@ -17,8 +17,26 @@
  * albedo / pi x I cos / (d^2 + D^2): bbc's radiance to a relative 1e-6 at d >= 1 with
  * D = 1e-3. POV-Ray's photons carry colour x fade(path length) x spread^2 x length^2,
  * the same radiometry. Diffuse: pigment = albedo, diffuse 1, no ambient, no highlights.
- * Mirrors: reflection = reflectance, nothing else. Triangles are flat (the normals POV-Ray
- * derives from the vertices); dielectrics are refused. */
+ * Mirrors: reflection = reflectance, nothing else. Receivers' triangles are flat (the
+ * normals POV-Ray derives from the vertices); mirrors and dielectrics carry the file's
+ * vertex normals (mesh2 normal_vectors: POV-Ray interpolates them barycentrically, as bbc
+ * does its shading normals).
+ * Dielectrics (--photons only): an interior of the material's ior, a pigment that
+ * transmits everything, filtered by the base colour (bbc's tint of each refraction,
+ * entering or leaving), and Fresnel reflection (reflection { 0, 1 fresnel on }, the exact
+ * unpolarised Fresnel reflectance F) with conserve_energy, so that a refracted photon
+ * carries (1 - F) x tint per interface: bbc's weight (the light tracer's 1 - F; the
+ * estimator's choice of refraction with probability 1 - F). Photons are refracted only
+ * (photons { reflection off }): the chains bbc's caches and references count at a
+ * dielectric are refractions (T, TT); a Fresnel or total internal reflection ends the
+ * photon. Beer-Lambert absorption becomes the interior's exponential fade (fade_power
+ * 1001: exp(-(1 - fade_color) d / fade_distance)). In a scene with a dielectric the camera
+ * sees the receivers directly only (max_trace_level 1: a camera ray that meets glass or a
+ * mirror is black; photons keep their own max_trace_level), as the references count the
+ * caustic (bench/light_trace, bbc-render --only caustics --max-depth 2 + chain length).
+ * POV-Ray's photon rays skip no_image objects, so the glass cannot simply be hidden from
+ * the camera. Nested media follow POV-Ray's rule (the innermost interior entered), not
+ * bbc's. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -44,13 +62,24 @@ static bbc_vec3 on_film(bbc_vec3 d, bbc_vec3 dir0) {
   return (bbc_vec3){d.x / k, d.y / k, d.z / k};
 }
 
-static void write_mesh(FILE *f, const bbc_scene *s, const bbc_mesh *m) {
+/* Writes the opening of a mesh2 and its vertices, its vertex normals when `smooth` and
+ * the mesh has them, and its triangles; the caller closes it. */
+static void write_mesh(FILE *f, const bbc_scene *s, const bbc_mesh *m, int smooth) {
   fprintf(f, "mesh2 {\n  vertex_vectors { %u", m->vertex_count);
   for (uint32_t v = 0; v < m->vertex_count; v++) {
     const float *p = s->positions + 3 * (size_t)(m->first_vertex + v);
     fprintf(f, ",\n    <%.9g, %.9g, %.9g>", p[0], p[1], p[2]);
   }
-  fprintf(f, "\n  }\n  face_indices { %u", m->triangle_count);
+  fprintf(f, "\n  }\n");
+  if (smooth && m->has_normals) {
+    fprintf(f, "  normal_vectors { %u", m->vertex_count);
+    for (uint32_t v = 0; v < m->vertex_count; v++) {
+      const float *n = s->normals + 3 * (size_t)(m->first_vertex + v);
+      fprintf(f, ",\n    <%.9g, %.9g, %.9g>", n[0], n[1], n[2]);
+    }
+    fprintf(f, "\n  }\n");
+  }
+  fprintf(f, "  face_indices { %u", m->triangle_count);
   for (uint32_t t = m->first_triangle; t < m->first_triangle + m->triangle_count; t++) {
     const uint32_t *i = s->indices + 3 * (size_t)t;
     fprintf(f, ",\n    <%u, %u, %u>", i[0] - m->first_vertex, i[1] - m->first_vertex,
@@ -81,16 +110,16 @@ int main(int argc, char **argv) {
   if (bbc_scene_load(&scene, scene_path, NULL) != BBC_OK) return fail("cannot load the scene");
   if (scene->emitter_count) return fail("area lights are not translated");
   if (!scene->point_light_count) return fail("the scene has no point light");
-  for (uint32_t m = 0; m < scene->mesh_count; m++)
-    if (scene->materials[scene->meshes[m].material].type == BBC_MATERIAL_DIELECTRIC)
-      return fail("dielectrics are not translated");
 
   FILE *f = fopen(out, "w");
   if (!f) return fail("cannot write the output");
   fprintf(f, "// %s translated by bench/povray_scene (%s)\n#version 3.7;\n", scene->path,
           direct ? "direct light, no casters" : "caustic by photon mapping");
+  int glass = 0;
+  for (uint32_t m = 0; m < scene->mesh_count; m++)
+    glass |= scene->materials[scene->meshes[m].material].type == BBC_MATERIAL_DIELECTRIC;
   fprintf(f, "global_settings {\n  assumed_gamma 1.0\n  ambient_light rgb 0\n"
-             "  max_trace_level 10\n  adc_bailout 0\n");
+             "  max_trace_level %d\n  adc_bailout 0\n", !direct && glass ? 1 : 10);
   if (!direct)
     /* A fixed gather radius: gather at most 10^6 photons (never reached), never fewer
      * than 0, so the radius is never shrunk nor expanded. */
@@ -131,7 +160,7 @@ int main(int argc, char **argv) {
     const bbc_material *mat = &scene->materials[mesh->material];
     if (mat->type != BBC_MATERIAL_DIFFUSE || !mesh->triangle_count) continue;
     if (!direct) fprintf(f, "object {\n"); /* a light group holds objects */
-    write_mesh(f, scene, mesh);
+    write_mesh(f, scene, mesh, 0);
     fprintf(f, "  texture {\n    pigment { rgb <%.9g, %.9g, %.9g> }\n"
                "    finish { ambient 0 emission 0 diffuse 1 brilliance 1 specular 0 phong 0 }\n"
                "  }\n", mat->base_color[0], mat->base_color[1], mat->base_color[2]);
@@ -144,12 +173,33 @@ int main(int argc, char **argv) {
       const bbc_mesh *mesh = &scene->meshes[m];
       const bbc_material *mat = &scene->materials[mesh->material];
       if (mat->type != BBC_MATERIAL_MIRROR || !mesh->triangle_count) continue;
-      write_mesh(f, scene, mesh);
+      write_mesh(f, scene, mesh, 1);
       fprintf(f, "  texture {\n    pigment { rgb 0 }\n"
                  "    finish { ambient 0 emission 0 diffuse 0 specular 0 phong 0\n"
                  "             reflection { rgb <%.9g, %.9g, %.9g> } }\n  }\n"
                  "  photons { target reflection on refraction off collect off }\n}\n",
               mat->base_color[0], mat->base_color[1], mat->base_color[2]);
+    }
+    for (uint32_t m = 0; m < scene->mesh_count; m++) {
+      const bbc_mesh *mesh = &scene->meshes[m];
+      const bbc_material *mat = &scene->materials[mesh->material];
+      if (mat->type != BBC_MATERIAL_DIELECTRIC || !mesh->triangle_count) continue;
+      double tint[3];
+      for (int k = 0; k < 3; k++) tint[k] = mat->base_color[k] < 1 ? mat->base_color[k] : 1;
+      write_mesh(f, scene, mesh, 1);
+      fprintf(f, "  texture {\n    pigment { rgbf <%.9g, %.9g, %.9g, 1> }\n"
+                 "    finish { ambient 0 emission 0 diffuse 0 specular 0 phong 0\n"
+                 "             reflection { 0, 1 fresnel on } conserve_energy }\n  }\n"
+                 "  interior { ior %.9g",
+              tint[0], tint[1], tint[2], mat->ior);
+      double amax = 0;
+      for (int k = 0; k < 3; k++) amax = mat->absorption[k] > amax ? mat->absorption[k] : amax;
+      if (amax > 0)
+        /* exp(-(1 - c) d / D) with D = 1 / amax and c = 1 - absorption D. */
+        fprintf(f, " fade_power 1001 fade_distance %.9g\n    fade_color rgb <%.9g, %.9g, %.9g>",
+                1 / amax, 1 - mat->absorption[0] / amax, 1 - mat->absorption[1] / amax,
+                1 - mat->absorption[2] / amax);
+      fprintf(f, " }\n  photons { target refraction on reflection off collect off }\n}\n");
     }
   }
   int bad = ferror(f);
