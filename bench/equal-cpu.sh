@@ -82,6 +82,9 @@ spec() {
 }
 
 for c in $cases; do
+  spec "$c" > /dev/null || exit 2
+done
+for c in $cases; do
   set -- $(spec "$c")
   gltf=$1 chains=$2 depth=$3 refkind=$4
   [ $report = 1 ] && continue
