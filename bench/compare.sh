@@ -339,7 +339,10 @@ scenes_part() {
     fi
     # The camera path, the diffuse vertex and the chain's segments: 2 + its length.
     depth=$((2 + ${#chain}))
-    common="$gltf --cache $d/$s.bbc --only caustics --max-depth $depth --width $w --threads 2 --no-progress"
+    # --chains: the renders count the reference's chain alone (light tracing would add the
+    # Fresnel reflections off glass, which the reference leaves out).
+    common="$gltf --cache $d/$s.bbc --only caustics --chains $chain --max-depth $depth --width $w"
+    common="$common --threads 2 --no-progress"
     # The references: light tracing, seeds 1001 and 1002, and the long bbc and enumerate
     # renders (seed 1001), cached in bench/work/refs by the scene's content, the options
     # and the source of the light tracer (delete the renders' when the renderer's expected
@@ -440,7 +443,7 @@ EOF
     echo "## bbc, uniform and enumerate on the shared scenes"
     echo
     echo "\`bbc-precompute SCENE -o C.bbc --chains CHAIN [--max-level L] --threads 2\`, then"
-    echo "\`bbc-render SCENE --cache C.bbc --only caustics --max-depth D --width $w --threads 2"
+    echo "\`bbc-render SCENE --cache C.bbc --only caustics --chains CHAIN --max-depth D --width $w --threads 2"
     echo "--method M --spp N --seed K\` (D = 2 + the chain's length: the caustic path's segments), for"
     echo "each seed K of $seeds (every method the same seeds); CPU-s, relMSE and lit-mean"
     echo "ratio below are means over the seeds. bbc runs at 1-32 spp, uniform and enumerate from 1"
