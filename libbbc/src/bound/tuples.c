@@ -384,6 +384,28 @@ static int medium_reaches(const bvh *b, const bbc_scene *scene, uint32_t medium,
   return 1;
 }
 
+/* Beam receivers (bbc_tuples_find_beam): the n items the walk found, sorted, with the
+ * receiver triangles that are not on a plane replaced by one BBC_RECEIVER_BEAM after the
+ * planes (the largest value, so the list stays sorted) when any of them is reachable in
+ * `medium`; the items the medium rule drops are dropped here. Returns the new count. */
+static uint32_t beam_items(const bvh *b, const bbc_scene *scene, uint32_t medium, uint32_t *found,
+                           uint32_t n) {
+  uint32_t k = 0;
+  int any = 0;
+  for (uint32_t i = 0; i < n; i++) {
+    if (!medium_reaches(b, scene, medium, found[i])) continue;
+    if (bbc_receiver_is_plane(found[i])) found[k++] = found[i];
+    else any = 1;
+  }
+  if (any) found[k++] = BBC_RECEIVER_BEAM;
+  return k;
+}
+
+/* Whether the walk's item r is a tuple's receiver in `medium`. */
+static int item_reaches(const bvh *b, const bbc_scene *scene, uint32_t medium, uint32_t r) {
+  return bbc_receiver_is_beam(r) || medium_reaches(b, scene, medium, r);
+}
+
 /* The chain letter of a specular material: 0 mirror (R), 1 dielectric (T), -1 neither. */
 static int scattering_of(const bbc_scene *scene, uint32_t t) {
   const bbc_mesh *mesh = &scene->meshes[scene->triangle_mesh[t]];
@@ -572,8 +594,8 @@ static void scratch_free(search_scratch *s) {
  * from the place *at on, as prefix_tuples says. `tuple` is the prefix's single
  * scattering tuple, `first` its scattering at T1 (1: refraction) and medium the one
  * beyond T1. */
-static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, const bvh *receivers,
-                                uint32_t medium, const bbc_tuple *tuple, int first,
+static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, int beam_receivers,
+                                const bvh *receivers, uint32_t medium, const bbc_tuple *tuple, int first,
                                 search_place *at, search_scratch *s, tuple_list *list,
                                 int *stopped) {
   const uint32_t after[2] = {1u << (first ? BBC_CHAIN_TR : BBC_CHAIN_RR),
@@ -597,8 +619,9 @@ static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, const b
      * air (second_refraction_possible), a reflection keeps the medium. */
     const uint32_t last = second == 0 ? medium : medium == 0 ? scene->triangle_mesh[t2] + 1 : 0;
     uint32_t n = bvh_beam(receivers, scene, &x2, &d2, s->stack, s->found);
+    if (beam_receivers) n = beam_items(receivers, scene, last, s->found, n);
     for (uint32_t i = start; i < n; i++) {
-      if (!medium_reaches(receivers, scene, last, s->found[i])) continue;
+      if (!item_reaches(receivers, scene, last, s->found[i])) continue;
       if (list->count == list->limit) {
         at->stage = j + 1;
         at->index = i;
@@ -616,7 +639,8 @@ static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, const b
  * to list in the order (T2, receiver), single scattering first. When the list reaches
  * its limit before the prefix ends, *stopped is 1 and *at the place of the next tuple,
  * from which a later call carries on (the stages are found again in the same order). */
-static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const bvh *receivers,
+static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int beam_receivers,
+                                const bvh *receivers,
                                 const bvh *casters, const bbc_point_light *light, uint32_t l,
                                 search_place *at, search_scratch *s, tuple_list *list,
                                 int *stopped) {
@@ -657,8 +681,9 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const b
     bbc_arena_reset(&s->arena, 0);
     if ((result = beam_of(&s->arena, &g, whole, &whole_beam)) != BBC_OK) return result;
     uint32_t n = bvh_beam(receivers, scene, &whole_beam.x, &whole_beam.d, s->stack, s->found);
+    if (beam_receivers) n = beam_items(receivers, scene, medium, s->found, n);
     for (uint32_t i = at->index; i < n; i++) {
-      if (!medium_reaches(receivers, scene, medium, s->found[i])) continue;
+      if (!item_reaches(receivers, scene, medium, s->found[i])) continue;
       if (list->count == list->limit) {
         at->index = i;
         *stopped = 1;
@@ -670,7 +695,8 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const b
   }
   if (!(chains & (after[0] | after[1])) || casters->node_count == 0) return BBC_OK;
   if (s->listed && s->listed_light == l && s->listed_t1 == t)
-    return second_tuples(scene, chains, receivers, medium, &tuple, first, at, s, list, stopped);
+    return second_tuples(scene, chains, beam_receivers, receivers, medium, &tuple, first, at, s, list,
+                         stopped);
   s->listed = 0;
   /* T2 from the beams of the BEAM_SPLIT x BEAM_SPLIT s->boxes of T1's unit box that
    * meet the triangle (far tighter than T1's whole beam, whose box of u1 is twice
@@ -737,7 +763,7 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const b
   s->listed = 1;
   s->listed_light = l;
   s->listed_t1 = t;
-  return second_tuples(scene, chains, receivers, medium, &tuple, first, at, s, list, stopped);
+  return second_tuples(scene, chains, beam_receivers, receivers, medium, &tuple, first, at, s, list, stopped);
 }
 
 /* Prefixes are searched in chunks of SEARCH_CHUNK T1, a window of chunks in parallel;
@@ -760,6 +786,7 @@ typedef struct search_chunk {
 struct bbc__tuple_search {
   const bbc_scene *scene;
   uint32_t chains, area_chains;
+  int beam; /* beam receivers (beam_items) */
   int threads;
   bvh receivers, casters;
   search_scratch *scratch;
@@ -782,13 +809,14 @@ static uint32_t light_chains(const bbc__tuple_search *s, uint32_t l) {
 }
 
 bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *scene,
-                                    uint32_t chains, uint32_t area_chains, int threads,
+                                    uint32_t chains, uint32_t area_chains, int beam, int threads,
                                     size_t block_bytes) {
   *out = NULL;
   bbc__tuple_search *s = calloc(1, sizeof *s);
   if (!s) return BBC_ERR_OUT_OF_MEMORY;
   s->scene = scene;
   s->chains = chains;
+  s->beam = beam != 0;
   s->area_chains = scene->emitter_count ? area_chains : 0;
   s->threads = threads > 0 ? threads : omp_get_max_threads();
   s->target = block_bytes ? block_bytes : DEFAULT_BLOCK_BYTES;
@@ -845,7 +873,7 @@ static bbc_result chunk_search(bbc__tuple_search *s, search_chunk *c, search_scr
   const uint32_t chains = light_chains(s, s->light);
   for (; c->at.t1 < c->end; c->at.t1++, c->at.stage = c->at.index = 0) {
     int stopped = 0;
-    bbc_result r = prefix_tuples(s->scene, chains, &s->receivers, &s->casters, &s->point, s->light,
+    bbc_result r = prefix_tuples(s->scene, chains, s->beam, &s->receivers, &s->casters, &s->point, s->light,
                                  &c->at, w, &c->part, &stopped);
     if (r != BBC_OK || stopped) return r;
   }
@@ -964,11 +992,11 @@ bbc_result bbc__tuple_search_next(bbc__tuple_search *s, const bbc_tuple **tuples
 }
 
 static bbc_result tuples_collect(const bbc_scene *scene, uint32_t chains, uint32_t area_chains,
-                                 bbc_tuple **out, size_t *count) {
+                                 int beam, bbc_tuple **out, size_t *count) {
   *out = NULL;
   *count = 0;
   bbc__tuple_search *s = NULL;
-  bbc_result r = bbc__tuple_search_create(&s, scene, chains, area_chains, 0, 0);
+  bbc_result r = bbc__tuple_search_create(&s, scene, chains, area_chains, beam, 0, 0);
   tuple_list list = {NULL, 0, 0, SIZE_MAX};
   while (r == BBC_OK) {
     const bbc_tuple *block;
@@ -1000,10 +1028,15 @@ static bbc_result tuples_collect(const bbc_scene *scene, uint32_t chains, uint32
 
 bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
                            size_t *count) {
-  return tuples_collect(scene, chains, 0, out, count);
+  return tuples_collect(scene, chains, 0, 0, out, count);
+}
+
+bbc_result bbc_tuples_find_beam(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
+                                size_t *count) {
+  return tuples_collect(scene, chains, 0, 1, out, count);
 }
 
 bbc_result bbc_tuples_find_area(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
                                 size_t *count) {
-  return tuples_collect(scene, 0, chains, out, count);
+  return tuples_collect(scene, 0, chains, 0, out, count);
 }
