@@ -193,12 +193,14 @@ BBC_API bbc_result bbc_bound_beam(bbc_bounder *b, const bbc_tuple_geometry *g,
                                   int (*fn)(void *user, const bbc_beam_piece *), void *user,
                                   bbc_bound_stats *stats);
 
-/* The candidate tuples with beam receivers (bbc_precompute_params.beam_receivers): as
- * bbc_tuples_find, but the receiver triangles that are not on a receiver plane are
- * replaced, per (light, T1[, T2]) prefix whose beam can reach one, by one tuple whose
- * receiver is BBC_RECEIVER_BEAM (after the prefix's plane tuples). */
+/* The candidate tuples with beam receivers (bbc_precompute_params.beam_receivers), in
+ * bbc_precompute's order: those of bbc_tuples_find for `chains`, then those of
+ * bbc_tuples_find_area for `area_chains` (0: none), but with the receiver triangles
+ * that are not on a receiver plane replaced, per (light, T1[, T2]) prefix whose beam
+ * can reach one, by one tuple whose receiver is BBC_RECEIVER_BEAM (after the prefix's
+ * plane tuples). */
 BBC_API bbc_result bbc_tuples_find_beam(const bbc_scene *scene, uint32_t chains,
-                                        bbc_tuple **out, size_t *count);
+                                        uint32_t area_chains, bbc_tuple **out, size_t *count);
 
 /* The candidate tuples of the scene for the chain types in `chains` (a mask of
  * BBC_CHAIN_BIT), in the deterministic order bbc_precompute uses: by light, then first

@@ -1031,9 +1031,9 @@ bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **
   return tuples_collect(scene, chains, 0, 0, out, count);
 }
 
-bbc_result bbc_tuples_find_beam(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
-                                size_t *count) {
-  return tuples_collect(scene, chains, 0, 1, out, count);
+bbc_result bbc_tuples_find_beam(const bbc_scene *scene, uint32_t chains, uint32_t area_chains,
+                                bbc_tuple **out, size_t *count) {
+  return tuples_collect(scene, chains, area_chains, 1, out, count);
 }
 
 bbc_result bbc_tuples_find_area(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
