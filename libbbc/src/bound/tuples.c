@@ -301,8 +301,11 @@ static bbc_result beam_hits(bbc_arena *arena, const beam *b, const triangle_plan
 }
 
 /* A BVH over the triangles of meshes with the given role; a receiver plane
- * (bbc_mesh.plane) is one item, its plane, boxed by its triangles. */
-static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role) {
+ * (bbc_mesh.plane) is one item, its plane, boxed by its triangles. With `whole_meshes`
+ * (beam receivers) every mesh is one such item, BBC_RECEIVER_PLANE(mesh) whether it is a
+ * plane or not (beam_items tells them apart): a beam tuple then depends on the boxes of
+ * the receivers, not on how finely they are cut. */
+static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role, int whole_meshes) {
   memset(b, 0, sizeof *b);
   b->mesh_box = malloc((scene->mesh_count ? scene->mesh_count : 1) * sizeof *b->mesh_box);
   if (!b->mesh_box) return BBC_ERR_OUT_OF_MEMORY;
@@ -317,7 +320,7 @@ static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role) {
       for (int a = 0; a < 3; a++)
         box[a] = fmin(box[a], lo[a]), box[3 + a] = fmax(box[3 + a], hi[a]);
     }
-    if (mesh->role == role) n += mesh->plane ? 1 : mesh->triangle_count;
+    if (mesh->role == role) n += mesh->plane || whole_meshes ? 1 : mesh->triangle_count;
   }
   if (n == 0) return BBC_OK;
   b->order = malloc(n * sizeof *b->order);
@@ -327,7 +330,7 @@ static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role) {
   for (uint32_t m = 0; m < scene->mesh_count; m++) {
     const bbc_mesh *mesh = &scene->meshes[m];
     if (mesh->role != role) continue;
-    if (mesh->plane != 0) {
+    if (mesh->plane != 0 || whole_meshes) {
       b->order[n++] = BBC_RECEIVER_PLANE(m);
       continue;
     }
@@ -384,17 +387,18 @@ static int medium_reaches(const bvh *b, const bbc_scene *scene, uint32_t medium,
   return 1;
 }
 
-/* Beam receivers (bbc_tuples_find_beam): the n items the walk found, sorted, with the
- * receiver triangles that are not on a plane replaced by one BBC_RECEIVER_BEAM after the
- * planes (the largest value, so the list stays sorted) when any of them is reachable in
- * `medium`; the items the medium rule drops are dropped here. Returns the new count. */
+/* Beam receivers (bbc_tuples_find_beam): the n items the walk found, sorted (whole
+ * meshes, bvh_init), with the receivers that are not planes replaced by one
+ * BBC_RECEIVER_BEAM after the planes (the largest value, so the list stays sorted) when
+ * any of them is reachable in `medium`; the items the medium rule drops are dropped
+ * here. Returns the new count. */
 static uint32_t beam_items(const bvh *b, const bbc_scene *scene, uint32_t medium, uint32_t *found,
                            uint32_t n) {
   uint32_t k = 0;
   int any = 0;
   for (uint32_t i = 0; i < n; i++) {
     if (!medium_reaches(b, scene, medium, found[i])) continue;
-    if (bbc_receiver_is_plane(found[i])) found[k++] = found[i];
+    if (scene->meshes[bbc_receiver_plane_mesh(found[i])].plane) found[k++] = found[i];
     else any = 1;
   }
   if (any) found[k++] = BBC_RECEIVER_BEAM;
@@ -665,8 +669,10 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int bea
   const uint32_t after[2] = {1u << (first ? BBC_CHAIN_TR : BBC_CHAIN_RR),
                              1u << (first ? BBC_CHAIN_TT : BBC_CHAIN_RT)};
   if (!(chains & ((1u << single) | after[0] | after[1]))) return BBC_OK;
-  /* The beam does not depend on the receiver: use any as a stand-in. */
-  bbc_tuple tuple = {l, (uint32_t)single, {t, BBC_NO_TRIANGLE}, receivers->order[0]};
+  /* The beam does not depend on the receiver: use any as a stand-in (a beam's, which
+   * names no triangle, with whole meshes in the walk). */
+  bbc_tuple tuple = {l, (uint32_t)single, {t, BBC_NO_TRIANGLE},
+                     beam_receivers ? BBC_RECEIVER_BEAM : receivers->order[0]};
   bbc_tuple_geometry g;
   if ((result = bbc_tuple_geometry_init(&g, scene, &tuple)) != BBC_OK) return result;
   /* A light in T1's plane sees it edge-on: no light passes through. */
@@ -833,8 +839,8 @@ bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *sc
   const int two = ((s->chains | s->area_chains) & doubles) != 0;
   s->scratch = calloc((size_t)s->threads, sizeof *s->scratch);
   bbc_result r = s->scratch ? BBC_OK : BBC_ERR_OUT_OF_MEMORY;
-  if (r == BBC_OK) r = bvh_init(&s->receivers, scene, BBC_ROLE_RECEIVER);
-  if (r == BBC_OK && two) r = bvh_init(&s->casters, scene, BBC_ROLE_CASTER);
+  if (r == BBC_OK) r = bvh_init(&s->receivers, scene, BBC_ROLE_RECEIVER, s->beam);
+  if (r == BBC_OK && two) r = bvh_init(&s->casters, scene, BBC_ROLE_CASTER, 0);
   for (int i = 0; i < s->threads && r == BBC_OK; i++) r = scratch_init(&s->scratch[i], scene, two);
   if (r != BBC_OK) {
     bbc__tuple_search_free(s);

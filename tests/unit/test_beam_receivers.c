@@ -1,0 +1,195 @@
+/* Beam receivers (tuple.h BBC_RECEIVER_BEAM, docs/receivers.md): one tuple per specular
+ * prefix stands for every receiver triangle not on a plane. Oracles: the tuple search on
+ * the same caster over a bent floor cut into 128 and 512 triangles (the count must not
+ * change; per-triangle tuples, the control, do), true paths traced to every triangle
+ * they land on and looked up there (a cache whose beam tuples hold no cells, the
+ * control, fails), the render against per-triangle tuples enumerated (the same caustic),
+ * and the bytes of caches precomputed on 1 and 2 threads. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bbc/bbc.h"
+#include "harness.h"
+#include "render_fixture.h"
+
+#define BENT(n) TEST_SCENE("bent-wavy-mirror-" #n ".gltf")
+
+/* The receiver mesh of the bent floor: not a plane. */
+static uint32_t floor_triangles(const bbc_scene *s) {
+  for (uint32_t m = 0; m < s->mesh_count; m++)
+    if (s->meshes[m].role == BBC_ROLE_RECEIVER) {
+      CHECK_INT(s->meshes[m].plane, 0);
+      return s->meshes[m].triangle_count;
+    }
+  return 0;
+}
+
+TEST(beam_tuples_do_not_multiply_with_the_floor) {
+  size_t beams[2], triangles[2];
+  uint32_t floors[2];
+  const char *paths[2] = {BENT(128), BENT(512)};
+  for (int k = 0; k < 2; k++) {
+    bbc_scene *s = NULL;
+    REQUIRE(bbc_scene_load(&s, paths[k], NULL) == BBC_OK);
+    floors[k] = floor_triangles(s);
+    bbc_tuple *t = NULL;
+    REQUIRE(bbc_tuples_find_beam(s, BBC_CHAIN_BIT(BBC_CHAIN_R), 0, &t, &beams[k]) == BBC_OK);
+    for (size_t i = 0; i < beams[k]; i++) CHECK(bbc_receiver_is_beam(t[i].receiver));
+    /* One per prefix: the T1 are distinct. */
+    for (size_t i = 1; i < beams[k]; i++) CHECK(t[i].specular[0] > t[i - 1].specular[0]);
+    free(t);
+    REQUIRE(bbc_tuples_find(s, BBC_CHAIN_BIT(BBC_CHAIN_R), &t, &triangles[k]) == BBC_OK);
+    free(t);
+    bbc_scene_free(s);
+  }
+  fprintf(stderr, "floors of %u and %u triangles: beam tuples %zu and %zu, per-triangle %zu and %zu\n",
+          floors[0], floors[1], beams[0], beams[1], triangles[0], triangles[1]);
+  CHECK(floors[1] >= 3 * floors[0]);
+  CHECK(beams[0] > 20);
+  CHECK_INT(beams[1], beams[0]);
+  /* The control: per-triangle tuples grow with the floor. */
+  CHECK(triangles[0] > beams[0]);
+  CHECK(triangles[1] > 2 * triangles[0]);
+}
+
+/* A cache of the scene at `path` (R, level 6, a 64 x 64 grid) with beam or per-triangle
+ * receivers on `threads` threads: its bytes (malloc'd) and their size. */
+static int precompute_bytes(const char *path, int beam, int threads, void **bytes, size_t *size) {
+  bbc_scene *s = NULL;
+  if (bbc_scene_load(&s, path, NULL) != BBC_OK) return 0;
+  bbc_precompute_options o;
+  memset(&o, 0, sizeof o);
+  bbc_precompute_params_default(&o.params);
+  o.params.chains = BBC_CHAIN_BIT(BBC_CHAIN_R);
+  o.params.max_level = 6;
+  o.params.grid_resolution = 64;
+  o.params.beam_receivers = (uint32_t)beam;
+  o.threads = threads;
+  bbc_cache_builder *b = NULL;
+  int ok = bbc_precompute(&b, s, &o, NULL) == BBC_OK &&
+           bbc_cache_builder_write_memory(b, bytes, size, NULL) == BBC_OK;
+  bbc_cache_builder_free(b);
+  bbc_scene_free(s);
+  return ok;
+}
+
+static int fixture_of(fixture *f, const char *path, int beam) {
+  memset(f, 0, sizeof *f);
+  size_t size = 0;
+  return bbc_scene_load(&f->scene, path, NULL) == BBC_OK &&
+         bbc_accel_create(&f->accel, f->scene, NULL, NULL) == BBC_OK &&
+         precompute_bytes(path, beam, 0, &f->bytes, &size) &&
+         bbc_cache_open_memory(&f->cache, f->bytes, size, NULL) == BBC_OK &&
+         bbc_cache_check_scene(f->cache, f->scene) == BBC_OK;
+}
+
+/* Every true path of every beam tuple, on every triangle it lands on, is listed in that
+ * point's cell with a bound of at least its irradiance. */
+static void validate_all(const fixture *f, uint32_t samples, bbc_validation *v) {
+  bbc_cache_info info;
+  bbc_cache_get_info(f->cache, &info);
+  bbc_cache_cursor *cursor = NULL;
+  REQUIRE(bbc_cache_cursor_create(&cursor, f->cache) == BBC_OK);
+  bbc_validation_reset(v);
+  const bbc_tuple *tuples = bbc_cache_tuples(f->cache);
+  for (uint32_t i = 0; i < info.tuple_count; i++)
+    REQUIRE(bbc_validate_cached_tuple(f->cache, cursor, f->scene, &tuples[i], i, samples, 7, v) ==
+            BBC_OK);
+  bbc_cache_cursor_free(cursor);
+}
+
+TEST(beam_true_paths_are_covered) {
+  fixture f;
+  REQUIRE(fixture_of(&f, BENT(512), 1));
+  bbc_cache_info info;
+  bbc_cache_get_info(f.cache, &info);
+  CHECK_INT(info.version_minor, 7);
+  CHECK_INT(info.params.beam_receivers, 1);
+  const bbc_tuple *tuples = bbc_cache_tuples(f.cache);
+  for (uint32_t i = 0; i < info.tuple_count; i++) CHECK(bbc_receiver_is_beam(tuples[i].receiver));
+  bbc_validation v;
+  validate_all(&f, 150, &v);
+  fprintf(stderr, "%llu tuples, %llu samples, %llu landings on floor triangles, %llu failing\n",
+          (unsigned long long)v.tuples, (unsigned long long)v.samples,
+          (unsigned long long)v.admissible, (unsigned long long)v.failing);
+  CHECK(v.admissible > 2000);
+  CHECK_INT(v.failing, 0);
+
+  /* The control: the same tuples in a cache with no cells are caught. */
+  bbc_cache_builder *b = NULL;
+  REQUIRE(bbc_cache_builder_create(&b, f.scene, &info.params) == BBC_OK);
+  for (uint32_t i = 0; i < info.tuple_count; i++) {
+    uint32_t id;
+    REQUIRE(bbc_cache_builder_add_tuple(b, &tuples[i], &id) == BBC_OK);
+  }
+  fixture g = f;
+  size_t size = 0;
+  REQUIRE(bbc_cache_builder_write_memory(b, &g.bytes, &size, NULL) == BBC_OK);
+  bbc_cache_builder_free(b);
+  REQUIRE(bbc_cache_open_memory(&g.cache, g.bytes, size, NULL) == BBC_OK);
+  bbc_validation empty;
+  validate_all(&g, 50, &empty);
+  CHECK(empty.position_violations > 100);
+  bbc_cache_close(g.cache);
+  free(g.bytes);
+  teardown(&f);
+}
+
+/* The caustic rendered through beam tuples (sampled by the tuple sampler: with bounds of
+ * +inf every tuple is drawn) is the one of per-triangle tuples enumerated. */
+TEST(beam_render_matches_per_triangle) {
+  fixture a, b;
+  REQUIRE(fixture_of(&a, BENT(128), 0));
+  REQUIRE(fixture_of(&b, BENT(128), 1));
+  bbc_render_options o;
+  memset(&o, 0, sizeof o);
+  o.spp = 2;
+  o.components = BBC_COMPONENT_CAUSTICS;
+  o.method = BBC_METHOD_ENUMERATE;
+  bbc_image *x = fixture_render(&a, o, 48, 36, NULL);
+  o.method = BBC_METHOD_BBC;
+  bbc_image *y = fixture_render(&b, o, 48, 36, NULL);
+  REQUIRE(x && y);
+  const size_t n = 3 * (size_t)48 * 36;
+  double sx = 0, sy = 0, diff = 0, norm = 0;
+  for (size_t i = 0; i < n; i++) {
+    sx += x->rgb[i], sy += y->rgb[i];
+    diff += ((double)x->rgb[i] - y->rgb[i]) * ((double)x->rgb[i] - y->rgb[i]);
+    norm += (double)x->rgb[i] * x->rgb[i];
+  }
+  fprintf(stderr, "means %.9g (per-triangle) and %.9g (beam); relative squared difference %.3g\n",
+          sx / n, sy / n, norm > 0 ? diff / norm : 0.0);
+  CHECK(sx > 0);
+  CHECK(fabs(sy - sx) <= 1e-6 * sx);
+  CHECK(diff <= 1e-9 * norm);
+  bbc_image_free(x);
+  bbc_image_free(y);
+  teardown(&a);
+  teardown(&b);
+}
+
+TEST(beam_cache_is_the_same_for_any_thread_count) {
+  void *one = NULL, *two = NULL;
+  size_t n1 = 0, n2 = 0;
+  REQUIRE(precompute_bytes(BENT(128), 1, 1, &one, &n1));
+  REQUIRE(precompute_bytes(BENT(128), 1, 2, &two, &n2));
+  CHECK(n1 > 0);
+  CHECK(n1 == n2 && memcmp(one, two, n1) == 0);
+  free(one);
+  free(two);
+}
+
+/* Per-triangle caches stay as they were (format 1.6 with a plane, here without one: the
+ * minor version of their features), and a beam cache is refused for per-triangle
+ * parameters. */
+TEST(per_triangle_caches_keep_their_version) {
+  fixture f;
+  REQUIRE(fixture_of(&f, BENT(128), 0));
+  bbc_cache_info info;
+  bbc_cache_get_info(f.cache, &info);
+  CHECK(info.version_minor < 7);
+  CHECK_INT(info.params.beam_receivers, 0);
+  teardown(&f);
+}
