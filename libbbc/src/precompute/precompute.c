@@ -684,9 +684,11 @@ static void estimate_costs(const bbc__census *census, const bbc_precompute_optio
   /* Beam receivers: their BVHs and masks, and per thread a raster of the largest grid.
    * A beam tuple may reach every cell of those receivers, so the two batches' cells
    * (codes of 2 bytes over the tuples' rectangles, about their entries) count too. */
-  memory += (double)beams->bytes +
-            threads * (double)beams->max_width * beams->max_height * sizeof(double);
-  memory += 2.0 * BATCH_TUPLES * e->entries_per_tuple * 2;
+  if (beams->count) {
+    memory += (double)beams->bytes +
+              threads * (double)beams->max_width * beams->max_height * sizeof(double);
+    memory += 2.0 * fmin(BATCH_TUPLES, stored) * e->entries_per_tuple * 2;
+  }
   e->memory_bytes = (uint64_t)memory;
   /* The file: its fixed sections (as bbc_cache_check_resources counts them), the
    * tuples and the cell lists at about 1.7 bytes per entry once compressed (measured
