@@ -110,7 +110,7 @@ TEST(beam_true_paths_are_covered) {
   const bbc_tuple *tuples = bbc_cache_tuples(f.cache);
   for (uint32_t i = 0; i < info.tuple_count; i++) CHECK(bbc_receiver_is_beam(tuples[i].receiver));
   bbc_validation v;
-  validate_all(&f, 150, &v);
+  validate_all(&f, 100, &v);
   fprintf(stderr, "%llu tuples, %llu samples, %llu landings on floor triangles, %llu failing\n",
           (unsigned long long)v.tuples, (unsigned long long)v.samples,
           (unsigned long long)v.admissible, (unsigned long long)v.failing);
@@ -192,4 +192,29 @@ TEST(per_triangle_caches_keep_their_version) {
   CHECK(info.version_minor < 7);
   CHECK_INT(info.params.beam_receivers, 0);
   teardown(&f);
+}
+
+/* The bound itself (bbc_bound_beam) against true paths, as bbc-inspect validates it:
+ * every landing on a floor triangle lies in its piece's box with an irradiance in its
+ * piece's [e_lo, e_hi] (the placeholder's box is the floor's, its bound +inf). */
+TEST(beam_bound_holds_on_true_paths) {
+  bbc_scene *s = NULL;
+  REQUIRE(bbc_scene_load(&s, BENT(512), NULL) == BBC_OK);
+  bbc_tuple *t = NULL;
+  size_t n = 0;
+  REQUIRE(bbc_tuples_find_beam(s, BBC_CHAIN_BIT(BBC_CHAIN_R), 0, &t, &n) == BBC_OK);
+  bbc_bounder *bounder = NULL;
+  REQUIRE(bbc_bounder_create(&bounder) == BBC_OK);
+  bbc_validation v;
+  bbc_validation_reset(&v);
+  for (size_t i = 0; i < n; i++)
+    REQUIRE(bbc_validate_tuple(bounder, s, &t[i], NULL, 100, 3, &v) == BBC_OK);
+  fprintf(stderr, "%llu tuples, %llu landings, %llu failing, %llu unbounded\n",
+          (unsigned long long)v.tuples, (unsigned long long)v.admissible,
+          (unsigned long long)v.failing, (unsigned long long)v.unbounded);
+  CHECK(v.admissible > 2000);
+  CHECK_INT(v.failing, 0);
+  bbc_bounder_free(bounder);
+  free(t);
+  bbc_scene_free(s);
 }
