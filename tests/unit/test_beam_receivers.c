@@ -218,3 +218,125 @@ TEST(beam_bound_holds_on_true_paths) {
   free(t);
   bbc_scene_free(s);
 }
+
+/* ---- the cells a piece's box reaches (beam_cells_internal.h) ------------------------- */
+
+#include "beam_cells_internal.h"
+
+typedef struct cell_sink {
+  const bbc_grid *grid;
+  double *cells; /* per global cell index */
+} cell_sink;
+
+static bbc_result sink_cells(void *user, uint32_t receiver, uint32_t x0, uint32_t y0, uint32_t w,
+                             uint32_t h, const double *cells, size_t stride) {
+  cell_sink *s = user;
+  const bbc_receiver *r = &s->grid->receivers[receiver];
+  for (uint32_t y = 0; y < h; y++)
+    for (uint32_t x = 0; x < w; x++) {
+      const double v = cells[y * stride + x];
+      double *c = &s->cells[r->first_cell + (uint64_t)(y0 + y) * r->width + x0 + x];
+      if (v > *c) *c = v;
+    }
+  return BBC_OK;
+}
+
+static double unit(uint64_t *state) {
+  *state = *state * 6364136223846793005ull + 1442695040888963407ull;
+  return (double)(*state >> 11) * 0x1.0p-53;
+}
+
+/* Points of the floor's triangles inside `box` whose cells hold no entry after the
+ * cells of a piece with box `given` were taken (0: every point is covered); *inside
+ * counts the points tested. */
+static uint64_t uncovered(const bbc_scene *s, const bbc_grid *grid, const double *cells,
+                          const double lo[3], const double hi[3], uint64_t *inside) {
+  uint64_t missed = 0, state = 99;
+  for (uint32_t t = 0; t < s->triangle_count; t++) {
+    if (s->meshes[s->triangle_mesh[t]].role != BBC_ROLE_RECEIVER) continue;
+    bbc_vec3 p[3];
+    if (!bbc_receiver_triangle(s, t, p)) return UINT64_MAX;
+    for (int k = 0; k < 64; k++) {
+      double b1 = unit(&state), b2 = unit(&state);
+      if (b1 + b2 > 1) b1 = 1 - b1, b2 = 1 - b2;
+      const double w = 1 - b1 - b2;
+      const double x[3] = {w * p[0].x + b1 * p[1].x + b2 * p[2].x,
+                           w * p[0].y + b1 * p[1].y + b2 * p[2].y,
+                           w * p[0].z + b1 * p[1].z + b2 * p[2].z};
+      int in = 1;
+      for (int a = 0; a < 3; a++) in &= x[a] >= lo[a] && x[a] <= hi[a];
+      if (!in) continue;
+      ++*inside;
+      bbc_cell c;
+      if (!bbc_grid_locate(grid, t, b1, b2, NULL, &c) || !(cells[bbc_grid_cell_index(grid, c)] > 0))
+        missed++;
+    }
+  }
+  return missed;
+}
+
+/* Random boxes over the bent floor: every point of a floor triangle inside a piece's box
+ * is in a cell that got the piece's bound, with the triangles clipped to the box; the
+ * cells are fewer than the triangles' whole footprints (printed: the difference), and a
+ * piece with a smaller box than the points' (the control) leaves points uncovered. */
+TEST(beam_cells_cover_the_box) {
+  bbc_scene *s = NULL;
+  REQUIRE(bbc_scene_load(&s, BENT(512), NULL) == BBC_OK);
+  bbc_grid *grid = NULL;
+  REQUIRE(bbc_grid_create(&grid, s, 128, NULL, NULL) == BBC_OK);
+  bbc__beam_receivers b;
+  REQUIRE(bbc__beam_receivers_init(&b, s, grid) == BBC_OK);
+  REQUIRE(b.count == 1);
+  bbc__beam_scratch scratch;
+  memset(&scratch, 0, sizeof scratch);
+  double *cells = calloc(grid->cell_count, sizeof *cells);
+  REQUIRE(cells);
+  cell_sink sink = {grid, cells};
+  uint64_t state = 7, inside = 0, missed = 0, clipped_cells = 0, whole_cells = 0, control = 0;
+  for (int k = 0; k < 40; k++) {
+    bbc_beam_piece piece;
+    memset(&piece, 0, sizeof piece);
+    piece.status = BBC_PIECE_KEPT;
+    piece.e_hi = 1;
+    /* A box of 2 % to 40 % of the floor's extent on x and z, any height range. */
+    const double f = 0.02 + 0.38 * unit(&state);
+    for (int a = 0; a < 3; a++) {
+      const double ext = b.hi[a] - b.lo[a], size = a == 1 ? ext * unit(&state) : ext * f;
+      piece.box_lo[a] = b.lo[a] + (ext - size) * unit(&state);
+      piece.box_hi[a] = piece.box_lo[a] + size;
+    }
+    const double bound = 1;
+    for (int whole = 1; whole >= 0; whole--) {
+      memset(cells, 0, grid->cell_count * sizeof *cells);
+      b.whole_triangles = whole;
+      REQUIRE(bbc__beam_cells(&b, s, grid, &piece, &bound, 1, &scratch, sink_cells, &sink, NULL) ==
+              BBC_OK);
+      uint64_t n = 0;
+      for (uint64_t c = 0; c < grid->cell_count; c++) n += cells[c] > 0;
+      *(whole ? &whole_cells : &clipped_cells) += n;
+    }
+    missed += uncovered(s, grid, cells, piece.box_lo, piece.box_hi, &inside);
+    /* The control: cells of a box shrunk to its lower half on x. */
+    bbc_beam_piece half = piece;
+    half.box_hi[0] = 0.5 * (piece.box_lo[0] + piece.box_hi[0]);
+    memset(cells, 0, grid->cell_count * sizeof *cells);
+    REQUIRE(bbc__beam_cells(&b, s, grid, &half, &bound, 1, &scratch, sink_cells, &sink, NULL) ==
+            BBC_OK);
+    uint64_t ignored = 0;
+    control += uncovered(s, grid, cells, piece.box_lo, piece.box_hi, &ignored);
+  }
+  fprintf(stderr, "%llu points inside the boxes, %llu uncovered; cells: %llu clipped, %llu whole "
+          "triangles; control (half boxes) misses %llu\n",
+          (unsigned long long)inside, (unsigned long long)missed,
+          (unsigned long long)clipped_cells, (unsigned long long)whole_cells,
+          (unsigned long long)control);
+  CHECK(inside > 10000);
+  CHECK_INT(missed, 0);
+  CHECK(clipped_cells < whole_cells);
+  CHECK(control > 100);
+  free(cells);
+  bbc__beam_scratch_free(&scratch);
+  bbc__beam_receivers_free(&b);
+  bbc_grid_free(grid);
+  bbc_scene_free(s);
+}

@@ -1,6 +1,7 @@
 /* The cells a beam piece reaches (beam_cells_internal.h). */
 #include "beam_cells_internal.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -69,6 +70,62 @@ static uint32_t node_build(bbc__beam_receivers *b, const bbc_scene *scene, uint3
 
 /* The whole triangle as a polygonal position bound of its own barycentrics. */
 static const double WHOLE[8] = {0, 1, 0, 1, 0, 1, -1, 1};
+
+/* The part of triangle t inside the box lo..hi, as a polygonal region of its
+ * barycentrics (bbc_grid_splat_polygon's {b1, b2, b1 + b2, b1 - b2} bounds) holding it;
+ * 0 when the part is empty. The triangle, (0, 0), (1, 0), (0, 1) in barycentrics, is
+ * clipped by the six half-planes lo_a <= x_a(b) <= hi_a, each affine in b, each grown by
+ * a margin far above the rounding of its evaluation (Sutherland-Hodgman), and the bounds
+ * of the clipped polygon's vertices are grown by another: the region holds every point
+ * of the triangle in the box, and a part empty by rounding alone is kept. */
+static int clipped_region(const bbc_scene *scene, uint32_t t, const double lo[3],
+                          const double hi[3], double region[8]) {
+  double p[3][3];
+  for (int j = 0; j < 3; j++) {
+    const float *v = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t + j];
+    for (int a = 0; a < 3; a++) p[j][a] = v[a];
+  }
+  double poly[2][12][2];
+  int n = 3, cur = 0;
+  const double start[3][2] = {{0, 0}, {1, 0}, {0, 1}};
+  memcpy(poly[0], start, sizeof start);
+  for (int a = 0; a < 3 && n > 0; a++) {
+    const double e1 = p[1][a] - p[0][a], e2 = p[2][a] - p[0][a];
+    for (int side = 0; side < 2 && n > 0; side++) {
+      /* f(b) = s (x_a(b) - bound) >= -margin, s = +1 against lo, -1 against hi. */
+      const double sign = side ? -1.0 : 1.0, bound = side ? hi[a] : lo[a];
+      const double margin =
+          64 * DBL_EPSILON * (fabs(p[0][a]) + fabs(e1) + fabs(e2) + fabs(bound)) + DBL_MIN;
+      double f[12];
+      for (int k = 0; k < n; k++)
+        f[k] = sign * (p[0][a] + poly[cur][k][0] * e1 + poly[cur][k][1] * e2 - bound) + margin;
+      int m = 0;
+      for (int k = 0; k < n; k++) {
+        const int l = (k + 1) % n;
+        if (f[k] >= 0) poly[!cur][m][0] = poly[cur][k][0], poly[!cur][m++][1] = poly[cur][k][1];
+        if ((f[k] >= 0) != (f[l] >= 0)) {
+          const double w = f[k] / (f[k] - f[l]);
+          poly[!cur][m][0] = poly[cur][k][0] + w * (poly[cur][l][0] - poly[cur][k][0]);
+          poly[!cur][m][1] = poly[cur][k][1] + w * (poly[cur][l][1] - poly[cur][k][1]);
+          m++;
+        }
+      }
+      n = m;
+      cur = !cur;
+    }
+  }
+  if (n == 0) return 0;
+  for (int k = 0; k < 4; k++) region[2 * k] = INFINITY, region[2 * k + 1] = -INFINITY;
+  for (int k = 0; k < n; k++) {
+    const double b1 = poly[cur][k][0], b2 = poly[cur][k][1];
+    const double v[4] = {b1, b2, b1 + b2, b1 - b2};
+    for (int q = 0; q < 4; q++)
+      region[2 * q] = fmin(region[2 * q], v[q]), region[2 * q + 1] = fmax(region[2 * q + 1], v[q]);
+  }
+  /* The vertices' rounding (interpolations of values in [0, 1]) is far below this. */
+  for (int q = 0; q < 4; q++) region[2 * q] -= 1e-9, region[2 * q + 1] += 1e-9;
+  return 1;
+}
 
 bbc_result bbc__beam_receivers_init(bbc__beam_receivers *b, const bbc_scene *scene,
                                     const bbc_grid *grid) {
@@ -240,8 +297,14 @@ bbc_result bbc__beam_cells(const bbc__beam_receivers *b, const bbc_scene *scene,
           double lo[3], hi[3];
           triangle_box(scene, b->order[j], lo, hi);
           if (!boxes_meet(p->box_lo, p->box_hi, lo, hi)) continue;
+          double clipped[8];
+          const double *region = WHOLE;
+          if (!b->whole_triangles && !box_holds(p->box_lo, p->box_hi, lo, hi)) {
+            if (!clipped_region(scene, b->order[j], p->box_lo, p->box_hi, clipped)) continue;
+            region = clipped;
+          }
           bbc_cell_range c;
-          if (!bbc_grid_splat_polygon(grid, b->order[j], WHOLE, NULL, &c, s->row_x0, s->row_x1))
+          if (!bbc_grid_splat_polygon(grid, b->order[j], region, NULL, &c, s->row_x0, s->row_x1))
             continue;
           if (triangles_found) ++*triangles_found;
           for (uint32_t y = c.y0; y <= c.y1; y++) {

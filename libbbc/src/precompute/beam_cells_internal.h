@@ -1,9 +1,11 @@
 /* The cells a beam piece reaches (bbc_bound_beam; beam receivers, docs/receivers.md):
- * every cell of every receiver triangle not on a receiver plane whose box meets the
- * piece's world-space box. A BVH per such receiver finds the triangles, and each one
- * found gives the cells of its whole footprint in the grid (bbc_grid_splat_polygon of
- * the triangle); a piece whose box holds the receiver's whole box takes every cell any
- * triangle of the receiver covers at once (the receiver's mask). */
+ * the cells of every receiver triangle not on a receiver plane that the piece's
+ * world-space box meets. A BVH per such receiver finds the triangles whose boxes meet
+ * it; a triangle inside the box gives the cells of its whole footprint in the grid
+ * (bbc_grid_splat_polygon of the triangle), another one those of the part of it in the
+ * box (clipped in its barycentrics, conservatively), none when that part is empty. A
+ * piece whose box holds the receiver's whole box takes every cell any triangle of the
+ * receiver covers at once (the receiver's mask). */
 #ifndef BBC_BEAM_CELLS_INTERNAL_H
 #define BBC_BEAM_CELLS_INTERNAL_H
 
@@ -39,6 +41,8 @@ typedef struct bbc__beam_receivers {
   uint32_t *order;
   uint32_t max_width, max_height; /* the largest grid of these receivers */
   size_t bytes;                   /* what this holds */
+  int whole_triangles;            /* 1: no clipping, every triangle met gives its whole
+                                     footprint (for comparisons; 0 by default) */
 } bbc__beam_receivers;
 
 /* Per-thread working memory of bbc__beam_cells. */
