@@ -574,8 +574,8 @@ static uint32_t floor_side(const scene *s) {
 }
 
 /* A receiver floor: add_plane on floor_side(s)'s grid, bent by --floor-bend. */
-static void add_floor(const scene *s, mesh *m, double x0, double x1, double z0, double z1,
-                      double y, double facing) {
+static void add_floor(const scene *s, mesh *m, double x0, double x1, double z0, double z1, double y,
+                      double facing) {
   plane_params q = {x0, x1, z0, z1, y, facing, s->opts->floor_bend};
   const uint32_t n = floor_side(s);
   mesh_add_grid(m, n, n, plane_surface, &q);

@@ -462,7 +462,7 @@ test_beam_receivers_shard_and_thread_alike() {
   beam -o "$TMP/s0.bbc" --shard 0/2
   beam -o "$TMP/s1.bbc" --shard 1/2
   expect_status 0 "$INSPECT" merge "$TMP/merged.bbc" "$TMP/s1.bbc" "$TMP/s0.bbc" --no-progress
-  cmp "$TMP/full.bbc" "$TMP/merged.bbc" >&2 || fail "merged beam cache differs from the unsharded one"
+  cmp "$TMP/full.bbc" "$TMP/merged.bbc" >&2 || fail "merged beam cache differs from the whole one"
   expect_status 0 "$INSPECT" info "$TMP/merged.bbc"
   grep -q "^format       1.7" "$TMP/out" || fail "not format 1.7: $(cat "$TMP/out")"
   grep -q "^receivers    beam" "$TMP/out" || fail "info does not say beam: $(cat "$TMP/out")"

@@ -44,7 +44,8 @@ TEST(beam_tuples_do_not_multiply_with_the_floor) {
     free(t);
     bbc_scene_free(s);
   }
-  fprintf(stderr, "floors of %u and %u triangles: beam tuples %zu and %zu, per-triangle %zu and %zu\n",
+  fprintf(stderr,
+          "floors of %u and %u triangles: beam tuples %zu and %zu, per-triangle %zu and %zu\n",
           floors[0], floors[1], beams[0], beams[1], triangles[0], triangles[1]);
   CHECK(floors[1] >= 3 * floors[0]);
   CHECK(beams[0] > 20);
@@ -325,11 +326,11 @@ TEST(beam_cells_cover_the_box) {
     uint64_t ignored = 0;
     control += uncovered(s, grid, cells, piece.box_lo, piece.box_hi, &ignored);
   }
-  fprintf(stderr, "%llu points inside the boxes, %llu uncovered; cells: %llu clipped, %llu whole "
+  fprintf(stderr,
+          "%llu points inside the boxes, %llu uncovered; cells: %llu clipped, %llu whole "
           "triangles; control (half boxes) misses %llu\n",
-          (unsigned long long)inside, (unsigned long long)missed,
-          (unsigned long long)clipped_cells, (unsigned long long)whole_cells,
-          (unsigned long long)control);
+          (unsigned long long)inside, (unsigned long long)missed, (unsigned long long)clipped_cells,
+          (unsigned long long)whole_cells, (unsigned long long)control);
   CHECK(inside > 10000);
   CHECK_INT(missed, 0);
   CHECK(clipped_cells < whole_cells);

@@ -398,8 +398,10 @@ static uint32_t beam_items(const bvh *b, const bbc_scene *scene, uint32_t medium
   int any = 0;
   for (uint32_t i = 0; i < n; i++) {
     if (!medium_reaches(b, scene, medium, found[i])) continue;
-    if (scene->meshes[bbc_receiver_plane_mesh(found[i])].plane) found[k++] = found[i];
-    else any = 1;
+    if (scene->meshes[bbc_receiver_plane_mesh(found[i])].plane)
+      found[k++] = found[i];
+    else
+      any = 1;
   }
   if (any) found[k++] = BBC_RECEIVER_BEAM;
   return k;
@@ -599,8 +601,8 @@ static void scratch_free(search_scratch *s) {
  * scattering tuple, `first` its scattering at T1 (1: refraction) and medium the one
  * beyond T1. */
 static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, int beam_receivers,
-                                const bvh *receivers, uint32_t medium, const bbc_tuple *tuple, int first,
-                                search_place *at, search_scratch *s, tuple_list *list,
+                                const bvh *receivers, uint32_t medium, const bbc_tuple *tuple,
+                                int first, search_place *at, search_scratch *s, tuple_list *list,
                                 int *stopped) {
   const uint32_t after[2] = {1u << (first ? BBC_CHAIN_TR : BBC_CHAIN_RR),
                              1u << (first ? BBC_CHAIN_TT : BBC_CHAIN_RT)};
@@ -644,10 +646,9 @@ static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, int bea
  * its limit before the prefix ends, *stopped is 1 and *at the place of the next tuple,
  * from which a later call carries on (the stages are found again in the same order). */
 static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int beam_receivers,
-                                const bvh *receivers,
-                                const bvh *casters, const bbc_point_light *light, uint32_t l,
-                                search_place *at, search_scratch *s, tuple_list *list,
-                                int *stopped) {
+                                const bvh *receivers, const bvh *casters,
+                                const bbc_point_light *light, uint32_t l, search_place *at,
+                                search_scratch *s, tuple_list *list, int *stopped) {
   bbc_result result = BBC_OK;
   const uint32_t t = at->t1;
   *stopped = 0;
@@ -671,8 +672,8 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int bea
   if (!(chains & ((1u << single) | after[0] | after[1]))) return BBC_OK;
   /* The beam does not depend on the receiver: use any as a stand-in (a beam's, which
    * names no triangle, with whole meshes in the walk). */
-  bbc_tuple tuple = {l, (uint32_t)single, {t, BBC_NO_TRIANGLE},
-                     beam_receivers ? BBC_RECEIVER_BEAM : receivers->order[0]};
+  const uint32_t stand_in = beam_receivers ? BBC_RECEIVER_BEAM : receivers->order[0];
+  bbc_tuple tuple = {l, (uint32_t)single, {t, BBC_NO_TRIANGLE}, stand_in};
   bbc_tuple_geometry g;
   if ((result = bbc_tuple_geometry_init(&g, scene, &tuple)) != BBC_OK) return result;
   /* A light in T1's plane sees it edge-on: no light passes through. */
@@ -701,8 +702,8 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int bea
   }
   if (!(chains & (after[0] | after[1])) || casters->node_count == 0) return BBC_OK;
   if (s->listed && s->listed_light == l && s->listed_t1 == t)
-    return second_tuples(scene, chains, beam_receivers, receivers, medium, &tuple, first, at, s, list,
-                         stopped);
+    return second_tuples(scene, chains, beam_receivers, receivers, medium, &tuple, first, at, s,
+                         list, stopped);
   s->listed = 0;
   /* T2 from the beams of the BEAM_SPLIT x BEAM_SPLIT s->boxes of T1's unit box that
    * meet the triangle (far tighter than T1's whole beam, whose box of u1 is twice
@@ -769,7 +770,8 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int bea
   s->listed = 1;
   s->listed_light = l;
   s->listed_t1 = t;
-  return second_tuples(scene, chains, beam_receivers, receivers, medium, &tuple, first, at, s, list, stopped);
+  return second_tuples(scene, chains, beam_receivers, receivers, medium, &tuple, first, at, s, list,
+                       stopped);
 }
 
 /* Prefixes are searched in chunks of SEARCH_CHUNK T1, a window of chunks in parallel;
@@ -879,8 +881,8 @@ static bbc_result chunk_search(bbc__tuple_search *s, search_chunk *c, search_scr
   const uint32_t chains = light_chains(s, s->light);
   for (; c->at.t1 < c->end; c->at.t1++, c->at.stage = c->at.index = 0) {
     int stopped = 0;
-    bbc_result r = prefix_tuples(s->scene, chains, s->beam, &s->receivers, &s->casters, &s->point, s->light,
-                                 &c->at, w, &c->part, &stopped);
+    bbc_result r = prefix_tuples(s->scene, chains, s->beam, &s->receivers, &s->casters, &s->point,
+                                 s->light, &c->at, w, &c->part, &stopped);
     if (r != BBC_OK || stopped) return r;
   }
   return BBC_OK;

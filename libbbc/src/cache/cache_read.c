@@ -893,7 +893,8 @@ bbc_result bbc_cache_check_params(const bbc_cache *c, const bbc_precompute_param
              c->version_major, c->version_minor, q->area_double ? 0u : 1u);
   else if (q->beam_receivers != (p->beam_receivers ? 1u : 0u))
     snprintf(diff, sizeof diff, "receivers %s, expected %s",
-             q->beam_receivers ? "beam" : "per-triangle", p->beam_receivers ? "beam" : "per-triangle");
+             q->beam_receivers ? "beam" : "per-triangle",
+             p->beam_receivers ? "beam" : "per-triangle");
   if (!diff[0]) return BBC_OK;
   return bbc__report(c->options.error_fn, c->options.user, BBC_ERR_SCENE_MISMATCH,
                      "%s: computed with other parameters: %s", c->path, diff);

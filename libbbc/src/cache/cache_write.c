@@ -1084,13 +1084,14 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   for (uint32_t i = 0; i < b->grid->receiver_count; i++)
     planes |= b->grid->receivers[i].parameterisation == BBC_PARAM_PLANE;
   bbc__st16(header + 10, b->params.beam_receivers ? BBC__MINOR_BEAM
-                         : planes ? BBC__MINOR_PLANE
-                         : b->params.area_lights && b->params.alpha_area != 0 ? BBC__MINOR_AREA_ALPHA
-                         : b->params.area_double  ? BBC__MINOR_AREA_DOUBLE
-                         : geom                    ? BBC__MINOR_GEOMETRY
+                         : planes                 ? BBC__MINOR_PLANE
+                         : b->params.area_lights && b->params.alpha_area != 0
+                             ? BBC__MINOR_AREA_ALPHA
+                         : b->params.area_double ? BBC__MINOR_AREA_DOUBLE
+                         : geom                  ? BBC__MINOR_GEOMETRY
                          : b->params.area_lights ? BBC__MINOR_AREA
-                         : b->shard_count   ? BBC__MINOR_SHARD
-                                            : BBC__MINOR_COMPLETE);
+                         : b->shard_count        ? BBC__MINOR_SHARD
+                                                 : BBC__MINOR_COMPLETE);
   bbc__st32(header + 12, nsec);
   bbc__st64(header + 16, file_size);
   bbc__st32(header + 28, crc_of(crc32_z(0, NULL, 0), dir, BBC__DIR_ENTRY_SIZE * nsec));

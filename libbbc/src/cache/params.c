@@ -25,7 +25,8 @@ int bbc__params_valid(const bbc_precompute_params *p) {
          isfinite(p->alpha_single) && p->alpha_single >= 1 && isfinite(p->alpha_double) &&
          p->alpha_double >= 1 && isfinite(p->m) && p->m > 0 && p->grid_resolution >= 1 &&
          p->grid_resolution <= BBC__MAX_RESOLUTION && p->remainder <= 1 && p->area_lights <= 1 &&
-         p->area_double <= 1 && (!p->area_double || (p->area_lights && (p->chains & BBC_CHAIN_MASK_DOUBLE))) &&
+         p->area_double <= 1 &&
+         (!p->area_double || (p->area_lights && (p->chains & BBC_CHAIN_MASK_DOUBLE))) &&
          (p->alpha_area == 0 || (isfinite(p->alpha_area) && p->alpha_area >= 1)) &&
          p->beam_receivers <= 1;
 }

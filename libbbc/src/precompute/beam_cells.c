@@ -39,7 +39,8 @@ static uint32_t node_build(bbc__beam_receivers *b, const bbc_scene *scene, uint3
   for (uint32_t i = first; i < first + count; i++) {
     double lo[3], hi[3];
     triangle_box(scene, b->order[i], lo, hi);
-    for (int a = 0; a < 3; a++) node.lo[a] = fmin(node.lo[a], lo[a]), node.hi[a] = fmax(node.hi[a], hi[a]);
+    for (int a = 0; a < 3; a++)
+      node.lo[a] = fmin(node.lo[a], lo[a]), node.hi[a] = fmax(node.hi[a], hi[a]);
   }
   if (count <= 4) {
     node.first = first;
@@ -256,9 +257,9 @@ static void touch(touched *t, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1
 }
 
 bbc_result bbc__beam_cells(const bbc__beam_receivers *b, const bbc_scene *scene,
-                           const bbc_grid *grid, const bbc_beam_piece *pieces,
-                           const double *bound, size_t n, bbc__beam_scratch *s,
-                           bbc__beam_emit_fn emit, void *user, uint64_t *triangles_found) {
+                           const bbc_grid *grid, const bbc_beam_piece *pieces, const double *bound,
+                           size_t n, bbc__beam_scratch *s, bbc__beam_emit_fn emit, void *user,
+                           uint64_t *triangles_found) {
   if (b->count == 0 || n == 0) return BBC_OK;
   bbc_result res = scratch_reserve(s, b);
   for (uint32_t k = 0; k < b->count && res == BBC_OK; k++) {

@@ -26,10 +26,10 @@ typedef struct bbc__beam_node {
 typedef struct bbc__beam_receiver {
   uint32_t receiver; /* its index in the grid */
   double lo[3], hi[3];
-  uint32_t root;         /* its BVH's root in `nodes` */
+  uint32_t root;               /* its BVH's root in `nodes` */
   uint32_t mx0, my0, mx1, my1; /* the rectangle of its mask (mx0 > mx1: none) */
-  uint8_t *mask;         /* per cell of the rectangle, 1 when a triangle's footprint
-                            covers it */
+  uint8_t *mask;               /* per cell of the rectangle, 1 when a triangle's footprint
+                                  covers it */
 } bbc__beam_receiver;
 
 typedef struct bbc__beam_receivers {
@@ -63,15 +63,14 @@ void bbc__beam_scratch_free(bbc__beam_scratch *s);
 /* Receives a rectangle of a tuple's cells (w x h from cell x0, y0 of receiver, rows
  * `stride` apart, 0 where no entry, else the cell's bound); non-zero return: failure. */
 typedef bbc_result (*bbc__beam_emit_fn)(void *user, uint32_t receiver, uint32_t x0, uint32_t y0,
-                                        uint32_t w, uint32_t h, const double *cells,
-                                        size_t stride);
+                                        uint32_t w, uint32_t h, const double *cells, size_t stride);
 
 /* The cells of a beam tuple's kept pieces, pieces[i] with the cell bound bound[i] (> 0),
  * the largest per cell: one rectangle per receiver reached, in receiver order, to emit.
  * Deterministic: the same pieces give the same rectangles in any order. */
 bbc_result bbc__beam_cells(const bbc__beam_receivers *b, const bbc_scene *scene,
-                           const bbc_grid *grid, const bbc_beam_piece *pieces,
-                           const double *bound, size_t n, bbc__beam_scratch *s,
-                           bbc__beam_emit_fn emit, void *user, uint64_t *triangles_found);
+                           const bbc_grid *grid, const bbc_beam_piece *pieces, const double *bound,
+                           size_t n, bbc__beam_scratch *s, bbc__beam_emit_fn emit, void *user,
+                           uint64_t *triangles_found);
 
 #endif

@@ -817,9 +817,9 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   if (result == BBC_OK && (!beam_pieces || !beam_scratch)) result = BBC_ERR_OUT_OF_MEMORY;
   if (result == BBC_OK && params->beam_receivers)
     result = bbc__beam_receivers_init(&beams, scene, grid);
-  const bound_context context = {scene,  params,   grid,    bound,  bound2, bound_area,
-                                 bounders, pieces, rasters, covers, &beams, beam_pieces,
-                                 beam_scratch};
+  const bound_context context = {scene,      params,      grid,        bound,   bound2,
+                                 bound_area, bounders,    pieces,      rasters, covers,
+                                 &beams,     beam_pieces, beam_scratch};
 
   /* The estimate, from the census and its sample bounded first (SAMPLE_MAX tuples
    * fit a batch's cells), before the bounding: the caller may stop there. */

@@ -438,8 +438,10 @@ static bbc_result check_cached_landing(void *user, uint32_t t, const bbc_specula
     v->upper_violations++;
     record_failure(v, c->tuple, c->sample, BBC_VALIDATION_UPPER, path, NULL);
   }
-  if (!isfinite(found->bound)) v->unbounded++;
-  else if (e >= 0 && e < INFINITY) add_ratio(v, e > 0 ? log10(found->bound / e) : INFINITY);
+  if (!isfinite(found->bound))
+    v->unbounded++;
+  else if (e >= 0 && e < INFINITY)
+    add_ratio(v, e > 0 ? log10(found->bound / e) : INFINITY);
   return BBC_OK;
 }
 
@@ -463,8 +465,9 @@ static bbc_result validate_cached_beam(const bbc_cache *cache, bbc_cache_cursor 
   bbc_validation local;
   bbc_validation_reset(&local);
   local.tuples = 1;
-  cached_landing c = {&local, cursor, tuple, tuple_id, 0,
-                      fmax(intensity[0], fmax(intensity[1], intensity[2])) * info.params.m};
+  cached_landing c = {&local, cursor,
+                      tuple,  tuple_id,
+                      0,      fmax(intensity[0], fmax(intensity[1], intensity[2])) * info.params.m};
   for (uint32_t i = 0; i < samples && r == BBC_OK; i++) {
     double u1[2];
     bbc_validation_sample_u1(seed, tuple, i, u1);
@@ -486,7 +489,7 @@ static bbc_result validate_cached_beam(const bbc_cache *cache, bbc_cache_cursor 
 /* ---- the bounds of a beam tuple (bbc_bound_beam) against its true paths ---------------- */
 
 typedef struct beam_leaves {
-  leaf_set leaves; /* their u1 boxes and status, for find_leaf */
+  leaf_set leaves;       /* their u1 boxes and status, for find_leaf */
   bbc_beam_piece *items; /* the pieces themselves, in the same order */
   size_t capacity;
 } beam_leaves;
@@ -542,8 +545,10 @@ static bbc_result check_bound_landing(void *user, uint32_t t, const bbc_specular
     v->lower_violations++;
   }
   if (kinds) record_failure(v, c->tuple, c->sample, kinds, path, NULL);
-  if (!isfinite(q->e_hi)) v->unbounded++;
-  else if (e >= 0 && e < INFINITY) add_ratio(v, e > 0 ? log10(q->e_hi / e) : INFINITY);
+  if (!isfinite(q->e_hi))
+    v->unbounded++;
+  else if (e >= 0 && e < INFINITY)
+    add_ratio(v, e > 0 ? log10(q->e_hi / e) : INFINITY);
   return BBC_OK;
 }
 
@@ -608,11 +613,13 @@ static bbc_result validate_beam(bbc_bounder *bounder, const bbc_scene *scene,
     bbc_validation before = local;
     r = beam_landings(scene, tuple, &pgi, o, u1, count_landing, &local);
     const uint64_t landed = local.admissible - before.admissible;
-    if (landed && !leaf) local.uncovered += landed;
-    else if (landed) local.in_discarded += landed;
-    if (landed) record_failure(&local, tuple, i,
-                               leaf ? BBC_VALIDATION_DISCARDED : BBC_VALIDATION_UNCOVERED,
-                               &(bbc_specular_path){0}, NULL);
+    if (landed && !leaf)
+      local.uncovered += landed;
+    else if (landed)
+      local.in_discarded += landed;
+    if (landed)
+      record_failure(&local, tuple, i, leaf ? BBC_VALIDATION_DISCARDED : BBC_VALIDATION_UNCOVERED,
+                     &(bbc_specular_path){0}, NULL);
   }
   free_leaves(&leaves.leaves);
   free(leaves.items);
