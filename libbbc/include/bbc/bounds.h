@@ -166,6 +166,42 @@ BBC_API bbc_result bbc_bound_tuple(bbc_bounder *bounder, const bbc_tuple_geometr
                                    const bbc_bound_params *params, bbc_piece_fn fn, void *user,
                                    bbc_bound_stats *stats);
 
+/* A leaf of the subdivision of a beam tuple (receiver BBC_RECEIVER_BEAM): the box
+ * [u_lo, u_hi] x [v_lo, v_hi] of T1's barycentrics and, when kept, a world-space box
+ * box_lo..box_hi holding every point of the receivers' box that the piece's paths can
+ * reach, and bounds [e_lo, e_hi] of the irradiance per unit light intensity they carry
+ * there, valid on a surface of any orientation through such a point (E_hi possibly
+ * +inf). lambda_lo, lambda_hi and axis are the bounder's own (the range of the distance
+ * along the ray it covered, and the axis it last split), for diagnostics. */
+typedef struct bbc_beam_piece {
+  double u_lo, u_hi, v_lo, v_hi;
+  int level;
+  bbc_piece_status status;
+  double lambda_lo, lambda_hi;
+  int axis;
+  double box_lo[3], box_hi[3];
+  double e_lo, e_hi;
+} bbc_beam_piece;
+
+/* Bounds the light of a tuple without a receiver (g's receiver is unused) where it may
+ * meet the receivers, which lie in the box receivers_lo..receivers_hi, reporting every
+ * leaf piece to fn (a non-zero return stops: BBC_ERR_CANCELLED). stats may be NULL and
+ * is added to. params->need is not asked. */
+BBC_API bbc_result bbc_bound_beam(bbc_bounder *b, const bbc_tuple_geometry *g,
+                                  const double receivers_lo[3], const double receivers_hi[3],
+                                  const bbc_bound_params *params,
+                                  int (*fn)(void *user, const bbc_beam_piece *), void *user,
+                                  bbc_bound_stats *stats);
+
+/* The candidate tuples with beam receivers (bbc_precompute_params.beam_receivers), in
+ * bbc_precompute's order: those of bbc_tuples_find for `chains`, then those of
+ * bbc_tuples_find_area for `area_chains` (0: none), but with the receiver triangles
+ * that are not on a receiver plane replaced, per (light, T1[, T2]) prefix whose beam
+ * can reach one, by one tuple whose receiver is BBC_RECEIVER_BEAM (after the prefix's
+ * plane tuples). */
+BBC_API bbc_result bbc_tuples_find_beam(const bbc_scene *scene, uint32_t chains,
+                                        uint32_t area_chains, bbc_tuple **out, size_t *count);
+
 /* The candidate tuples of the scene for the chain types in `chains` (a mask of
  * BBC_CHAIN_BIT), in the deterministic order bbc_precompute uses: by light, then first
  * specular triangle, then second specular triangle (none first), then receiver. *out

@@ -141,7 +141,10 @@ bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene
   g->light = light.position;
   g->light_model = light.model;
   g->length = length;
-  if (!bbc_receiver_triangle(scene, tuple->receiver, g->r)) return BBC_ERR_INVALID_ARGUMENT;
+  /* A beam tuple ends on no triangle: its r stays zero (bbc_bound_beam ignores it). */
+  if (!bbc_receiver_is_beam(tuple->receiver) &&
+      !bbc_receiver_triangle(scene, tuple->receiver, g->r))
+    return BBC_ERR_INVALID_ARGUMENT;
   const uint32_t *a = scene->indices + 3 * (size_t)tuple->specular[0];
   bbc_vec3 source =
       bbc__light_source(g->light, &g->light_model, v3_load(scene->positions + 3 * (size_t)a[0]));

@@ -15,6 +15,7 @@
 
 #include <omp.h>
 
+#include "beam_cells_internal.h"
 #include "candidates_internal.h"
 #include "cache_format_internal.h"
 #include "cache_shard_internal.h"
@@ -252,6 +253,14 @@ static int keep_piece(void *user, const bbc_piece *piece) {
   return 0;
 }
 
+/* A beam tuple's kept pieces and their cell bounds (cell_bound of E_hi). */
+typedef struct beam_list {
+  bbc_beam_piece *items;
+  double *bound;
+  size_t count, capacity;
+  int failed;
+} beam_list;
+
 /* A per-thread raster of one tuple's bounds over the cells its pieces cover. */
 typedef struct raster {
   double *cells;
@@ -260,23 +269,36 @@ typedef struct raster {
   size_t rows;
 } raster;
 
+/* A rectangle of a tuple's cells in one receiver: h rows from row y0, its codes and
+ * spans from these indices of its arena on. */
+typedef struct cell_segment {
+  uint32_t receiver, y0, h;
+  size_t codes, spans;
+} cell_segment;
+
 /* The cells of a batch's tuples as the builder takes them (bbc__cache_builder_add_rows),
  * per bounding thread: for each row of a tuple's cell rectangle, the span from its first
  * to its last cell with an entry, and the codes of the span, 0 for no entry. Emptied
- * before each batch, so it holds one batch, about its entries. */
+ * before each batch, so it holds one batch, about its entries. A tuple's cells are one
+ * segment (a rectangle of its receiver), or for a beam tuple one per receiver reached. */
 typedef struct cell_arena {
   uint16_t *codes;
   uint32_t *spans; /* per row: first column, count */
-  size_t codes_used, codes_cap, spans_used, spans_cap;
+  cell_segment *segments;
+  size_t codes_used, codes_cap, spans_used, spans_cap, segments_used, segments_cap;
 } cell_arena;
 
-/* One tuple's cells: h rows from row y0 of its receiver, in arena `arena`; h == 0 when
- * it has none. */
+static void arena_clear(cell_arena *a) {
+  a->codes_used = a->spans_used = a->segments_used = 0;
+}
+
+/* One tuple's cells: `segments` segments from index `segment` on in arena `arena`
+ * (consecutive: one thread appends them); none when it has no cells. */
 typedef struct tuple_cells {
   int stored; /* the tuple has a stored piece (it is stored even with no cells) */
   int arena;
-  size_t codes, spans; /* where its codes and spans start in the arena */
-  uint32_t receiver, y0, h;
+  size_t segment;
+  uint32_t segments;
   uint64_t entries; /* codes not 0 */
 } tuple_cells;
 
@@ -302,10 +324,15 @@ static bbc_result arena_add(cell_arena *a, int arena, tuple_cells *out, uint32_t
   if (!arena_reserve((void **)&a->codes, &a->codes_cap, a->codes_used + (size_t)w * h,
                      sizeof *a->codes) ||
       !arena_reserve((void **)&a->spans, &a->spans_cap, a->spans_used + 2 * (size_t)h,
-                     sizeof *a->spans))
+                     sizeof *a->spans) ||
+      !arena_reserve((void **)&a->segments, &a->segments_cap, a->segments_used + 1,
+                     sizeof *a->segments))
     return BBC_ERR_OUT_OF_MEMORY;
-  out->arena = arena, out->codes = a->codes_used, out->spans = a->spans_used;
-  out->receiver = receiver, out->y0 = y0, out->h = h;
+  out->arena = arena;
+  if (out->segments == 0) out->segment = a->segments_used;
+  cell_segment *seg = &a->segments[a->segments_used];
+  seg->codes = a->codes_used, seg->spans = a->spans_used;
+  seg->receiver = receiver, seg->y0 = y0, seg->h = h;
   uint64_t entries = 0;
   uint16_t *codes = a->codes + a->codes_used;
   uint32_t *spans = a->spans + a->spans_used;
@@ -338,7 +365,9 @@ static bbc_result arena_add(cell_arena *a, int arena, tuple_cells *out, uint32_t
   }
   a->codes_used = (size_t)(codes - a->codes);
   a->spans_used += 2 * (size_t)h;
-  out->entries = entries;
+  a->segments_used++;
+  out->segments++;
+  out->entries += entries;
   return BBC_OK;
 }
 
@@ -366,7 +395,7 @@ static double cell_bound(double e_hi, double power) {
  * `escaped` says when not). */
 static bbc_result tuple_cells_from_coverage(cell_arena *a, int arena, tuple_cells *out,
                                             const coverage *c, double power) {
-  out->h = 0;
+  out->segments = 0;
   out->entries = 0;
   if (!c->touched) return BBC_OK;
   return arena_add(a, arena, out, c->receiver, c->tx0, c->ty0, c->tx1 - c->tx0 + 1,
@@ -380,7 +409,7 @@ static bbc_result tuple_cells_from_pieces(cell_arena *a, int arena, tuple_cells 
                                           const bbc_grid *grid, double power,
                                           const bbc_tuple *tuple, const piece_list *pieces,
                                           raster *r) {
-  out->h = 0;
+  out->segments = 0;
   out->entries = 0;
   bbc_cell_range all = {0, UINT32_MAX, UINT32_MAX, 0, 0};
   int any = 0;
@@ -448,18 +477,20 @@ static int record_part(bbc_cache_builder *builder, const batch *b, uint32_t part
   int status = 0;
   for (; i < b->n; i++) {
     const tuple_cells *t = &b->cells[i];
-    if (b->ids[i] == UINT32_MAX || t->h == 0) continue;
+    if (b->ids[i] == UINT32_MAX || t->segments == 0) continue;
     if (bbc__cache_builder_full(builder)) {
       status = 1;
       break;
     }
     const cell_arena *a = &b->arenas[t->arena];
-    if (bbc__cache_builder_add_rows(builder, b->ids[i], t->receiver, t->y0, t->h,
-                                    a->spans + t->spans, a->codes + t->codes, part,
-                                    parts) != BBC_OK) {
-      status = -1;
-      break;
+    for (uint32_t k = 0; k < t->segments && status == 0; k++) {
+      const cell_segment *s = &a->segments[t->segment + k];
+      if (bbc__cache_builder_add_rows(builder, b->ids[i], s->receiver, s->y0, s->h,
+                                      a->spans + s->spans, a->codes + s->codes, part,
+                                      parts) != BBC_OK)
+        status = -1;
     }
+    if (status) break;
   }
   *resume = i;
   return status;
@@ -476,12 +507,79 @@ typedef struct bound_context {
   piece_list *pieces;
   raster *rasters;
   coverage *covers;
+  /* Beam tuples: the receivers that are not planes, and per thread the kept pieces,
+   * their cell bounds and the working memory of their cells. */
+  const bbc__beam_receivers *beams;
+  beam_list *beam_pieces;
+  bbc__beam_scratch *beam_scratch;
 } bound_context;
+
+static int keep_beam_piece(void *user, const bbc_beam_piece *piece) {
+  beam_list *l = user;
+  if (piece->status != BBC_PIECE_KEPT) return 0;
+  if (l->count == l->capacity) {
+    size_t capacity = l->capacity ? 2 * l->capacity : 16;
+    bbc_beam_piece *items = realloc(l->items, capacity * sizeof *items);
+    double *bound = realloc(l->bound, capacity * sizeof *bound);
+    if (items) l->items = items;
+    if (bound) l->bound = bound;
+    if (!items || !bound) {
+      l->failed = 1;
+      return 1;
+    }
+    l->capacity = capacity;
+  }
+  l->items[l->count++] = *piece;
+  return 0;
+}
+
+/* Where bbc__beam_cells puts a receiver's rectangle: the tuple's next segment. */
+typedef struct beam_emit {
+  cell_arena *arena;
+  int id;
+  tuple_cells *cells;
+} beam_emit;
+
+static bbc_result emit_beam_cells(void *user, uint32_t receiver, uint32_t x0, uint32_t y0,
+                                  uint32_t w, uint32_t h, const double *cells, size_t stride) {
+  beam_emit *e = user;
+  return arena_add(e->arena, e->id, e->cells, receiver, x0, y0, w, h, cells, stride, 0, 0.0);
+}
+
+/* Bounds beam tuple t (receiver BBC_RECEIVER_BEAM) on thread `id`: its kept pieces'
+ * bounds go to the cells of every receiver triangle not on a plane that their boxes
+ * meet, the largest per cell. 0 on failure. */
+static int bound_beam_one(const bound_context *x, int id, const bbc_tuple *t, cell_arena *a,
+                          tuple_cells *c, bbc_bound_stats *stats) {
+  bbc_tuple_geometry g;
+  beam_list *list = &x->beam_pieces[id];
+  list->count = 0;
+  list->failed = 0;
+  c->stored = 0;
+  c->segments = 0;
+  c->entries = 0;
+  if (bbc_tuple_geometry_init(&g, x->scene, t) != BBC_OK) return 0;
+  const bbc_bound_params prm = g.light_model.kind == BBC_LIGHT_AREA ? x->bound_area
+                               : g.length == 2                      ? x->bound2
+                                                                    : x->bound;
+  if (bbc_bound_beam(x->bounders[id], &g, x->beams->lo, x->beams->hi, &prm, keep_beam_piece, list,
+                     stats) != BBC_OK ||
+      list->failed)
+    return 0;
+  c->stored = list->count > 0;
+  if (!c->stored) return 1;
+  const double power = tuple_power(x->scene, x->params, t);
+  for (size_t i = 0; i < list->count; i++) list->bound[i] = cell_bound(list->items[i].e_hi, power);
+  beam_emit emit = {a, id, c};
+  return bbc__beam_cells(x->beams, x->scene, x->grid, list->items, list->bound, list->count,
+                         &x->beam_scratch[id], emit_beam_cells, &emit, NULL) == BBC_OK;
+}
 
 /* Bounds tuple t on thread `id` and gives its cells (in arena a, thread id's); 0 on
  * failure. */
 static int bound_one(const bound_context *x, int id, const bbc_tuple *t, cell_arena *a,
                      tuple_cells *c, bbc_bound_stats *stats) {
+  if (bbc_receiver_is_beam(t->receiver)) return bound_beam_one(x, id, t, a, c, stats);
   bbc_tuple_geometry g;
   piece_list *list = &x->pieces[id];
   list->count = 0;
@@ -505,7 +603,7 @@ static int bound_one(const bound_context *x, int id, const bbc_tuple *t, cell_ar
   /* The tuple's cells, while the raster holds them (a tuple is stored when it has a
    * stored piece). */
   c->stored = ok && list->count > 0;
-  c->h = 0;
+  c->segments = 0;
   c->entries = 0;
   if (c->stored) {
     const double power = tuple_power(x->scene, x->params, t);
@@ -526,7 +624,7 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
   double cpu = 0;
   uint64_t stored = 0, entries = 0;
   int failed = 0;
-  for (int i = 0; i < threads; i++) arenas[i].codes_used = arenas[i].spans_used = 0;
+  for (int i = 0; i < threads; i++) arena_clear(&arenas[i]);
 #pragma omp parallel num_threads(threads) reduction(+ : cpu, stored, entries) reduction(| : failed)
   {
     const int id = omp_get_thread_num();
@@ -541,7 +639,7 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
     }
     cpu += thread_cpu_seconds() - cpu0;
   }
-  for (int i = 0; i < threads; i++) arenas[i].codes_used = arenas[i].spans_used = 0;
+  for (int i = 0; i < threads; i++) arena_clear(&arenas[i]);
   if (failed) return BBC_ERR_OUT_OF_MEMORY;
   e->sample_tuples = (uint32_t)n;
   e->sample_cpu_seconds = cpu;
@@ -552,7 +650,8 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
 
 /* The rest of the estimate, from the census and the sample: see precompute.h. */
 static void estimate_costs(const bbc__census *census, const bbc_precompute_options *o,
-                           const bbc_grid *grid, int threads, bbc_precompute_estimate *e) {
+                           const bbc_grid *grid, int threads, const bbc__beam_receivers *beams,
+                           bbc_precompute_estimate *e) {
   const double tuple = sizeof(bbc_tuple);
   e->candidate_tuples = census->count;
   memcpy(e->candidates_per_chain, census->per_chain, sizeof e->candidates_per_chain);
@@ -582,6 +681,14 @@ static void estimate_costs(const bbc__census *census, const bbc_precompute_optio
   double memory = stored * 2 * tuple + (o->shard_count ? stored * 2 * 8 : 0) + 2 * entry_memory;
   if (!e->list_held) memory += 2 * (double)census->block_peak;
   memory += (double)grid->cell_count * BBC__CIDX_SIZE;
+  /* Beam receivers: their BVHs and masks, and per thread a raster of the largest grid.
+   * A beam tuple may reach every cell of those receivers, so the two batches' cells
+   * (codes of 2 bytes over the tuples' rectangles, about their entries) count too. */
+  if (beams->count) {
+    memory += (double)beams->bytes +
+              threads * (double)beams->max_width * beams->max_height * sizeof(double);
+    memory += 2.0 * fmin(BATCH_TUPLES, stored) * e->entries_per_tuple * 2;
+  }
   e->memory_bytes = (uint64_t)memory;
   /* The file: its fixed sections (as bbc_cache_check_resources counts them), the
    * tuples and the cell lists at about 1.7 bytes per entry once compressed (measured
@@ -619,6 +726,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   bbc__census_request request;
   memset(&request, 0, sizeof request);
   request.chains = params->chains;
+  request.beam = params->beam_receivers != 0;
   request.area_chains = !params->area_lights ? 0
                         : params->area_double ? params->chains
                                               : params->chains & ~BBC_CHAIN_MASK_DOUBLE;
@@ -701,8 +809,17 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
                            !thread_stats || !cpu_split))
     result = BBC_ERR_OUT_OF_MEMORY;
   for (int i = 0; i < threads && result == BBC_OK; i++) result = bbc_bounder_create(&bounders[i]);
-  const bound_context context = {scene,  params,   grid,    bound,  bound2,
-                                  bound_area, bounders, pieces, rasters, covers};
+  /* Beam receivers: the receivers that are not planes, for the cells of beam tuples. */
+  bbc__beam_receivers beams;
+  memset(&beams, 0, sizeof beams);
+  beam_list *beam_pieces = calloc((size_t)threads, sizeof *beam_pieces);
+  bbc__beam_scratch *beam_scratch = calloc((size_t)threads, sizeof *beam_scratch);
+  if (result == BBC_OK && (!beam_pieces || !beam_scratch)) result = BBC_ERR_OUT_OF_MEMORY;
+  if (result == BBC_OK && params->beam_receivers)
+    result = bbc__beam_receivers_init(&beams, scene, grid);
+  const bound_context context = {scene,      params,      grid,        bound,   bound2,
+                                 bound_area, bounders,    pieces,      rasters, covers,
+                                 &beams,     beam_pieces, beam_scratch};
 
   /* The estimate, from the census and its sample bounded first (SAMPLE_MAX tuples
    * fit a batch's cells), before the bounding: the caller may stop there. */
@@ -710,7 +827,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     result = bound_sample(&context, threads, &census, batches[0].arenas, batches[0].cells,
                           &st.estimate);
   if (result == BBC_OK) {
-    estimate_costs(&census, options, grid, threads, &st.estimate);
+    estimate_costs(&census, options, grid, threads, &beams, &st.estimate);
     if (options->estimate_fn && options->estimate_fn(options->user, &st.estimate))
       result = BBC_ERR_CANCELLED;
   }
@@ -730,7 +847,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     const int pending = k > 0 && prev->n > 0;
     if (n == 0 && !pending) break;
     cur->n = n;
-    for (int i = 0; i < threads; i++) cur->arenas[i].codes_used = cur->arenas[i].spans_used = 0;
+    for (int i = 0; i < threads; i++) arena_clear(&cur->arenas[i]);
     for (uint32_t p = 0; p < parts; p++) resume[p] = 0;
     double b0 = omp_get_wtime();
     int failed = 0, stopped = 0;
@@ -832,6 +949,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     for (int i = 0; batches[k].arenas && i < threads; i++) {
       free(batches[k].arenas[i].codes);
       free(batches[k].arenas[i].spans);
+      free(batches[k].arenas[i].segments);
     }
     free(batches[k].arenas);
     free(batches[k].cells);
@@ -854,6 +972,13 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     }
   }
   free(covers);
+  for (int i = 0; i < threads; i++) {
+    if (beam_pieces) free(beam_pieces[i].items), free(beam_pieces[i].bound);
+    if (beam_scratch) bbc__beam_scratch_free(&beam_scratch[i]);
+  }
+  free(beam_pieces);
+  free(beam_scratch);
+  bbc__beam_receivers_free(&beams);
   free(thread_stats);
   free(cpu_split);
   st.construction_seconds += source.search_seconds;
