@@ -200,7 +200,8 @@ static tally check_paths(const bbc_tuple_geometry *g, const double lo[3], const 
     const double tt = t0 + (t1 - t0) * rnd();
     bbc_vec3 y = v3_add(x, v3_scale(d, tt));
     const double ys[3] = {y.x, y.y, y.z};
-    bbc_vec3 m = random_unit();
+    /* A quarter of the planes normal to the ray, where the irradiance is largest. */
+    bbc_vec3 m = rnd() < 0.25 ? d : random_unit();
     if (plane_axis >= 0) m = (bbc_vec3){plane_axis == 0, plane_axis == 1, plane_axis == 2};
     const double e = true_irradiance(g, u, v, y, m);
     if (!(e >= 0)) continue;
@@ -310,4 +311,86 @@ TEST(refraction_converging) {
   bbc_tuple_geometry g;
   caster(&g, -1.5, 1, 1 / 1.5);
   run("T converging", &g, below_lo, below_hi, 4, 100000);
+}
+
+/* The controls: each wrong variant of the bound must be caught. */
+static long control(int ablation, const bbc_tuple_geometry *g, const double lo[3],
+                    const double hi[3]) {
+  bbc_bound_stats st;
+  memset(&st, 0, sizeof st);
+  bbc__beam_ablation = ablation;
+  pieces ps = bound(g, lo, hi, 4, 1e-2, &st);
+  bbc__beam_ablation = 0;
+  tally t = check_paths(g, lo, hi, &ps, 20000, -1);
+  printf("control %d: %ld of %ld points violated\n", ablation, t.violations, t.paths);
+  free(ps.p);
+  return t.violations;
+}
+
+TEST(control_without_cosine) {
+  bbc_tuple_geometry g;
+  caster(&g, 0, 0, 0);
+  g.light = (bbc_vec3){-2.5, 0.1, 2.5}; /* rays at about 45 degrees to every axis plane */
+  CHECK(control(1, &g, above_lo, above_hi) > 0);
+}
+
+TEST(control_end_planes_only) {
+  bbc_tuple_geometry g;
+  caster(&g, 0.5, 0, 0);
+  CHECK(control(2, &g, above_lo, above_hi) > 0);
+}
+
+TEST(reflection_oblique) {
+  bbc_tuple_geometry g;
+  caster(&g, 0.2, 0, 0);
+  g.light = (bbc_vec3){-2.5, 0.1, 2.5};
+  run("R oblique", &g, above_lo, above_hi, 4, 100000);
+}
+
+/* ---- two bounces ------------------------------------------------------------------- */
+
+/* T2 at height z (slightly tilted), its normals (k2 x, k2 y, s) with s = -1 (facing T1,
+ * below) or +1. */
+static void second(bbc_tuple_geometry *g, double z, double k2, double s, int refract2,
+                   double eta2) {
+  g->length = 2;
+  g->p2[0] = (bbc_vec3){-2.0, -2.0, z};
+  g->p2[1] = (bbc_vec3){2.5, -1.8, z + 0.3};
+  g->p2[2] = (bbc_vec3){-1.9, 2.5, z + 0.15};
+  for (int i = 0; i < 3; i++) g->n2[i] = (bbc_vec3){k2 * g->p2[i].x, k2 * g->p2[i].y, s};
+  g->refract2 = refract2;
+  g->eta2 = eta2;
+}
+
+TEST(double_rr) {
+  bbc_tuple_geometry g;
+  caster(&g, 0.3, 0, 0);
+  second(&g, 1.5, 0.1, -1, 0, 0);
+  const double lo[3] = {-4, -4, -3}, hi[3] = {4, 4, 1.2};
+  run("RR", &g, lo, hi, 4, 100000);
+}
+
+TEST(double_rt) {
+  bbc_tuple_geometry g;
+  caster(&g, 0.3, 0, 0);
+  second(&g, 1.5, -0.1, -1, 1, 1 / 1.5);
+  const double lo[3] = {-4, -4, 2.0}, hi[3] = {4, 4, 6};
+  run("RT", &g, lo, hi, 4, 100000);
+}
+
+TEST(double_tr) {
+  bbc_tuple_geometry g;
+  caster(&g, -0.3, 1, 1 / 1.5);
+  second(&g, -1.5, 0.1, 1, 0, 0);
+  const double lo[3] = {-4, -4, -1.2}, hi[3] = {4, 4, -0.1};
+  run("TR", &g, lo, hi, 4, 100000);
+}
+
+TEST(double_tt) {
+  /* A lens: T1 enters the glass, T2 leaves it below (eta = ior). */
+  bbc_tuple_geometry g;
+  caster(&g, -0.4, 1, 1 / 1.5);
+  second(&g, -0.8, -0.3, 1, 1, 1.5);
+  const double lo[3] = {-4, -4, -6}, hi[3] = {4, 4, -1.0};
+  run("TT", &g, lo, hi, 4, 100000);
 }

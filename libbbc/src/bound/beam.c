@@ -29,6 +29,8 @@
     if (r_ != BBC_OK) return r_; \
   } while (0)
 
+int bbc__beam_ablation = 0;
+
 typedef struct beam_ctx {
   bbc_bounder *bounder;
   const bbc_tuple_geometry *g;
@@ -257,7 +259,7 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int irradiance, ou
   if (!irradiance) return BBC_OK;
 
   /* The irradiance on the planes: refraction's forms with the derivative-aware sqrt. */
-  const chain_forms *irr = &fs;
+  const chain_forms *irr = &fs, *ends[2] = {&f0, &f1};
   chain_forms i0, i1, is;
   if (g->refract || (g->length == 2 && g->refract2)) {
     if (g->length == 1)
@@ -268,10 +270,20 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int irradiance, ou
     TRY(bbc__chain_forms_retarget(arena, &space, g_hi.r, &i0, &i1));
     TRY(stack_forms(arena, l_axis, &i0, &i1, &is));
     irr = &is;
+    ends[0] = &i0, ends[1] = &i1;
   }
   double e_lo, e_hi;
   TRY(bbc__irradiance_bound_explicit(arena, &space, &g_lo, irr, box, s_axis, t_axis,
                                      c->prm.jacobian, &e_lo, &e_hi));
+  if (bbc__beam_ablation == 2) {
+    /* The control: the bounds on the two end planes alone. */
+    double l[2], h[2];
+    for (int k = 0; k < 2; k++)
+      TRY(bbc__irradiance_bound_explicit(arena, &space, k ? &g_hi : &g_lo, ends[k], box, s_axis,
+                                         t_axis, c->prm.jacobian, &l[k], &h[k]));
+    e_lo = fmin(l[0], l[1]), e_hi = fmax(h[0], h[1]);
+  }
+  if (bbc__beam_ablation == 1) cos_lo = 1; /* the control: no 1 / |cos| */
   /* On the surface normal to the ray: divided by |cos| between the ray and the axis,
    * which is at least cos_lo (and at most 1, so e_lo stands). */
   if (isfinite(e_hi) && cos_lo > 0) {

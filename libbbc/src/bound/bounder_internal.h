@@ -23,4 +23,8 @@ bbc_result bbc__irradiance_bound_explicit(bbc_arena *arena, const bbc_space *spa
                                           const double box[4], int s_axis, int t_axis,
                                           bbc_jacobian_form form, double *e_lo, double *e_hi);
 
+/* Controls for the tests, never set otherwise (0): 1 drops the beam bound's 1 / |cos|
+ * factor, 2 bounds the irradiance on the slab's two end planes alone. Both are wrong. */
+extern int bbc__beam_ablation;
+
 #endif
