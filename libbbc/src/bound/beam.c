@@ -106,20 +106,35 @@ static bbc_result stack_forms(bbc_arena *arena, int l_axis, const chain_forms *f
   return BBC_OK;
 }
 
-/* The largest |d_a| / |d| bound from below over the piece, the axis a giving it (-1:
- * every coordinate may vanish). */
-static int dominant_axis(const bbc_poly3 *d, double *cos_lo) {
+/* The bounds of |d_a| / |d| over the piece for every axis a (0 where d_a may vanish). */
+static void axis_cosines(const bbc_poly3 *d, double cos_lo[3], double cos_hi[3]) {
   bbc_interval c[3] = {bbc_poly_bound(&d->x), bbc_poly_bound(&d->y), bbc_poly_bound(&d->z)};
   bbc_interval dd = bbc_interval_add(bbc_interval_add(bbc_interval_sqr(c[0]), bbc_interval_sqr(c[1])),
                                      bbc_interval_sqr(c[2]));
   bbc_interval len = bbc_interval_sqrt(dd);
-  int best = -1;
-  *cos_lo = 0;
   for (int a = 0; a < 3; a++) {
-    double m = c[a].lo > 0 ? c[a].lo : c[a].hi < 0 ? -c[a].hi : 0;
+    cos_lo[a] = 0, cos_hi[a] = 1;
+    const double m = c[a].lo > 0 ? c[a].lo : c[a].hi < 0 ? -c[a].hi : 0;
+    const double big = fmax(fabs(c[a].lo), fabs(c[a].hi));
+    if (len.lo > 0 && big < INFINITY)
+      cos_hi[a] = fmin(1.0, bbc_interval_div(bbc_interval_point(big), bbc_interval_point(len.lo)).hi);
     if (!(m > 0) || !(len.hi < INFINITY)) continue;
     bbc_interval q = bbc_interval_div(bbc_interval_point(m), bbc_interval_make(len.hi, len.hi));
-    if (q.lo > *cos_lo) *cos_lo = q.lo, best = a;
+    cos_lo[a] = q.lo > 0 ? q.lo : 0;
+  }
+}
+
+/* The axis of a piece: among those along which the directions are bounded away from 0
+ * (-1: none), the one whose slab through the receivers' box costs least, the box's
+ * extent along it over the cosine (a flat box's own axis first; then the steepest). */
+static int dominant_axis(const double cos_lo[3], const double lo[3], const double hi[3]) {
+  int best = -1;
+  double best_cost = INFINITY;
+  for (int a = 0; a < 3; a++) {
+    if (!(cos_lo[a] > 0)) continue;
+    const double cost = (hi[a] - lo[a]) / cos_lo[a];
+    if (best < 0 || cost < best_cost || (cost == best_cost && cos_lo[a] > cos_lo[best]))
+      best = a, best_cost = cost;
   }
   return best;
 }
@@ -182,9 +197,10 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int irradiance, ou
   }
   bbc_poly3 dir;
   bbc__chain_direction(&f, &dir);
-  double cos_lo;
-  const int best = dominant_axis(&dir, &cos_lo);
+  double cos_lo3[3], cos_hi3[3];
+  axis_cosines(&dir, cos_lo3, cos_hi3);
   if (piece->axis < 0) {
+    const int best = dominant_axis(cos_lo3, c->lo, c->hi);
     if (best < 0) {
       /* No plane family separates the piece's rays: its box is the receivers'. */
       *no_axis = 1;
@@ -197,24 +213,14 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int irradiance, ou
     piece->lambda_level = 0;
   }
   const int a = piece->axis, b = (a + 1) % 3, d = (a + 2) % 3;
-  {
-    bbc_interval da = a == 0 ? bbc_poly_bound(&dir.x) : a == 1 ? bbc_poly_bound(&dir.y)
-                                                               : bbc_poly_bound(&dir.z);
-    if (!(da.lo > 0 || da.hi < 0)) {
-      /* The axis no longer separates (a remainder's linearisation widened it): no
-       * bound but the receivers' box. */
-      *no_axis = 1;
-      *out = OUT_PARTIAL;
-      return BBC_OK;
-    }
-    /* The cosine with this axis (it may not be the best one for a piece inheriting it). */
-    bbc_interval c3[3] = {bbc_poly_bound(&dir.x), bbc_poly_bound(&dir.y), bbc_poly_bound(&dir.z)};
-    bbc_interval dd = bbc_interval_add(
-        bbc_interval_add(bbc_interval_sqr(c3[0]), bbc_interval_sqr(c3[1])), bbc_interval_sqr(c3[2]));
-    bbc_interval len = bbc_interval_sqrt(dd);
-    double m = da.lo > 0 ? da.lo : -da.hi;
-    bbc_interval q = bbc_interval_div(bbc_interval_point(m), bbc_interval_make(len.hi, len.hi));
-    cos_lo = len.hi < INFINITY && q.lo > 0 ? q.lo : 0;
+  /* The cosine between the rays and the axis (which a piece inheriting it may no longer
+   * find the best, but which must still separate: a remainder's linearisation may have
+   * widened the directions' bound; then no bound but the box is known). */
+  const double cos_lo_axis = cos_lo3[a], cos_hi = cos_hi3[a];
+  if (!(cos_lo_axis > 0)) {
+    *no_axis = 1;
+    *out = OUT_PARTIAL;
+    return BBC_OK;
   }
   /* The forms on the slab's end planes, then over the slab. */
   bbc_tuple_geometry g_lo = *g, g_hi = *g;
@@ -283,7 +289,7 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int irradiance, ou
                                          t_axis, c->prm.jacobian, &l[k], &h[k]));
     e_lo = fmin(l[0], l[1]), e_hi = fmax(h[0], h[1]);
   }
-  if (bbc__beam_ablation == 1) cos_lo = 1; /* the control: no 1 / |cos| */
+  const double cos_lo = bbc__beam_ablation == 1 ? 1.0 : cos_lo_axis; /* control: no 1/|cos| */
   /* On the surface normal to the ray: divided by |cos| between the ray and the axis,
    * which is at least cos_lo (and at most 1, so e_lo stands). */
   if (isfinite(e_hi) && cos_lo > 0) {
@@ -292,6 +298,12 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int irradiance, ou
   } else {
     e_hi = INFINITY;
   }
+  /* ... and at least e_lo / cos_hi there. */
+  if (e_lo > 0 && cos_hi > 0)
+    e_lo = bbc_interval_div(bbc_interval_make(e_lo, e_lo), bbc_interval_point(cos_hi)).lo;
+  else
+    e_lo = 0;
+  if (!(e_lo >= 0)) e_lo = 0;
   piece->e_lo = fmax(piece->e_lo, e_lo);
   piece->e_hi = fmin(piece->e_hi, e_hi);
   return BBC_OK;
@@ -394,7 +406,9 @@ bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
     bbc_piece_need need = need_fn ? need_fn(c.prm.need_user, &piece) : BBC_NEED_SPLIT;
     if (need == BBC_NEED_KEEP && v == OUT_PARTIAL) need = BBC_NEED_SPLIT;
     const int u1_ok = piece.level < c.max_level;
-    const int lambda_ok = !no_axis && piece.lambda_level < c.max_level;
+    /* A slab of no thickness (a flat receivers' box) is one plane: never split. */
+    const int lambda_ok =
+        !no_axis && piece.lambda_level < c.max_level && piece.lambda_hi > piece.lambda_lo;
     int split = 0, split_lambda = 0;
     const double area = cross_fraction(&c, &piece);
     if (no_axis) {
@@ -413,8 +427,12 @@ bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
       c.local.irradiance_seconds += clock_seconds() - t2;
       if (result != BBC_OK) break;
       if (need_fn && need == BBC_NEED_SPLIT) need = need_fn(c.prm.need_user, &piece);
-      split = (u1_ok || lambda_ok) && need == BBC_NEED_SPLIT &&
-              (area >= c.sigma || !(piece.e_hi < c.alpha * piece.e_lo));
+      /* The bounder's rule: split while the box is large and the bound loose. */
+      split = (u1_ok || lambda_ok) && need == BBC_NEED_SPLIT && area >= c.sigma &&
+              !(piece.e_hi < c.alpha * piece.e_lo);
+      /* An unbounded piece whatever its box (as two bounces in the bounder do): its +inf
+       * would cover every cell its box reaches, and a focus is isolated in lambda. */
+      if ((u1_ok || lambda_ok) && need == BBC_NEED_SPLIT && !(piece.e_hi < INFINITY)) split = 1;
     } else {
       split = (u1_ok || lambda_ok) && need == BBC_NEED_SPLIT && area >= c.sigma;
     }
