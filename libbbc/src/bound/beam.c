@@ -150,8 +150,28 @@ typedef enum outcome { OUT_DISCARD, OUT_PARTIAL, OUT_FULL } outcome;
 /* The piece's checks (Supp. Sec. 4.1's, without a receiver triangle), its axis when it
  * has none yet, its box, and with irradiance its bound. *cos_lo receives the lower bound
  * of |cos| between the ray and the axis. */
-static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int irradiance, outcome *out,
-                          int *no_axis) {
+static double cross_fraction(const beam_ctx *c, const bbc_beam_piece *p);
+
+/* What the caller asks of a piece whose box is known (bbc_bound_params.beam_need), and
+ * whether it needs the piece's irradiance bound: not when nothing it holds changes what
+ * is recorded, nor when it is split for its box alone (partial and large). */
+static int wants_irradiance(const beam_ctx *c, const bbc_beam_piece *piece, int partial,
+                            bbc_piece_need *need) {
+  *need = c->prm.beam_need ? c->prm.beam_need(c->prm.need_user, piece) : BBC_NEED_SPLIT;
+  if (*need == BBC_NEED_KEEP && partial) *need = BBC_NEED_SPLIT;
+  if (c->prm.positions_only || *need == BBC_NEED_NONE) return 0;
+  const int can_split = *need == BBC_NEED_SPLIT &&
+                        (piece->level < c->max_level ||
+                         (piece->lambda_level < c->max_level && piece->lambda_hi > piece->lambda_lo));
+  return !(can_split && partial && cross_fraction(c, piece) >= c->sigma);
+}
+
+/* The piece's checks, axis and box, then (when wants_irradiance says so, *irradiance set)
+ * its irradiance bound in the same forms; *need receives the caller's answer. */
+static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int *irradiance,
+                          bbc_piece_need *need, outcome *out, int *no_axis) {
+  *irradiance = 0;
+  *need = BBC_NEED_SPLIT;
   const bbc_tuple_geometry *g = c->g;
   bbc_arena *arena = bbc__bounder_arena(c->bounder);
   bbc_arena_reset(arena, 0);
@@ -262,7 +282,10 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int irradiance, ou
   }
   for (int i = 0; i < 3; i++) piece->box_lo[i] = lo[i], piece->box_hi[i] = hi[i];
   *out = partial ? OUT_PARTIAL : OUT_FULL;
-  if (!irradiance) return BBC_OK;
+  c->local.position_pieces++;
+  if (!wants_irradiance(c, piece, partial, need)) return BBC_OK;
+  *irradiance = 1;
+  c->local.irradiance_pieces++;
 
   /* The irradiance on the planes: refraction's forms with the derivative-aware sqrt. */
   const chain_forms *irr = &fs, *ends[2] = {&f0, &f1};
@@ -391,11 +414,13 @@ bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
     }
     double t0 = clock_seconds();
     outcome v;
-    int no_axis;
-    result = examine(&c, &piece, 0, &v, &no_axis);
-    c.local.position_pieces++;
-    double t1 = clock_seconds();
-    c.local.position_seconds += t1 - t0;
+    int no_axis, irradiance;
+    bbc_piece_need need;
+    result = examine(&c, &piece, &irradiance, &need, &v, &no_axis);
+    if (irradiance)
+      c.local.irradiance_seconds += clock_seconds() - t0;
+    else
+      c.local.position_seconds += clock_seconds() - t0;
     if (result != BBC_OK) break;
     if (v == OUT_DISCARD) {
       piece.status = BBC_PIECE_DISCARDED;
@@ -403,8 +428,7 @@ bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
       if (fn && fn(user, &piece)) result = BBC_ERR_CANCELLED;
       continue;
     }
-    bbc_piece_need need = need_fn ? need_fn(c.prm.need_user, &piece) : BBC_NEED_SPLIT;
-    if (need == BBC_NEED_KEEP && v == OUT_PARTIAL) need = BBC_NEED_SPLIT;
+    if (no_axis) need = need_fn ? need_fn(c.prm.need_user, &piece) : BBC_NEED_SPLIT;
     const int u1_ok = piece.level < c.max_level;
     /* A slab of no thickness (a flat receivers' box) is one plane: never split. */
     const int lambda_ok =
@@ -412,20 +436,15 @@ bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
     int split = 0, split_lambda = 0;
     const double area = cross_fraction(&c, &piece);
     if (no_axis) {
-      split = u1_ok && need == BBC_NEED_SPLIT;
+      split = u1_ok && need != BBC_NEED_NONE;
       piece.axis = inherited.axis >= 0 ? inherited.axis : -1;
       if (!split) piece.e_lo = 0, piece.e_hi = INFINITY;
     } else if (need == BBC_NEED_NONE) {
       split = 0;
-    } else if ((u1_ok || lambda_ok) && need == BBC_NEED_SPLIT && v == OUT_PARTIAL &&
-               area >= c.sigma) {
-      split = 1;
-    } else if (!c.prm.positions_only) {
-      double t2 = clock_seconds();
-      result = examine(&c, &piece, 1, &v, &no_axis);
-      c.local.irradiance_pieces++;
-      c.local.irradiance_seconds += clock_seconds() - t2;
-      if (result != BBC_OK) break;
+    } else if (!irradiance) {
+      /* Split for its box alone, or kept without an irradiance bound of its own. */
+      split = (u1_ok || lambda_ok) && need == BBC_NEED_SPLIT && area >= c.sigma;
+    } else {
       if (need_fn && need == BBC_NEED_SPLIT) need = need_fn(c.prm.need_user, &piece);
       /* The bounder's rule: split while the box is large and the bound loose. */
       split = (u1_ok || lambda_ok) && need == BBC_NEED_SPLIT && area >= c.sigma &&
@@ -433,8 +452,6 @@ bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
       /* An unbounded piece whatever its box (as two bounces in the bounder do): its +inf
        * would cover every cell its box reaches, and a focus is isolated in lambda. */
       if ((u1_ok || lambda_ok) && need == BBC_NEED_SPLIT && !(piece.e_hi < INFINITY)) split = 1;
-    } else {
-      split = (u1_ok || lambda_ok) && need == BBC_NEED_SPLIT && area >= c.sigma;
     }
     if (split && !no_axis) {
       /* The distance along the axis, or T1's box: near a focus (an unbounded bound) the
