@@ -3,9 +3,10 @@
  * prefix (light, T1[, T2]). Neither uses the precompute's cell test, so both subdivide
  * by their own stopping rules alone (docs/beams.md, "Measured").
  *
- *   bench_beam SCENE.gltf CHAIN [--max-level N] [--stride N] [--sigma S]
+ *   bench_beam SCENE.gltf CHAIN [--max-level N] [--stride N] [--sigma S] [--grow D]
  *
- * The beam's receivers' box is the bounding box of every receiver mesh. One thread. */
+ * The beam's receivers' box is the bounding box of every receiver mesh, grown by D on
+ * every side (a thickness a curved receiver would have). One thread. */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdio.h>
@@ -64,11 +65,13 @@ int main(int argc, char **argv) {
   bbc_bound_params prm;
   memset(&prm, 0, sizeof prm);
   long stride = 1;
+  double grow = 0;
   for (int i = 3; i + 1 < argc; i += 2) {
     if (strcmp(argv[i], "--max-level") == 0) prm.max_level = atoi(argv[i + 1]);
     else if (strcmp(argv[i], "--stride") == 0) stride = atol(argv[i + 1]);
     else if (strcmp(argv[i], "--sigma") == 0) prm.sigma = atof(argv[i + 1]);
     else if (strcmp(argv[i], "--dump") == 0) dump = atoi(argv[i + 1]);
+    else if (strcmp(argv[i], "--grow") == 0) grow = atof(argv[i + 1]);
   }
   int chain = -1;
   for (int c = 0; c < BBC_CHAIN_COUNT; c++)
@@ -86,6 +89,8 @@ int main(int argc, char **argv) {
       for (int i = 0; i < 3; i++) lo[i] = fmin(lo[i], p[i]), hi[i] = fmax(hi[i], p[i]);
     }
   }
+  /* --grow D: the box grown by D on every side, as a curved receiver's would be. */
+  for (int i = 0; i < 3; i++) lo[i] -= grow, hi[i] += grow;
   bbc_tuple *tuples = NULL;
   size_t n = 0;
   bbc_tuples_find(scene, BBC_CHAIN_BIT(chain), &tuples, &n);

@@ -247,11 +247,17 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int *irradiance,
   plane_triangle(c, a, piece->lambda_lo, g_lo.r);
   plane_triangle(c, a, piece->lambda_hi, g_hi.r);
   chain_forms f0, f1, fs;
+  /* A slab of no thickness is one plane: its forms without the axis l. */
+  const int thin = !(piece->lambda_hi > piece->lambda_lo);
   TRY(bbc__chain_forms_retarget(arena, &space, g_lo.r, &f, &f0));
-  TRY(bbc__chain_forms_retarget(arena, &space, g_hi.r, &f, &f1));
-  int l_axis;
-  TRY(bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &l_axis));
-  TRY(stack_forms(arena, l_axis, &f0, &f1, &fs));
+  f1 = f0;
+  if (!thin) TRY(bbc__chain_forms_retarget(arena, &space, g_hi.r, &f, &f1));
+  int l_axis = -1;
+  if (!thin) TRY(bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &l_axis));
+  if (thin)
+    fs = f0;
+  else
+    TRY(stack_forms(arena, l_axis, &f0, &f1, &fs));
   /* Ahead of the last vertex where tnum kappa > 0. */
   bbc_poly forward;
   TRY(bbc_poly_mul(arena, &forward, &fs.tnum, &fs.kappa));
@@ -296,8 +302,11 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int *irradiance,
     else
       TRY(bbc__chain_forms(arena, &space, &g_lo, box, s_axis, t_axis, CHAIN_SQRT_DERIVATIVE_AWARE,
                            &i0));
-    TRY(bbc__chain_forms_retarget(arena, &space, g_hi.r, &i0, &i1));
-    TRY(stack_forms(arena, l_axis, &i0, &i1, &is));
+    i1 = i0, is = i0;
+    if (!thin) {
+      TRY(bbc__chain_forms_retarget(arena, &space, g_hi.r, &i0, &i1));
+      TRY(stack_forms(arena, l_axis, &i0, &i1, &is));
+    }
     irr = &is;
     ends[0] = &i0, ends[1] = &i1;
   }
@@ -355,6 +364,15 @@ static double cross_fraction(const beam_ctx *c, const bbc_beam_piece *p) {
     if (r > 0) f *= (p->box_hi[i] - p->box_lo[i]) / r;
   }
   return f;
+}
+
+/* Whether the box is more than twice as long along its axis as across. */
+static int elongated(const bbc_beam_piece *p) {
+  const int a = p->axis;
+  if (a < 0) return 0;
+  const double across = fmax(p->box_hi[(a + 1) % 3] - p->box_lo[(a + 1) % 3],
+                             p->box_hi[(a + 2) % 3] - p->box_lo[(a + 2) % 3]);
+  return p->box_hi[a] - p->box_lo[a] > 2 * across;
 }
 
 bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
@@ -446,12 +464,11 @@ bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
       split = (u1_ok || lambda_ok) && need == BBC_NEED_SPLIT && area >= c.sigma;
     } else {
       if (need_fn && need == BBC_NEED_SPLIT) need = need_fn(c.prm.need_user, &piece);
-      /* The bounder's rule: split while the box is large and the bound loose. */
-      split = (u1_ok || lambda_ok) && need == BBC_NEED_SPLIT && area >= c.sigma &&
+      /* The bounder's rule: split while the box is large and the bound loose; a box
+       * long along the axis is large too (a focus is isolated in lambda). */
+      split = (u1_ok || lambda_ok) && need == BBC_NEED_SPLIT &&
+              (area >= c.sigma || (lambda_ok && elongated(&piece))) &&
               !(piece.e_hi < c.alpha * piece.e_lo);
-      /* An unbounded piece whatever its box (as two bounces in the bounder do): its +inf
-       * would cover every cell its box reaches, and a focus is isolated in lambda. */
-      if ((u1_ok || lambda_ok) && need == BBC_NEED_SPLIT && !(piece.e_hi < INFINITY)) split = 1;
     }
     if (split && !no_axis) {
       /* The distance along the axis, or T1's box: near a focus (an unbounded bound) the
@@ -460,7 +477,9 @@ bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
       const double along = piece.lambda_hi - piece.lambda_lo;
       const double across = fmax(piece.box_hi[(a + 1) % 3] - piece.box_lo[(a + 1) % 3],
                                  piece.box_hi[(a + 2) % 3] - piece.box_lo[(a + 2) % 3]);
-      if (!(piece.e_hi < INFINITY) && v != OUT_PARTIAL)
+      if (elongated(&piece))
+        split_lambda = 1;
+      else if (!(piece.e_hi < INFINITY) && v != OUT_PARTIAL)
         split_lambda = piece.lambda_level <= piece.level;
       else
         split_lambda = along > across;
