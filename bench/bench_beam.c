@@ -42,12 +42,12 @@ static int dump = 0;
 static int count_beam(void *user, const bbc_beam_piece *p) {
   counts *c = user;
   if (dump)
-    printf("  piece u [%.4g %.4g] v [%.4g %.4g] L%d %s axis %d lambda [%.4g %.4g] L%d box "
-           "[%.3g %.3g %.3g]-[%.3g %.3g %.3g] E [%.3g %.3g]\n",
-           p->u_lo, p->u_hi, p->v_lo, p->v_hi, p->level,
-           p->status == BBC_PIECE_KEPT ? "kept" : "disc", p->axis, p->lambda_lo, p->lambda_hi,
-           p->lambda_level, p->box_lo[0], p->box_lo[1], p->box_lo[2], p->box_hi[0], p->box_hi[1],
-           p->box_hi[2], p->e_lo, p->e_hi);
+    printf(
+        "  piece u [%.4g %.4g] v [%.4g %.4g] L%d %s axis %d lambda [%.4g %.4g] L%d box "
+        "[%.3g %.3g %.3g]-[%.3g %.3g %.3g] E [%.3g %.3g]\n",
+        p->u_lo, p->u_hi, p->v_lo, p->v_hi, p->level, p->status == BBC_PIECE_KEPT ? "kept" : "disc",
+        p->axis, p->lambda_lo, p->lambda_hi, p->lambda_level, p->box_lo[0], p->box_lo[1],
+        p->box_lo[2], p->box_hi[0], p->box_hi[1], p->box_hi[2], p->e_lo, p->e_hi);
   if (p->status == BBC_PIECE_KEPT) {
     c->kept++;
     c->unbounded += !(p->e_hi < INFINITY);
@@ -59,7 +59,8 @@ static int count_beam(void *user, const bbc_beam_piece *p) {
 
 int main(int argc, char **argv) {
   if (argc < 3) {
-    fprintf(stderr, "usage: bench_beam SCENE.gltf CHAIN [--max-level N] [--stride N] [--sigma S]\n");
+    fprintf(stderr,
+            "usage: bench_beam SCENE.gltf CHAIN [--max-level N] [--stride N] [--sigma S]\n");
     return 2;
   }
   bbc_bound_params prm;
@@ -67,11 +68,16 @@ int main(int argc, char **argv) {
   long stride = 1;
   double grow = 0;
   for (int i = 3; i + 1 < argc; i += 2) {
-    if (strcmp(argv[i], "--max-level") == 0) prm.max_level = atoi(argv[i + 1]);
-    else if (strcmp(argv[i], "--stride") == 0) stride = atol(argv[i + 1]);
-    else if (strcmp(argv[i], "--sigma") == 0) prm.sigma = atof(argv[i + 1]);
-    else if (strcmp(argv[i], "--dump") == 0) dump = atoi(argv[i + 1]);
-    else if (strcmp(argv[i], "--grow") == 0) grow = atof(argv[i + 1]);
+    if (strcmp(argv[i], "--max-level") == 0)
+      prm.max_level = atoi(argv[i + 1]);
+    else if (strcmp(argv[i], "--stride") == 0)
+      stride = atol(argv[i + 1]);
+    else if (strcmp(argv[i], "--sigma") == 0)
+      prm.sigma = atof(argv[i + 1]);
+    else if (strcmp(argv[i], "--dump") == 0)
+      dump = atoi(argv[i + 1]);
+    else if (strcmp(argv[i], "--grow") == 0)
+      grow = atof(argv[i + 1]);
   }
   int chain = -1;
   for (int c = 0; c < BBC_CHAIN_COUNT; c++)
@@ -122,8 +128,8 @@ int main(int argc, char **argv) {
     }
     i = j;
   }
-  printf("%s %s: %ld prefixes (%ld plane tuples); receivers' box [%g %g %g]-[%g %g %g]\n",
-         argv[1], argv[2], prefixes, plane_tuples, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
+  printf("%s %s: %ld prefixes (%ld plane tuples); receivers' box [%g %g %g]-[%g %g %g]\n", argv[1],
+         argv[2], prefixes, plane_tuples, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
   printf("  plane: %.4f CPU-ms/prefix, %.1f kept pieces/prefix (%.1f%% unbounded)\n",
          1e3 * plane_s / prefixes, (double)cp.kept / prefixes,
          100.0 * cp.unbounded / (cp.kept ? cp.kept : 1));

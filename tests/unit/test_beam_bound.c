@@ -25,15 +25,27 @@ typedef struct cvec {
   double complex x, y, z;
 } cvec;
 
-static cvec cv(bbc_vec3 a) { return (cvec){a.x, a.y, a.z}; }
-static cvec cadd(cvec a, cvec b) { return (cvec){a.x + b.x, a.y + b.y, a.z + b.z}; }
-static cvec csub(cvec a, cvec b) { return (cvec){a.x - b.x, a.y - b.y, a.z - b.z}; }
-static cvec cscale(cvec a, double complex s) { return (cvec){a.x * s, a.y * s, a.z * s}; }
-static double complex cdot(cvec a, cvec b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static cvec cv(bbc_vec3 a) {
+  return (cvec){a.x, a.y, a.z};
+}
+static cvec cadd(cvec a, cvec b) {
+  return (cvec){a.x + b.x, a.y + b.y, a.z + b.z};
+}
+static cvec csub(cvec a, cvec b) {
+  return (cvec){a.x - b.x, a.y - b.y, a.z - b.z};
+}
+static cvec cscale(cvec a, double complex s) {
+  return (cvec){a.x * s, a.y * s, a.z * s};
+}
+static double complex cdot(cvec a, cvec b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 static cvec ccross(cvec a, cvec b) {
   return (cvec){a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-static cvec cnorm(cvec a) { return cscale(a, 1.0 / csqrt(cdot(a, a))); }
+static cvec cnorm(cvec a) {
+  return cscale(a, 1.0 / csqrt(cdot(a, a)));
+}
 
 /* The scattered unit direction for the unit incident d at the unit normal n (on the
  * incident side); 0 on total internal reflection. */
@@ -59,7 +71,8 @@ static int trace(const bbc_tuple_geometry *g, double complex u, double complex v
   cvec p0 = cv(g->p[0]), e1 = csub(cv(g->p[1]), p0), e2 = csub(cv(g->p[2]), p0);
   cvec x1 = cadd(p0, cadd(cscale(e1, u), cscale(e2, v)));
   cvec n0 = cv(g->n[0]);
-  cvec n1 = cnorm(cadd(n0, cadd(cscale(csub(cv(g->n[1]), n0), u), cscale(csub(cv(g->n[2]), n0), v))));
+  cvec n1 =
+      cnorm(cadd(n0, cadd(cscale(csub(cv(g->n[1]), n0), u), cscale(csub(cv(g->n[2]), n0), v))));
   cvec ng = cnorm(ccross(e1, e2));
   cvec d0;
   double complex w;
@@ -93,7 +106,8 @@ static int trace(const bbc_tuple_geometry *g, double complex u, double complex v
     if (strict && !(creal(t) > 0 && creal(a) >= 0 && creal(b) >= 0 && creal(a + b) <= 1)) return 0;
     cvec x2 = cadd(x1, cscale(d1, t));
     cvec m0 = cv(g->n2[0]);
-    cvec n2 = cnorm(cadd(m0, cadd(cscale(csub(cv(g->n2[1]), m0), a), cscale(csub(cv(g->n2[2]), m0), b))));
+    cvec n2 =
+        cnorm(cadd(m0, cadd(cscale(csub(cv(g->n2[1]), m0), a), cscale(csub(cv(g->n2[2]), m0), b))));
     if (strict && !(creal(cdot(d1, n2)) < 0)) return 0;
     cvec d2;
     if (!scatter(d1, n2, g->refract2, g->eta2, &d2)) return 0;
@@ -260,10 +274,11 @@ static void caster(bbc_tuple_geometry *g, double k, int refract, double eta) {
 }
 
 static void report(const char *name, tally t, const pieces *ps, const bbc_bound_stats *st) {
-  printf("%s: %ld points, %ld violations, %ld uncovered, %ld in unbounded pieces, max true E "
-         "%.3g; %zu pieces, %.3f s\n",
-         name, t.paths, t.violations, t.uncovered, t.unbounded, t.max_true, ps->n,
-         st->position_seconds + st->irradiance_seconds);
+  printf(
+      "%s: %ld points, %ld violations, %ld uncovered, %ld in unbounded pieces, max true E "
+      "%.3g; %zu pieces, %.3f s\n",
+      name, t.paths, t.violations, t.uncovered, t.unbounded, t.max_true, ps->n,
+      st->position_seconds + st->irradiance_seconds);
 }
 
 /* unbounded: the largest fraction of the points whose piece may be unbounded (0 where no
@@ -509,11 +524,12 @@ static double plane_ratio(const char *name, const bbc_tuple_geometry *g0, const 
   qsort(ratio, (size_t)k, sizeof *ratio, compare_double);
   qsort(slack, (size_t)k, sizeof *slack, compare_double);
   const double median = k ? ratio[k / 2] : NAN;
-  printf("%s at z = %g: %ld paths; beam / plane bound: median %.3g, 90th percentile %.3g; "
-         "beam / true E: median %.3g; %zu beam pieces (%.3f s), %zu plane pieces (%.3f s)\n",
-         name, c, k, median, k ? ratio[9 * k / 10] : NAN, k ? slack[k / 2] : NAN, ps.n,
-         sb.position_seconds + sb.irradiance_seconds, pp.n,
-         sp.position_seconds + sp.irradiance_seconds);
+  printf(
+      "%s at z = %g: %ld paths; beam / plane bound: median %.3g, 90th percentile %.3g; "
+      "beam / true E: median %.3g; %zu beam pieces (%.3f s), %zu plane pieces (%.3f s)\n",
+      name, c, k, median, k ? ratio[9 * k / 10] : NAN, k ? slack[k / 2] : NAN, ps.n,
+      sb.position_seconds + sb.irradiance_seconds, pp.n,
+      sp.position_seconds + sp.irradiance_seconds);
   CHECK_INT(violations, 0);
   CHECK(k > 1000);
   free(ratio);
@@ -533,4 +549,57 @@ TEST(against_plane_bound) {
   double r3 = plane_ratio("T", &g, below_lo, below_hi, -2.0, 4);
   /* Not absurdly looser: within a small factor of the bound that knows the plane. */
   CHECK(r1 < 10 && r2 < 10 && r3 < 10);
+}
+
+/* ---- the caller's cell test --------------------------------------------------------- */
+
+static bbc_piece_need need_half(void *user, const bbc_beam_piece *p) {
+  long *asked = user;
+  ++*asked;
+  /* Nothing is recorded where x < 0 (as if no receiver were there): keep such pieces. */
+  return p->box_hi[0] < 0 ? BBC_NEED_NONE : BBC_NEED_SPLIT;
+}
+
+TEST(need_callback) {
+  /* Pieces the callback stops keep their inherited bounds, which still hold their paths;
+   * the subdivision is smaller. */
+  bbc_tuple_geometry g;
+  caster(&g, 0.5, 0, 0);
+  bbc_bound_stats st;
+  memset(&st, 0, sizeof st);
+  pieces all = bound(&g, above_lo, above_hi, 6, 1e-4, &st);
+  pieces ps = {0};
+  bbc_bounder *b;
+  CHECK(bbc_bounder_create(&b) == BBC_OK);
+  bbc_bound_params prm;
+  memset(&prm, 0, sizeof prm);
+  prm.max_level = 6;
+  prm.sigma = 1e-4;
+  long asked = 0;
+  prm.beam_need = need_half;
+  prm.need_user = &asked;
+  CHECK(bbc_bound_beam(b, &g, above_lo, above_hi, &prm, collect, &ps, NULL) == BBC_OK);
+  bbc_bounder_free(b);
+  tally t = check_paths(&g, above_lo, above_hi, &ps, 100000, -1);
+  printf("need: %zu pieces (%zu without), asked %ld times; %ld violations\n", ps.n, all.n, asked,
+         t.violations);
+  CHECK(asked > 0);
+  CHECK(ps.n < all.n);
+  CHECK_INT(t.violations, 0);
+  CHECK_INT(t.uncovered, 0);
+  free(ps.p);
+  free(all.p);
+}
+
+TEST(bad_receivers_box) {
+  bbc_tuple_geometry g;
+  caster(&g, 0, 0, 0);
+  bbc_bounder *b;
+  CHECK(bbc_bounder_create(&b) == BBC_OK);
+  const double lo[3] = {0, 0, 1}, hi[3] = {1, 1, 0}, nan_hi[3] = {1, NAN, 2};
+  pieces ps = {0};
+  CHECK(bbc_bound_beam(b, &g, lo, hi, NULL, collect, &ps, NULL) == BBC_ERR_INVALID_ARGUMENT);
+  CHECK(bbc_bound_beam(b, &g, lo, nan_hi, NULL, collect, &ps, NULL) == BBC_ERR_INVALID_ARGUMENT);
+  CHECK_INT(ps.n, 0);
+  bbc_bounder_free(b);
 }

@@ -206,8 +206,8 @@ typedef int (*bbc_beam_piece_fn)(void *user, const bbc_beam_piece *piece);
  * box; BBC_ERR_CANCELLED if fn returned non-zero. */
 BBC_API bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
                                   const double receivers_lo[3], const double receivers_hi[3],
-                                  const bbc_bound_params *params, bbc_beam_piece_fn fn,
-                                  void *user, bbc_bound_stats *stats);
+                                  const bbc_bound_params *params, bbc_beam_piece_fn fn, void *user,
+                                  bbc_bound_stats *stats);
 
 /* The candidate tuples of the scene for the chain types in `chains` (a mask of
  * BBC_CHAIN_BIT), in the deterministic order bbc_precompute uses: by light, then first

@@ -109,15 +109,16 @@ static bbc_result stack_forms(bbc_arena *arena, int l_axis, const chain_forms *f
 /* The bounds of |d_a| / |d| over the piece for every axis a (0 where d_a may vanish). */
 static void axis_cosines(const bbc_poly3 *d, double cos_lo[3], double cos_hi[3]) {
   bbc_interval c[3] = {bbc_poly_bound(&d->x), bbc_poly_bound(&d->y), bbc_poly_bound(&d->z)};
-  bbc_interval dd = bbc_interval_add(bbc_interval_add(bbc_interval_sqr(c[0]), bbc_interval_sqr(c[1])),
-                                     bbc_interval_sqr(c[2]));
+  bbc_interval dd = bbc_interval_add(
+      bbc_interval_add(bbc_interval_sqr(c[0]), bbc_interval_sqr(c[1])), bbc_interval_sqr(c[2]));
   bbc_interval len = bbc_interval_sqrt(dd);
   for (int a = 0; a < 3; a++) {
     cos_lo[a] = 0, cos_hi[a] = 1;
     const double m = c[a].lo > 0 ? c[a].lo : c[a].hi < 0 ? -c[a].hi : 0;
     const double big = fmax(fabs(c[a].lo), fabs(c[a].hi));
     if (len.lo > 0 && big < INFINITY)
-      cos_hi[a] = fmin(1.0, bbc_interval_div(bbc_interval_point(big), bbc_interval_point(len.lo)).hi);
+      cos_hi[a] =
+          fmin(1.0, bbc_interval_div(bbc_interval_point(big), bbc_interval_point(len.lo)).hi);
     if (!(m > 0) || !(len.hi < INFINITY)) continue;
     bbc_interval q = bbc_interval_div(bbc_interval_point(m), bbc_interval_make(len.hi, len.hi));
     cos_lo[a] = q.lo > 0 ? q.lo : 0;
@@ -141,8 +142,9 @@ static int dominant_axis(const double cos_lo[3], const double lo[3], const doubl
 
 /* The world coordinate lo_b + side x over a range of x, rounded outward. */
 static bbc_interval world(double base, double side, double x_lo, double x_hi) {
-  return bbc_interval_add(bbc_interval_point(base),
-                          bbc_interval_mul(bbc_interval_point(side), bbc_interval_make(x_lo, x_hi)));
+  return bbc_interval_add(
+      bbc_interval_point(base),
+      bbc_interval_mul(bbc_interval_point(side), bbc_interval_make(x_lo, x_hi)));
 }
 
 typedef enum outcome { OUT_DISCARD, OUT_PARTIAL, OUT_FULL } outcome;
@@ -161,15 +163,15 @@ static int wants_irradiance(const beam_ctx *c, const bbc_beam_piece *piece, int 
   if (*need == BBC_NEED_KEEP && partial) *need = BBC_NEED_SPLIT;
   if (c->prm.positions_only || *need == BBC_NEED_NONE) return 0;
   const int can_split = *need == BBC_NEED_SPLIT &&
-                        (piece->level < c->max_level ||
-                         (piece->lambda_level < c->max_level && piece->lambda_hi > piece->lambda_lo));
+                        (piece->level < c->max_level || (piece->lambda_level < c->max_level &&
+                                                         piece->lambda_hi > piece->lambda_lo));
   return !(can_split && partial && cross_fraction(c, piece) >= c->sigma);
 }
 
 /* The piece's checks, axis and box, then (when wants_irradiance says so, *irradiance set)
  * its irradiance bound in the same forms; *need receives the caller's answer. */
-static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int *irradiance,
-                          bbc_piece_need *need, outcome *out, int *no_axis) {
+static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int *irradiance, bbc_piece_need *need,
+                          outcome *out, int *no_axis) {
   *irradiance = 0;
   *need = BBC_NEED_SPLIT;
   const bbc_tuple_geometry *g = c->g;

@@ -1601,11 +1601,13 @@ done:
   return result;
 }
 
-bbc_arena *bbc__bounder_arena(bbc_bounder *b) { return &b->arena; }
+bbc_arena *bbc__bounder_arena(bbc_bounder *b) {
+  return &b->arena;
+}
 
 bbc_result bbc__ray_lands(bbc_arena *arena, const bbc_poly *up, const bbc_poly *vp,
-                          const bbc_poly *kappa, const bbc_poly *tnum, double box[8],
-                          int *partial, int *wide, int *inside) {
+                          const bbc_poly *kappa, const bbc_poly *tnum, double box[8], int *partial,
+                          int *wide, int *inside) {
   return ray_lands(arena, up, vp, kappa, tnum, box, partial, wide, inside, NULL);
 }
 

@@ -11,8 +11,8 @@ bbc_arena *bbc__bounder_arena(bbc_bounder *b);
  * ray_lands): *partial -1 when no path of the piece lands inside ahead of its vertex, 1
  * when some may not; box (may be NULL) the bound clipped to the triangle's range. */
 bbc_result bbc__ray_lands(bbc_arena *arena, const bbc_poly *up, const bbc_poly *vp,
-                          const bbc_poly *kappa, const bbc_poly *tnum, double box[8],
-                          int *partial, int *wide, int *inside);
+                          const bbc_poly *kappa, const bbc_poly *tnum, double box[8], int *partial,
+                          int *wide, int *inside);
 
 /* The explicit irradiance bound (Eq. 14-16) per unit intensity on g->r's plane, for the
  * forms f on the piece box (T1's barycentrics over s_axis and t_axis); forms may depend
