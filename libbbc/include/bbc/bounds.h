@@ -76,6 +76,7 @@ typedef enum bbc_piece_need {
 } bbc_piece_need;
 
 struct bbc_piece;
+struct bbc_beam_piece;
 typedef bbc_piece_need (*bbc_piece_need_fn)(void *user, const struct bbc_piece *piece);
 
 /* Parameters of the subdivision; a zero-initialised struct means the defaults. */
@@ -101,6 +102,9 @@ typedef struct bbc_bound_params {
    * subdivision early but never changes a bound, so every reported leaf stays valid. */
   bbc_piece_need_fn need;
   void *need_user;
+  /* bbc_bound_beam: the same question for a beam's pieces (their world boxes), with
+   * need_user; NULL: always split by the rules. */
+  bbc_piece_need (*beam_need)(void *user, const struct bbc_beam_piece *piece);
 } bbc_bound_params;
 
 typedef enum bbc_piece_status {
@@ -166,31 +170,43 @@ BBC_API bbc_result bbc_bound_tuple(bbc_bounder *bounder, const bbc_tuple_geometr
                                    const bbc_bound_params *params, bbc_piece_fn fn, void *user,
                                    bbc_bound_stats *stats);
 
-/* A leaf of the subdivision of a beam tuple (receiver BBC_RECEIVER_BEAM): the box
- * [u_lo, u_hi] x [v_lo, v_hi] of T1's barycentrics and, when kept, a world-space box
- * box_lo..box_hi holding every point of the receivers' box that the piece's paths can
- * reach, and bounds [e_lo, e_hi] of the irradiance per unit light intensity they carry
- * there, valid on a surface of any orientation through such a point (E_hi possibly
- * +inf). lambda_lo, lambda_hi and axis are the bounder's own (the range of the distance
- * along the ray it covered, and the axis it last split), for diagnostics. */
+/* A piece of a beam (bbc_bound_beam): the light leaving the last specular vertex of the
+ * paths of T1's box [u_lo, u_hi] x [v_lo, v_hi] (the light's box [a_lo, a_hi] x [b_lo,
+ * b_hi] for area lights), bounded without a receiver: every point x those paths reach
+ * (forward along the ray) with x[axis] in [lambda_lo, lambda_hi] and x in the receivers'
+ * box lies in [box_lo, box_hi] (world space), and the irradiance there on a receiving
+ * surface of any orientation is at most e_hi (per unit light intensity, as
+ * bbc_piece.e_hi; +inf near a focus). e_lo is a lower bound of the irradiance on the
+ * surface normal to the ray (0 when unknown); a surface at an angle receives less.
+ * axis is -1 when no axis separates the rays from the planes (the box is then the
+ * receivers' box and e_hi is +inf). Discarded pieces hold no path reaching the box. */
 typedef struct bbc_beam_piece {
   double u_lo, u_hi, v_lo, v_hi;
   int level;
   bbc_piece_status status;
+  int axis; /* 0, 1, 2 (x, y, z) or -1 */
   double lambda_lo, lambda_hi;
-  int axis;
+  int lambda_level; /* halvings of the receivers' range on the axis */
   double box_lo[3], box_hi[3];
   double e_lo, e_hi;
+  double a_lo, a_hi, b_lo, b_hi; /* area lights; [0, 1]^2 for the others */
+  int light_level;
 } bbc_beam_piece;
 
-/* Bounds the light of a tuple without a receiver (g's receiver is unused) where it may
- * meet the receivers, which lie in the box receivers_lo..receivers_hi, reporting every
- * leaf piece to fn (a non-zero return stops: BBC_ERR_CANCELLED). stats may be NULL and
- * is added to. params->need is not asked. */
-BBC_API bbc_result bbc_bound_beam(bbc_bounder *b, const bbc_tuple_geometry *g,
+/* Asked for every piece of a beam whose box is known (see bbc_bound_params.beam_need). */
+typedef bbc_piece_need (*bbc_beam_need_fn)(void *user, const struct bbc_beam_piece *piece);
+typedef int (*bbc_beam_piece_fn)(void *user, const bbc_beam_piece *piece);
+
+/* Bounds the beam of a tuple (g's receiver is unused) over the receivers' world box
+ * [receivers_lo, receivers_hi]: subdivides T1's barycentric box and the distance along
+ * the ray (the coordinate lambda of a dominant axis) breadth-first and reports every leaf
+ * (docs/beams.md). params as for bbc_bound_tuple (max_level caps both subdivisions; sigma
+ * is the box's area across the axis as a fraction of the receivers' box's; need is not
+ * used, beam_need is). BBC_ERR_INVALID_ARGUMENT for an empty or non-finite receivers'
+ * box; BBC_ERR_CANCELLED if fn returned non-zero. */
+BBC_API bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
                                   const double receivers_lo[3], const double receivers_hi[3],
-                                  const bbc_bound_params *params,
-                                  int (*fn)(void *user, const bbc_beam_piece *), void *user,
+                                  const bbc_bound_params *params, bbc_beam_piece_fn fn, void *user,
                                   bbc_bound_stats *stats);
 
 /* The candidate tuples with beam receivers (bbc_precompute_params.beam_receivers), in
