@@ -325,3 +325,53 @@ bbc_result bbc__beam_cells(const bbc__beam_receivers *b, const bbc_scene *scene,
   }
   return res;
 }
+
+int bbc__beam_piece_rows(const bbc__beam_receivers *b, const bbc_scene *scene,
+                         const bbc_grid *grid, const bbc_beam_piece *p, bbc__beam_scratch *s,
+                         bbc__beam_row_fn fn, void *user) {
+  for (uint32_t k = 0; k < b->count; k++) {
+    const bbc__beam_receiver *item = &b->items[k];
+    if (item->root == UINT32_MAX || item->mx0 > item->mx1) continue;
+    if (!boxes_meet(p->box_lo, p->box_hi, item->lo, item->hi)) continue;
+    const size_t w = grid->receivers[item->receiver].width;
+    if (box_holds(p->box_lo, p->box_hi, item->lo, item->hi)) {
+      for (uint32_t y = item->my0; y <= item->my1; y++)
+        if (fn(user, k, y, item->mx0, item->mx1, item->mask + y * w)) return 1;
+      continue;
+    }
+    uint32_t top = 0;
+    s->stack[top++] = item->root;
+    while (top) {
+      const bbc__beam_node *node = &b->nodes[s->stack[--top]];
+      if (!boxes_meet(p->box_lo, p->box_hi, node->lo, node->hi)) continue;
+      if (node->count == 0) {
+        s->stack[top++] = node->right;
+        s->stack[top++] = node->left;
+        continue;
+      }
+      for (uint32_t j = node->first; j < node->first + node->count; j++) {
+        double lo[3], hi[3];
+        triangle_box(scene, b->order[j], lo, hi);
+        if (!boxes_meet(p->box_lo, p->box_hi, lo, hi)) continue;
+        double clipped[8];
+        const double *region = WHOLE;
+        if (!b->whole_triangles && !box_holds(p->box_lo, p->box_hi, lo, hi)) {
+          if (!clipped_region(scene, b->order[j], p->box_lo, p->box_hi, clipped)) continue;
+          region = clipped;
+        }
+        bbc_cell_range c;
+        if (!bbc_grid_splat_polygon(grid, b->order[j], region, NULL, &c, s->row_x0, s->row_x1))
+          continue;
+        for (uint32_t y = c.y0; y <= c.y1; y++)
+          if (s->row_x0[y - c.y0] <= s->row_x1[y - c.y0] &&
+              fn(user, k, y, s->row_x0[y - c.y0], s->row_x1[y - c.y0], NULL))
+            return 1;
+      }
+    }
+  }
+  return 0;
+}
+
+bbc_result bbc__beam_scratch_reserve(bbc__beam_scratch *s, const bbc__beam_receivers *b) {
+  return scratch_reserve(s, b);
+}

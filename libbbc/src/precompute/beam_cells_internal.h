@@ -73,4 +73,16 @@ bbc_result bbc__beam_cells(const bbc__beam_receivers *b, const bbc_scene *scene,
                            size_t n, bbc__beam_scratch *s, bbc__beam_emit_fn emit, void *user,
                            uint64_t *triangles_found);
 
+/* Calls fn for each row of cells piece p reaches (the same cells bbc__beam_cells gives
+ * it): receiver item k (b->items[k]), row y, columns x0..x1, and when not NULL the
+ * receiver's mask row (indexed by column; only columns whose mask is 1 are reached). A
+ * cell may be visited more than once (from several triangles). Returns 1 as soon as fn
+ * returns non-zero, else 0. The scratch must be reserved (bbc__beam_scratch_reserve). */
+typedef int (*bbc__beam_row_fn)(void *user, uint32_t k, uint32_t y, uint32_t x0, uint32_t x1,
+                                const uint8_t *mask);
+int bbc__beam_piece_rows(const bbc__beam_receivers *b, const bbc_scene *scene,
+                         const bbc_grid *grid, const bbc_beam_piece *p, bbc__beam_scratch *s,
+                         bbc__beam_row_fn fn, void *user);
+bbc_result bbc__beam_scratch_reserve(bbc__beam_scratch *s, const bbc__beam_receivers *b);
+
 #endif

@@ -8,6 +8,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include "bbc/precompute.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -496,6 +497,22 @@ static int record_part(bbc_cache_builder *builder, const batch *b, uint32_t part
   return status;
 }
 
+/* A per-thread raster of one beam tuple's bounds over the cells of each receiver that
+ * is not a plane (allocated when first reached), kept up to date while the tuple is
+ * bounded, as `coverage` is for other tuples: per cell the largest E_hi per unit
+ * intensity of the stored pieces reaching it (at least DBL_TRUE_MIN), 0 where none does.
+ * Only the touched rectangles are cleared after the tuple. */
+typedef struct beam_plane {
+  double *cells; /* width x height of its receiver */
+  int touched;
+  uint32_t tx0, ty0, tx1, ty1;
+} beam_plane;
+
+typedef struct beam_cover {
+  beam_plane *planes; /* per beam receiver (bbc__beam_receivers.items) */
+  uint32_t count;
+} beam_cover;
+
 /* What bounding a tuple needs: the scene, the parameters and per thread its bounder,
  * pieces, raster and coverage. */
 typedef struct bound_context {
@@ -512,43 +529,121 @@ typedef struct bound_context {
   const bbc__beam_receivers *beams;
   beam_list *beam_pieces;
   bbc__beam_scratch *beam_scratch;
+  beam_cover *beam_covers;
 } bound_context;
 
-static int keep_beam_piece(void *user, const bbc_beam_piece *piece) {
-  beam_list *l = user;
-  if (piece->status != BBC_PIECE_KEPT) return 0;
-  if (l->count == l->capacity) {
-    size_t capacity = l->capacity ? 2 * l->capacity : 16;
-    bbc_beam_piece *items = realloc(l->items, capacity * sizeof *items);
-    double *bound = realloc(l->bound, capacity * sizeof *bound);
-    if (items) l->items = items;
-    if (bound) l->bound = bound;
-    if (!items || !bound) {
-      l->failed = 1;
-      return 1;
+/* What a beam tuple's cell test and keeper share (bbc_bound_params.beam_need). */
+typedef struct beam_sink {
+  const bbc__beam_receivers *beams;
+  const bbc_scene *scene;
+  const bbc_grid *grid;
+  bbc__beam_scratch *scratch;
+  beam_cover *cover;
+  beam_list *list;
+  /* The piece being looked at: its value, the cells seen (0, 1 or 2 for more), the
+   * first one, and whether every cell seen holds at least the value. */
+  double value;
+  int cells, dominated, raises, failed;
+  uint32_t fk, fx, fy;
+} beam_sink;
+
+static double beam_value(double e_hi) {
+  return e_hi > 0 ? e_hi : DBL_TRUE_MIN; /* 0 would read as no entry */
+}
+
+static int beam_plane_reserve(beam_sink *s, uint32_t k) {
+  beam_plane *pl = &s->cover->planes[k];
+  if (pl->cells) return 1;
+  const bbc_receiver *rc = &s->grid->receivers[s->beams->items[k].receiver];
+  pl->cells = calloc((size_t)rc->width * rc->height, sizeof *pl->cells);
+  return pl->cells != NULL;
+}
+
+static int beam_need_row(void *user, uint32_t k, uint32_t y, uint32_t x0, uint32_t x1,
+                         const uint8_t *mask) {
+  beam_sink *s = user;
+  const beam_plane *pl = &s->cover->planes[k];
+  const size_t w = s->grid->receivers[s->beams->items[k].receiver].width;
+  for (uint32_t x = x0; x <= x1; x++) {
+    if (mask && !mask[x]) continue;
+    if (s->cells == 0) {
+      s->cells = 1, s->fk = k, s->fx = x, s->fy = y;
+    } else if (s->cells == 1 && (k != s->fk || x != s->fx || y != s->fy)) {
+      s->cells = 2;
     }
-    l->capacity = capacity;
+    const double v = pl->cells ? pl->cells[y * w + x] : 0;
+    if (!(v > 0 && v >= s->value)) s->dominated = 0;
+    if (!s->dominated && s->cells > 1) return 1; /* the answer is known: split */
   }
-  l->items[l->count++] = *piece;
   return 0;
 }
 
-/* Where bbc__beam_cells puts a receiver's rectangle: the tuple's next segment. */
-typedef struct beam_emit {
-  cell_arena *arena;
-  int id;
-  tuple_cells *cells;
-} beam_emit;
+/* The beam counterpart of piece_need: NONE when the piece reaches no cell or every cell
+ * it reaches already holds at least its E_hi, KEEP when it reaches one cell, else SPLIT. */
+static bbc_piece_need beam_need(void *user, const bbc_beam_piece *piece) {
+  beam_sink *s = user;
+  s->value = beam_value(piece->e_hi);
+  s->cells = 0, s->dominated = 1;
+  bbc__beam_piece_rows(s->beams, s->scene, s->grid, piece, s->scratch, beam_need_row, s);
+  if (s->cells == 0 || s->dominated) return BBC_NEED_NONE;
+  return s->cells == 1 ? BBC_NEED_KEEP : BBC_NEED_SPLIT;
+}
 
-static bbc_result emit_beam_cells(void *user, uint32_t receiver, uint32_t x0, uint32_t y0,
-                                  uint32_t w, uint32_t h, const double *cells, size_t stride) {
-  beam_emit *e = user;
-  return arena_add(e->arena, e->id, e->cells, receiver, x0, y0, w, h, cells, stride, 0, 0.0);
+static int beam_keep_row(void *user, uint32_t k, uint32_t y, uint32_t x0, uint32_t x1,
+                         const uint8_t *mask) {
+  beam_sink *s = user;
+  if (!beam_plane_reserve(s, k)) {
+    s->failed = 1;
+    return 1;
+  }
+  beam_plane *pl = &s->cover->planes[k];
+  const size_t w = s->grid->receivers[s->beams->items[k].receiver].width;
+  double *row = pl->cells + y * w;
+  int any = 0;
+  uint32_t lo = x1, hi = x0;
+  for (uint32_t x = x0; x <= x1; x++) {
+    if (mask && !mask[x]) continue;
+    if (!(row[x] > 0 && row[x] >= s->value)) {
+      row[x] = s->value;
+      any = 1;
+      if (x < lo) lo = x;
+      if (x > hi) hi = x;
+    }
+  }
+  if (!any) return 0;
+  s->raises = 1;
+  if (!pl->touched) {
+    pl->touched = 1, pl->tx0 = lo, pl->tx1 = hi, pl->ty0 = pl->ty1 = y;
+  } else {
+    if (lo < pl->tx0) pl->tx0 = lo;
+    if (hi > pl->tx1) pl->tx1 = hi;
+    if (y < pl->ty0) pl->ty0 = y;
+    if (y > pl->ty1) pl->ty1 = y;
+  }
+  return 0;
+}
+
+/* A kept piece raises the cells it reaches to its E_hi; one that raises none changes
+ * nothing recorded and is not stored (the tuple is stored when some piece is). */
+static int keep_beam_piece(void *user, const bbc_beam_piece *piece) {
+  beam_sink *s = user;
+  beam_list *l = s->list;
+  if (piece->status != BBC_PIECE_KEPT) return 0;
+  s->value = beam_value(piece->e_hi);
+  s->raises = 0;
+  bbc__beam_piece_rows(s->beams, s->scene, s->grid, piece, s->scratch, beam_keep_row, s);
+  if (s->failed) {
+    l->failed = 1;
+    return 1;
+  }
+  if (!s->raises) return 0;
+  l->count++;
+  return 0;
 }
 
 /* Bounds beam tuple t (receiver BBC_RECEIVER_BEAM) on thread `id`: its kept pieces'
  * bounds go to the cells of every receiver triangle not on a plane that their boxes
- * meet, the largest per cell. 0 on failure. */
+ * meet, the largest per cell, one segment per receiver reached. 0 on failure. */
 static int bound_beam_one(const bound_context *x, int id, const bbc_tuple *t, cell_arena *a,
                           tuple_cells *c, bbc_bound_stats *stats) {
   bbc_tuple_geometry g;
@@ -559,20 +654,37 @@ static int bound_beam_one(const bound_context *x, int id, const bbc_tuple *t, ce
   c->segments = 0;
   c->entries = 0;
   if (bbc_tuple_geometry_init(&g, x->scene, t) != BBC_OK) return 0;
-  const bbc_bound_params prm = g.light_model.kind == BBC_LIGHT_AREA ? x->bound_area
-                               : g.length == 2                      ? x->bound2
-                                                                    : x->bound;
-  if (bbc_bound_beam(x->bounders[id], &g, x->beams->lo, x->beams->hi, &prm, keep_beam_piece, list,
-                     stats) != BBC_OK ||
-      list->failed)
-    return 0;
-  c->stored = list->count > 0;
-  if (!c->stored) return 1;
+  if (bbc__beam_scratch_reserve(&x->beam_scratch[id], x->beams) != BBC_OK) return 0;
+  beam_sink sink;
+  memset(&sink, 0, sizeof sink);
+  sink.beams = x->beams, sink.scene = x->scene, sink.grid = x->grid;
+  sink.scratch = &x->beam_scratch[id], sink.cover = &x->beam_covers[id], sink.list = list;
+  bbc_bound_params prm = g.light_model.kind == BBC_LIGHT_AREA ? x->bound_area
+                         : g.length == 2                      ? x->bound2
+                                                              : x->bound;
+  prm.beam_need = beam_need;
+  prm.need_user = &sink;
+  int ok = bbc_bound_beam(x->bounders[id], &g, x->beams->lo, x->beams->hi, &prm, keep_beam_piece,
+                          &sink, stats) == BBC_OK &&
+           !list->failed;
+  c->stored = ok && list->count > 0;
   const double power = tuple_power(x->scene, x->params, t);
-  for (size_t i = 0; i < list->count; i++) list->bound[i] = cell_bound(list->items[i].e_hi, power);
-  beam_emit emit = {a, id, c};
-  return bbc__beam_cells(x->beams, x->scene, x->grid, list->items, list->bound, list->count,
-                         &x->beam_scratch[id], emit_beam_cells, &emit, NULL) == BBC_OK;
+  beam_cover *cover = &x->beam_covers[id];
+  for (uint32_t k = 0; k < cover->count; k++) {
+    beam_plane *pl = &cover->planes[k];
+    if (!pl->touched) continue;
+    const uint32_t receiver = x->beams->items[k].receiver;
+    const size_t w = x->grid->receivers[receiver].width;
+    if (ok && c->stored &&
+        arena_add(a, id, c, receiver, pl->tx0, pl->ty0, pl->tx1 - pl->tx0 + 1,
+                  pl->ty1 - pl->ty0 + 1, pl->cells + pl->ty0 * w + pl->tx0, w, 1,
+                  power) != BBC_OK)
+      ok = 0;
+    for (uint32_t y = pl->ty0; y <= pl->ty1; y++)
+      memset(pl->cells + y * w + pl->tx0, 0, ((size_t)pl->tx1 - pl->tx0 + 1) * sizeof *pl->cells);
+    pl->touched = 0;
+  }
+  return ok;
 }
 
 /* Bounds tuple t on thread `id` and gives its cells (in arena a, thread id's); 0 on
@@ -636,6 +748,7 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
       if (!bound_one(x, id, &census->sample[i], &arenas[id], &cells[i], &unused)) failed = 1;
       stored += cells[i].stored;
       entries += cells[i].stored ? cells[i].entries : 0;
+      arena_clear(&arenas[id]); /* only the counts are needed: one tuple's cells at a time */
     }
     cpu += thread_cpu_seconds() - cpu0;
   }
@@ -646,6 +759,43 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
   e->stored_fraction = n ? (double)stored / (double)n : 0;
   e->entries_per_tuple = stored ? (double)entries / (double)stored : 0;
   return BBC_OK;
+}
+
+/* Every cell of the receivers that are not planes: what a beam tuple's rasters hold. */
+static double beam_cells_total(const bbc__beam_receivers *beams, const bbc_grid *grid) {
+  double cells = 0;
+  for (uint32_t k = 0; k < beams->count; k++) {
+    const bbc_receiver *rc = &grid->receivers[beams->items[k].receiver];
+    cells += (double)rc->width * rc->height;
+  }
+  return cells;
+}
+
+/* The most a beam tuple's cells take in a batch's arena: a code per cell of each
+ * receiver's mask rectangle, a span per row and a segment per receiver. */
+static double beam_tuple_bytes(const bbc__beam_receivers *beams, const bbc_grid *grid) {
+  (void)grid;
+  double bytes = 0;
+  for (uint32_t k = 0; k < beams->count; k++) {
+    const bbc__beam_receiver *item = &beams->items[k];
+    if (item->mx0 > item->mx1) continue;
+    const double w = (double)item->mx1 - item->mx0 + 1, h = (double)item->my1 - item->my0 + 1;
+    bytes += w * h * sizeof(uint16_t) + h * 2 * sizeof(uint32_t) + sizeof(cell_segment);
+  }
+  return bytes;
+}
+
+/* Tuples per batch: BATCH_TUPLES, fewer when beam tuples could fill the two batches'
+ * arenas beyond the entry budget (each may reach every cell of the receivers that are
+ * not planes), at least BEAM_BATCH_MIN. It does not depend on the thread count. */
+#define BEAM_BATCH_MIN 8
+static size_t beam_batch_tuples(const bbc__beam_receivers *beams, const bbc_grid *grid,
+                                const bbc_precompute_options *o) {
+  if (!beams->count) return BATCH_TUPLES;
+  const double per = beam_tuple_bytes(beams, grid);
+  const double budget = o->entry_memory ? (double)o->entry_memory : 8.0 * 1048576.0;
+  const double n = per > 0 ? floor(budget / (2 * per)) : BATCH_TUPLES;
+  return n >= BATCH_TUPLES ? BATCH_TUPLES : n <= BEAM_BATCH_MIN ? BEAM_BATCH_MIN : (size_t)n;
 }
 
 /* The rest of the estimate, from the census and the sample: see precompute.h. */
@@ -687,7 +837,8 @@ static void estimate_costs(const bbc__census *census, const bbc_precompute_optio
   if (beams->count) {
     memory += (double)beams->bytes +
               threads * (double)beams->max_width * beams->max_height * sizeof(double);
-    memory += 2.0 * fmin(BATCH_TUPLES, stored) * e->entries_per_tuple * 2;
+    memory += threads * (double)beam_cells_total(beams, grid) * sizeof(double);
+    memory += 2.0 * beam_batch_tuples(beams, grid, o) * beam_tuple_bytes(beams, grid);
   }
   e->memory_bytes = (uint64_t)memory;
   /* The file: its fixed sections (as bbc_cache_check_resources counts them), the
@@ -817,9 +968,17 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   if (result == BBC_OK && (!beam_pieces || !beam_scratch)) result = BBC_ERR_OUT_OF_MEMORY;
   if (result == BBC_OK && params->beam_receivers)
     result = bbc__beam_receivers_init(&beams, scene, grid);
+  beam_cover *beam_covers = calloc((size_t)threads, sizeof *beam_covers);
+  if (result == BBC_OK && !beam_covers) result = BBC_ERR_OUT_OF_MEMORY;
+  for (int i = 0; i < threads && result == BBC_OK && beams.count; i++) {
+    beam_covers[i].planes = calloc(beams.count, sizeof *beam_covers[i].planes);
+    beam_covers[i].count = beam_covers[i].planes ? beams.count : 0;
+    if (!beam_covers[i].planes) result = BBC_ERR_OUT_OF_MEMORY;
+  }
+  const size_t batch_tuples = beam_batch_tuples(&beams, grid, options);
   const bound_context context = {scene,      params,      grid,        bound,   bound2,
                                  bound_area, bounders,    pieces,      rasters, covers,
-                                 &beams,     beam_pieces, beam_scratch};
+                                 &beams,     beam_pieces, beam_scratch, beam_covers};
 
   /* The estimate, from the census and its sample bounded first (SAMPLE_MAX tuples
    * fit a batch's cells), before the bounding: the caller may stop there. */
@@ -841,7 +1000,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   for (size_t k = 0; result == BBC_OK; k++) {
     batch *cur = &batches[k & 1], *prev = &batches[(k + 1) & 1];
     size_t n = 0;
-    if ((result = bbc__candidates_next(&source, cur->tuples, cur->candidate, BATCH_TUPLES,
+    if ((result = bbc__candidates_next(&source, cur->tuples, cur->candidate, batch_tuples,
                                        &n)) != BBC_OK)
       break;
     const int pending = k > 0 && prev->n > 0;
@@ -976,6 +1135,11 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     if (beam_pieces) free(beam_pieces[i].items), free(beam_pieces[i].bound);
     if (beam_scratch) bbc__beam_scratch_free(&beam_scratch[i]);
   }
+  for (int i = 0; beam_covers && i < threads; i++) {
+    for (uint32_t k = 0; k < beam_covers[i].count; k++) free(beam_covers[i].planes[k].cells);
+    free(beam_covers[i].planes);
+  }
+  free(beam_covers);
   free(beam_pieces);
   free(beam_scratch);
   bbc__beam_receivers_free(&beams);
