@@ -326,9 +326,9 @@ bbc_result bbc__beam_cells(const bbc__beam_receivers *b, const bbc_scene *scene,
   return res;
 }
 
-int bbc__beam_piece_rows(const bbc__beam_receivers *b, const bbc_scene *scene,
-                         const bbc_grid *grid, const bbc_beam_piece *p, bbc__beam_scratch *s,
-                         bbc__beam_row_fn fn, void *user) {
+int bbc__beam_piece_rows(const bbc__beam_receivers *b, const bbc_scene *scene, const bbc_grid *grid,
+                         const bbc_beam_piece *p, bbc__beam_scratch *s, bbc__beam_row_fn fn,
+                         void *user) {
   for (uint32_t k = 0; k < b->count; k++) {
     const bbc__beam_receiver *item = &b->items[k];
     if (item->root == UINT32_MAX || item->mx0 > item->mx1) continue;

@@ -80,9 +80,9 @@ bbc_result bbc__beam_cells(const bbc__beam_receivers *b, const bbc_scene *scene,
  * returns non-zero, else 0. The scratch must be reserved (bbc__beam_scratch_reserve). */
 typedef int (*bbc__beam_row_fn)(void *user, uint32_t k, uint32_t y, uint32_t x0, uint32_t x1,
                                 const uint8_t *mask);
-int bbc__beam_piece_rows(const bbc__beam_receivers *b, const bbc_scene *scene,
-                         const bbc_grid *grid, const bbc_beam_piece *p, bbc__beam_scratch *s,
-                         bbc__beam_row_fn fn, void *user);
+int bbc__beam_piece_rows(const bbc__beam_receivers *b, const bbc_scene *scene, const bbc_grid *grid,
+                         const bbc_beam_piece *p, bbc__beam_scratch *s, bbc__beam_row_fn fn,
+                         void *user);
 bbc_result bbc__beam_scratch_reserve(bbc__beam_scratch *s, const bbc__beam_receivers *b);
 
 #endif

@@ -677,8 +677,7 @@ static int bound_beam_one(const bound_context *x, int id, const bbc_tuple *t, ce
     const size_t w = x->grid->receivers[receiver].width;
     if (ok && c->stored &&
         arena_add(a, id, c, receiver, pl->tx0, pl->ty0, pl->tx1 - pl->tx0 + 1,
-                  pl->ty1 - pl->ty0 + 1, pl->cells + pl->ty0 * w + pl->tx0, w, 1,
-                  power) != BBC_OK)
+                  pl->ty1 - pl->ty0 + 1, pl->cells + pl->ty0 * w + pl->tx0, w, 1, power) != BBC_OK)
       ok = 0;
     for (uint32_t y = pl->ty0; y <= pl->ty1; y++)
       memset(pl->cells + y * w + pl->tx0, 0, ((size_t)pl->tx1 - pl->tx0 + 1) * sizeof *pl->cells);
@@ -976,8 +975,8 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     if (!beam_covers[i].planes) result = BBC_ERR_OUT_OF_MEMORY;
   }
   const size_t batch_tuples = beam_batch_tuples(&beams, grid, options);
-  const bound_context context = {scene,      params,      grid,        bound,   bound2,
-                                 bound_area, bounders,    pieces,      rasters, covers,
+  const bound_context context = {scene,      params,      grid,         bound,      bound2,
+                                 bound_area, bounders,    pieces,       rasters,    covers,
                                  &beams,     beam_pieces, beam_scratch, beam_covers};
 
   /* The estimate, from the census and its sample bounded first (SAMPLE_MAX tuples
@@ -1000,8 +999,8 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   for (size_t k = 0; result == BBC_OK; k++) {
     batch *cur = &batches[k & 1], *prev = &batches[(k + 1) & 1];
     size_t n = 0;
-    if ((result = bbc__candidates_next(&source, cur->tuples, cur->candidate, batch_tuples,
-                                       &n)) != BBC_OK)
+    if ((result = bbc__candidates_next(&source, cur->tuples, cur->candidate, batch_tuples, &n)) !=
+        BBC_OK)
       break;
     const int pending = k > 0 && prev->n > 0;
     if (n == 0 && !pending) break;
