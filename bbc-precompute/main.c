@@ -537,6 +537,7 @@ int main(int argc, char **argv) {
   options.progress = on_progress;
   options.progress_user = &bar;
   options.estimate_fn = on_estimate;
+  options.cancel_fn = cli_interrupt_requested; /* SIGINT, SIGTERM: stop within a piece */
   options.error_fn = on_error;
   options.user = &run;
   /* The candidate list is held whole when it takes at most a sixteenth of the budget;

@@ -1,6 +1,7 @@
 /* bbc-render: renders a glTF scene to OpenEXR. */
 #define _POSIX_C_SOURCE 200809L
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -90,6 +91,18 @@ static const char help[] =
     "                        reciprocal-probability estimate; newton-det: one start at\n"
     "                        T1's centre, no variance but biased (misses solutions).\n"
     "                        Single scattering always uses the specular polynomials.\n"
+    "  --light-trace on|off  light tracing of caustic paths (default on with --cache):\n"
+    "                        photons from point, spot and delta-sun lights through the\n"
+    "                        casters to points the camera sees directly; it counts the\n"
+    "                        chains of 3+ specular vertices (and kinds the cache lacks)\n"
+    "                        and, in the cells --light-trace-cells picks, the cached\n"
+    "                        chain types, which the estimator then leaves out there\n"
+    "  --light-trace-cells B inf (default): cells with a tuple whose bound is infinite;\n"
+    "                        a number: a bound at least B (per unit intensity, as\n"
+    "                        bbc-inspect shows it); all: every cell; none: no cell\n"
+    "  --photons N           photons per sample (default: the image's pixel count, one\n"
+    "                        per pixel per sample, with --region too; a sixteenth\n"
+    "                        when only chains of 3+ mirrors can be light-traced)\n"
     "  --only PARTS          render only these parts, comma-separated: caustics (the\n"
     "                        caustic estimator), direct (light before any diffuse\n"
     "                        bounce), indirect (the rest)\n"
@@ -165,6 +178,9 @@ static void print_stats(const bbc_render_stats *s, const bbc_render_options *opt
           s->seconds, width, height, s->spp, (unsigned long long)s->samples,
           (unsigned long long)s->rays, rays_per_s * 1e-6,
           s->threads ? rays_per_s * 1e-6 / s->threads : 0.0, s->threads);
+  if (options->light_trace)
+    fprintf(stderr, "photons      %llu traced, %llu added to a pixel\n",
+            (unsigned long long)s->photons, (unsigned long long)s->photon_splats);
   if (options->method != BBC_METHOD_PT) {
     double lookups = s->lookups ? (double)s->lookups : 1;
     double busy = s->thread_seconds > 0 ? s->thread_seconds : 1;
@@ -411,6 +427,7 @@ int main(int argc, char **argv) {
   double exposure = 0;
   long long width = 0, height = 0;
   int progress = -1, stats = 0, write_partial = 0, verify = 1;
+  int light_trace = 1, cells_none = 0;
   const char *camera_arg = NULL, *frames_arg = NULL;
   uint32_t shard_index = 0, shard_count = 0; /* --shard; count 0: every image */
   int all_cameras = 0;
@@ -490,6 +507,24 @@ int main(int argc, char **argv) {
         options.sampler = BBC_SAMPLER_INDEPENDENT;
       else
         cli_usage_error(usage, "--sampler: unknown sampler '%s' (sobol, independent)", value);
+    } else if (cli_option(&a, "--light-trace", &value)) {
+      if (strcmp(value, "on") == 0)
+        light_trace = 1;
+      else if (strcmp(value, "off") == 0)
+        light_trace = 0;
+      else
+        cli_usage_error(usage, "--light-trace: '%s' is neither on nor off", value);
+    } else if (cli_option(&a, "--light-trace-cells", &value)) {
+      if (strcmp(value, "inf") == 0)
+        options.light_trace_bound = INFINITY;
+      else if (strcmp(value, "all") == 0)
+        options.light_trace_bound = -1;
+      else if (strcmp(value, "none") == 0)
+        cells_none = 1;
+      else
+        options.light_trace_bound = cli_parse_double(&a, "--light-trace-cells", value, 0, 1e300);
+    } else if (cli_option(&a, "--photons", &value)) {
+      options.photons_per_spp = (uint32_t)cli_parse_int(&a, "--photons", value, 1, 1u << 30);
     } else if (cli_option(&a, "--only", &value)) {
       options.components = 0;
       char buffer[256];
@@ -543,6 +578,8 @@ int main(int argc, char **argv) {
   if (!scene_path) cli_usage_error(usage, "no scene given");
   if (!output) cli_usage_error(usage, "no output given (-o OUT.exr)");
   if (!method_given) options.method = cache_path ? BBC_METHOD_BBC : BBC_METHOD_PT;
+  options.light_trace = light_trace && options.method != BBC_METHOD_PT;
+  if (cells_none) options.light_trace_bound = NAN;
   if (options.method != BBC_METHOD_PT && !cache_path)
     cli_usage_error(usage, "--method %s needs a cache (--cache FILE.bbc from bbc-precompute)",
                     options.method == BBC_METHOD_BBC         ? "bbc"

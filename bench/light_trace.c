@@ -3,7 +3,12 @@
  * solvers.
  *
  *   light_trace SCENE.gltf --chains LIST --width W --photons N [--seed K] [--threads T]
- *               [--no-fresnel] -o OUT.exr
+ *               [--no-fresnel] [--any-chain K] -o OUT.exr
+ *
+ * --any-chain K (for hollow glass and liquids in glass, bench/transport.sh): instead of
+ * the chain types of LIST, every path of one to K specular vertices, dielectrics
+ * reflecting with the Fresnel probability or refracting, the media tracked by the
+ * photon itself (follow_any below) rather than read from the scene's media.
  *
  * Photons leave each point or spot light uniformly over the cone of directions that holds
  * the bounding sphere of the scene's casters (the mirrors and glass that bbc-precompute
@@ -89,6 +94,7 @@ typedef struct tracer {
   double tan_half, aspect;
   uint32_t chains; /* BBC_CHAIN_BIT mask */
   int no_fresnel;
+  int any_chain; /* --any-chain K: every specular path of 1..K vertices (follow_any) */
 } tracer;
 
 /* Triangle t's unit geometric normal turned to the side its vertex normals point to,
@@ -146,21 +152,26 @@ static void land(const tracer *tr, uint32_t t, bbc_vec3 x, bbc_vec3 d, const dou
 static int chain_length(int c) { return c < 2 ? 1 : 2; }
 static int letter_at(int c, int i) { return c < 2 ? c : i == 0 ? (c - 2) >> 1 : (c - 2) & 1; }
 
+/* The first hit along d from origin, on a triangle other than `from`: a ray that leaves
+ * a triangle cannot meet its plane again, so a hit on `from` is the rounding of the start
+ * point (Embree's are in single precision), and the search looks past it. 0: none. */
+static int next_hit(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d, bbc_hit *hit) {
+  double tmin = 0;
+  for (int tries = 0; tries < 4; tries++) {
+    if (!bbc_accel_intersect(tr->accel, origin, d, tmin, INFINITY, hit)) return 0;
+    if (hit->triangle != from) return 1;
+    tmin = hit->t * (1 + 1e-6) + 1e-9;
+  }
+  return 0;
+}
+
 /* Follows a photon from origin along d (unit) that has made `made` specular vertices of
  * the chain letters[0..made) (0 R, 1 T). */
 static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d, double flux[3],
                    int made, int letters, double *lane) {
   const bbc_scene *s = tr->scene;
   bbc_hit hit;
-  /* A ray that leaves a triangle cannot meet its plane again: a hit on `from` is the
-   * rounding of the start point (Embree's are in single precision), so look past it. */
-  double tmin = 0;
-  for (int tries = 0;; tries++) {
-    if (!bbc_accel_intersect(tr->accel, origin, d, tmin, INFINITY, &hit)) return;
-    if (hit.triangle != from) break;
-    if (tries == 3) return;
-    tmin = hit.t * (1 + 1e-6) + 1e-9;
-  }
+  if (!next_hit(tr, origin, from, d, &hit)) return;
   uint32_t t = hit.triangle;
   const bbc_mesh *mesh = &s->meshes[s->triangle_mesh[t]];
   const bbc_material *m = &s->materials[mesh->material];
@@ -218,6 +229,94 @@ static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d,
   follow(tr, x, t, next, f2, made + 1, made == 0 ? letter : (letters << 1) | letter, lane);
 }
 
+/* --any-chain K: every path of one to K specular vertices, with media of its own.
+ * The medium a photon is in follows from which closed dielectric meshes it is inside,
+ * tracked by parity per material: each crossing of a triangle of material m flips bit m
+ * (the photon starts in air, outside every mesh). The medium of a parity set is the
+ * dielectric material with an odd count and the highest index (a liquid that reaches into
+ * its glass is glass there: the container wins), air (index 1) when none. A crossing
+ * that leaves the medium unchanged (a liquid's side inside its glass, met from either
+ * side) goes straight on and is no vertex. Otherwise the interface's ratio is
+ * n(before) / n(after), and the photon reflects with the Fresnel probability F (always
+ * under total internal reflection, the parity unchanged) or refracts, tinted by the base
+ * colour. Mirrors reflect on either side, weighted by their base colour. None of this
+ * asks the scene's own media (bbc_scene.media, the renderer's per-triangle fronts):
+ * normals give only the shading of a refraction, never a side. Absorbing media are not
+ * supported (refused in main). */
+static double medium_ior(const bbc_scene *s, uint64_t parity) {
+  double n = 1;
+  for (uint32_t m = 0; m < s->material_count && m < 64; m++)
+    if ((parity >> m & 1) && s->materials[m].type == BBC_MATERIAL_DIELECTRIC &&
+        s->materials[m].ior > n)
+      n = s->materials[m].ior;
+  return n;
+}
+
+static void follow_any(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d,
+                       double flux[3], uint64_t *state, double *lane) {
+  const bbc_scene *s = tr->scene;
+  uint64_t parity = 0;
+  int made = 0;
+  for (int steps = 0; steps < 4 * tr->any_chain + 16; steps++) {
+    bbc_hit hit;
+    if (!next_hit(tr, origin, from, d, &hit)) return;
+    uint32_t t = hit.triangle;
+    const bbc_mesh *mesh = &s->meshes[s->triangle_mesh[t]];
+    const bbc_material *m = &s->materials[mesh->material];
+    bbc_vec3 x = add(origin, scale(d, hit.t));
+    if (mesh->role == BBC_ROLE_RECEIVER && m->type == BBC_MATERIAL_DIFFUSE) {
+      if (made > 0) land(tr, t, x, d, flux, lane);
+      return;
+    }
+    if (mesh->role != BBC_ROLE_CASTER ||
+        (m->type != BBC_MATERIAL_MIRROR && m->type != BBC_MATERIAL_DIELECTRIC))
+      return;
+    bbc_vec3 ng, ns;
+    normals(s, t, hit.u, hit.v, &ng, &ns);
+    double off = 1e-6 * (1 + fmax(fabs(x.x), fmax(fabs(x.y), fabs(x.z))));
+    double dn = dot(d, ns);
+    bbc_vec3 next;
+    if (m->type == BBC_MATERIAL_DIELECTRIC) {
+      uint64_t after = parity ^ (1ull << mesh->material);
+      double n1 = medium_ior(s, parity), n2 = medium_ior(s, after);
+      if (n1 == n2) { /* no interface here: straight on */
+        parity = after;
+        origin = add(x, scale(ng, dot(d, ng) > 0 ? off : -off));
+        from = t;
+        continue;
+      }
+      if (made == tr->any_chain) return;
+      if ((dn < 0) != (dot(d, ng) < 0)) return; /* shading normal against its side */
+      double eta = n1 / n2, cos_i = fabs(dn);
+      double sin2_t = eta * eta * (1 - cos_i * cos_i);
+      double f = tr->no_fresnel ? 0 : fresnel(cos_i, eta);
+      bbc_vec3 n = dn < 0 ? ns : scale(ns, -1); /* against d */
+      if (sin2_t >= 1 || uniform(state) < f) {
+        next = sub(d, scale(ns, 2 * dn)); /* reflection, probability F: flux unchanged */
+      } else {
+        double cos_t = sqrt(1 - sin2_t);
+        next = unit(add(scale(d, eta), scale(n, eta * cos_i - cos_t)));
+        for (int k = 0; k < 3; k++) flux[k] *= m->base_color[k];
+        parity = after;
+      }
+    } else {
+      if (made == tr->any_chain) return;
+      if (dot(d, ng) > 0) {
+        ng = scale(ng, -1);
+        ns = scale(ns, -1);
+        dn = -dn;
+      }
+      if (!(dn < 0)) return;
+      next = sub(d, scale(ns, 2 * dn));
+      for (int k = 0; k < 3; k++) flux[k] *= m->base_color[k];
+    }
+    made++;
+    origin = add(x, scale(ng, dot(next, ng) > 0 ? off : -off));
+    from = t;
+    d = next;
+  }
+}
+
 /* The cone of directions from p that holds the sphere (centre, radius): every direction
  * when p is inside it. */
 typedef struct cone {
@@ -242,7 +341,7 @@ int main(int argc, char **argv) {
   long width = 0, threads = 0;
   double photons = 0;
   uint64_t seed = 0;
-  int no_fresnel = 0;
+  int no_fresnel = 0, any_chain = 0;
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
     if (!strcmp(a, "--chains") && i + 1 < argc) chain_list = argv[++i];
@@ -251,14 +350,16 @@ int main(int argc, char **argv) {
     else if (!strcmp(a, "--seed") && i + 1 < argc) seed = strtoull(argv[++i], NULL, 10);
     else if (!strcmp(a, "--threads") && i + 1 < argc) threads = atol(argv[++i]);
     else if (!strcmp(a, "--no-fresnel")) no_fresnel = 1;
+    else if (!strcmp(a, "--any-chain") && i + 1 < argc) any_chain = atoi(argv[++i]);
     else if (!strcmp(a, "-o") && i + 1 < argc) out = argv[++i];
     else if (a[0] != '-' && !scene_path) scene_path = a;
     else scene_path = NULL, i = argc;
   }
-  if (!scene_path || !out || !chain_list || width < 1 || width > 16384 || !(photons >= 1) ||
+  if (any_chain > 0 && !chain_list) chain_list = "T";
+  if (!scene_path || !out || !chain_list || any_chain < 0 || width < 1 || width > 16384 || !(photons >= 1) ||
       threads < 0) {
     fprintf(stderr, "usage: light_trace SCENE.gltf --chains LIST --width W --photons N "
-                    "[--seed K] [--threads T] [--no-fresnel] -o OUT.exr\n");
+                    "[--seed K] [--threads T] [--no-fresnel] [--any-chain K] -o OUT.exr\n");
     return 1;
   }
   uint32_t chains = 0;
@@ -295,6 +396,11 @@ int main(int argc, char **argv) {
       fprintf(stderr, "light_trace: receiver %s is glossy or textured: not supported\n", mesh->name);
       return 1;
     }
+    if (any_chain && m->type == BBC_MATERIAL_DIELECTRIC &&
+        (m->absorption[0] > 0 || m->absorption[1] > 0 || m->absorption[2] > 0)) {
+      fprintf(stderr, "light_trace: --any-chain: %s absorbs: not supported\n", mesh->name);
+      return 1;
+    }
     if (mesh->role != BBC_ROLE_CASTER) continue;
     for (uint32_t v = mesh->first_vertex; v < mesh->first_vertex + mesh->vertex_count; v++) {
       bbc_vec3 p = load(scene->positions + 3 * (size_t)v);
@@ -321,7 +427,7 @@ int main(int argc, char **argv) {
   uint32_t height = (uint32_t)(width / camera->aspect + 0.5);
   if (height < 1) height = 1;
   tracer tr = {scene,  accel,      camera, (uint32_t)width, height, tan(0.5 * camera->yfov),
-               (double)width / height, chains, no_fresnel};
+               (double)width / height, chains, no_fresnel, any_chain};
   const size_t pixels = (size_t)width * height;
   double *lanes = calloc(LANES * pixels * 3, sizeof *lanes);
   if (!lanes) return 1;
@@ -394,7 +500,8 @@ int main(int argc, char **argv) {
             for (int k = 0; k < 3; k++)
               flux[k] = light->intensity[k] * disk *
                         (sun_half > 0 ? sun_scale * cz * sun_omega : 1.0) / (double)per_light;
-            follow(&tr, origin, UINT32_MAX, d, flux, 0, 0, image);
+            if (any_chain) follow_any(&tr, origin, UINT32_MAX, d, flux, &state, image);
+            else follow(&tr, origin, UINT32_MAX, d, flux, 0, 0, image);
             continue;
           }
           if (area) {
@@ -426,8 +533,9 @@ int main(int argc, char **argv) {
             for (int k = 0; k < 3; k++)
               flux[k] = light->intensity[k] * falloff * c.omega / (double)per_light;
           }
-          follow(&tr, origin, area ? scene->emitters[l - scene->point_light_count] : UINT32_MAX, d,
-                 flux, 0, 0, image);
+          uint32_t start = area ? scene->emitters[l - scene->point_light_count] : UINT32_MAX;
+          if (any_chain) follow_any(&tr, origin, start, d, flux, &state, image);
+          else follow(&tr, origin, start, d, flux, 0, 0, image);
         }
       }
     }

@@ -151,6 +151,11 @@ void cli_catch_interrupts(void) {
   sigaction(SIGTERM, &sa, NULL);
 }
 
+int cli_interrupt_requested(void *user) {
+  (void)user;
+  return cli_interrupted;
+}
+
 int cli_poll_interrupt(void *user, uint64_t done, uint64_t total) {
   (void)user;
   (void)done;

@@ -86,6 +86,8 @@ extern volatile int cli_interrupted;
 void cli_catch_interrupts(void);
 /* A progress callback (bbc_progress_fn) that shows nothing and cancels on an interrupt. */
 int cli_poll_interrupt(void *user, uint64_t done, uint64_t total);
+/* A cancel callback (bbc_precompute_options.cancel_fn): non-zero after an interrupt. */
+int cli_interrupt_requested(void *user);
 
 /* A progress bar on stderr: shown only when enabled, redrawn at most five times a
  * second, with percent, elapsed time and ETA. */

@@ -435,11 +435,12 @@ static vec3 ico_vertex(int i) {
 }
 
 /* A geodesic sphere: each icosahedron face split into n^2 triangles, every vertex pushed
- * onto the sphere, normals radial. Shared corners and edges are created once, so the
- * mesh is closed and indexed (10 n^2 + 2 vertices, 20 n^2 triangles). Vertex positions
- * on an edge are computed once from its lower-numbered corner, so both faces meeting
- * there use the very same vertex. */
-static void add_sphere(mesh *m, uint32_t n, vec3 centre, double radius) {
+ * onto the sphere, normals radial (outward for facing +1, inward for -1: the inner
+ * surface of a hollow glass, whose normals point out of the glass into the cavity). Shared corners
+ * and edges are created once, so the mesh is closed and indexed (10 n^2 + 2 vertices, 20 n^2
+ * triangles). Vertex positions on an edge are computed once from its lower-numbered corner, so both
+ * faces meeting there use the very same vertex. */
+static void add_sphere(mesh *m, uint32_t n, vec3 centre, double radius, double facing) {
   int edges[30][2], edge_count = 0;
   for (int f = 0; f < 20; f++) {
     for (int e = 0; e < 3; e++) {
@@ -450,7 +451,8 @@ static void add_sphere(mesh *m, uint32_t n, vec3 centre, double radius) {
     }
   }
   uint32_t base = m->vertex_count;
-#define SPHERE_VERTEX(dir) mesh_add_vertex(m, v_add(centre, v_scale(dir, radius)), dir, 0, 0)
+#define SPHERE_VERTEX(dir) \
+  mesh_add_vertex(m, v_add(centre, v_scale(dir, radius)), v_scale(dir, facing), 0, 0)
   for (int i = 0; i < 12; i++) SPHERE_VERTEX(ico_vertex(i));
   for (int e = 0; e < 30; e++) {
     vec3 a = ico_vertex(edges[e][0]), b = ico_vertex(edges[e][1]);
@@ -625,7 +627,7 @@ static void gen_mirror_wall(scene *s, unsigned long size) {
 
 static void gen_glass_sphere(scene *s, unsigned long size) {
   mesh *ball = scene_add_mesh(s, "glass_sphere", MAT_GLASS, ROLE_CASTER);
-  add_sphere(ball, sphere_frequency(size), v3(0, 1, 0), 1.0);
+  add_sphere(ball, sphere_frequency(size), v3(0, 1, 0), 1.0, 1.0);
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
   add_floor(s, floor, -3, 3, -3, 3, 0, 1);
   /* A fairly low light, so the ball's focus falls near the floor (a ball lens of
@@ -711,7 +713,7 @@ static void gen_glass_pool(scene *s, unsigned long size) {
   uint32_t n = square_grid_side(size);
   mesh_add_grid(water, n, n, pool_surface, GLASS_POOL_WAVES);
   mesh *ball = scene_add_mesh(s, "glass_ball", MAT_GLASS, ROLE_CASTER);
-  add_sphere(ball, sphere_frequency(320), v3(3.1, 0.65, 0.3), 0.6);
+  add_sphere(ball, sphere_frequency(320), v3(3.1, 0.65, 0.3), 0.6, 1.0);
   mesh *floor = scene_add_mesh(s, "pool_floor", MAT_DIFFUSE, ROLE_RECEIVER);
   add_floor(s, floor, -2.0, 2.0, -2.0, 2.0, -1.5, 1);
   /* The deck surrounds the pool ([-5, 5]^2 less the pool's [-2, 2]^2); the pool's
@@ -767,7 +769,7 @@ static void gen_ball(scene *s, unsigned long size) {
    * (1, 2, -2), level with the ball's top and behind it; --size 80, 320, 1280 and
    * 5120 are the shared balls' tessellations. */
   mesh *ball = scene_add_mesh(s, "ball", MAT_GLASS, ROLE_CASTER);
-  add_sphere(ball, sphere_frequency(size), v3(0, 1, 0), 1.0);
+  add_sphere(ball, sphere_frequency(size), v3(0, 1, 0), 1.0, 1.0);
   add_research_floor(s);
   s->light = v3(1, 2, -2);
 }
@@ -817,6 +819,115 @@ static void gen_wide_pool(scene *s, unsigned long size) {
   s->yfov = 0.87266462599716477;
 }
 
+static void gen_hollow_sphere(scene *s, unsigned long size) {
+  /* A hollow glass ball as modellers build one: its outer surface (radius 1, normals
+   * out) and its inner surface (radius 0.85, normals into the cavity, out of the glass)
+   * are two separate closed meshes; --size counts both, half each. Every ray that enters
+   * meets the inner surface (by the sine law at concentric spheres), so each light path
+   * to the floor through the glass refracts four times. glass-sphere's floor, light and
+   * camera. */
+  uint32_t n = sphere_frequency(size / 2 ? size / 2 : 1);
+  mesh *outer = scene_add_mesh(s, "hollow_sphere_outer", MAT_GLASS, ROLE_CASTER);
+  add_sphere(outer, n, v3(0, 1, 0), 1.0, 1.0);
+  mesh *inner = scene_add_mesh(s, "hollow_sphere_inner", MAT_GLASS, ROLE_CASTER);
+  add_sphere(inner, n, v3(0, 1, 0), 0.85, -1.0);
+  mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
+  add_plane(floor, -3, 3, -3, 3, 0, 1, floor_side(s));
+  s->light = v3(1.5, 2.8, -2.5), s->intensity = 30;
+  s->eye = v3(0, 5.5, 6.5), s->target = v3(-0.4, 0.4, 0.6);
+}
+
+/* The glass of water's proportions: outer radius, wall and base thickness, height, the
+ * water line and how far the water reaches into the glass. */
+#define CUP_R 0.5
+#define CUP_WALL 0.05
+#define CUP_BASE 0.15
+#define CUP_HEIGHT 1.2
+#define CUP_WATER 0.8
+#define CUP_OVERLAP 0.005
+#define CUP_LIFT 0.002 /* the glass stands this far above the floor (no coincident faces) */
+
+/* A vertex of a ring of k about the vertical axis through the glass: angle index i,
+ * radius r, height y; the normal is radial (sign +1 out, -1 in) or vertical (up +1 or
+ * down -1, radial 0). Positions depend on (i, r, y) alone, so rings shared by two
+ * surfaces meet exactly and the meshes are closed. */
+static uint32_t ring_vertex(mesh *m, uint32_t i, uint32_t k, double r, double y, double radial,
+                            double up) {
+  double a = 2 * PI * (double)(i % k) / k;
+  vec3 d = v3(cos(a), 0, sin(a));
+  return mesh_add_vertex(m, v3(r * d.x, y, r * d.z), v_add(v_scale(d, radial), v3(0, up, 0)), 0, 0);
+}
+
+/* A vertical cylinder band of radius r from y0 to y1 in `rows` rows of k quads, normals
+ * radial (facing +1 out, -1 in). */
+static void add_band(mesh *m, uint32_t k, uint32_t rows, double r, double y0, double y1,
+                     double facing) {
+  for (uint32_t j = 0; j < rows; j++) {
+    double ya = y0 + (y1 - y0) * j / rows,
+           yb = j + 1 == rows ? y1 : y0 + (y1 - y0) * (j + 1) / rows;
+    for (uint32_t i = 0; i < k; i++) {
+      uint32_t a = ring_vertex(m, i, k, r, ya, facing, 0),
+               b = ring_vertex(m, i + 1, k, r, ya, facing, 0);
+      uint32_t c = ring_vertex(m, i + 1, k, r, yb, facing, 0),
+               d = ring_vertex(m, i, k, r, yb, facing, 0);
+      mesh_add_triangle(m, a, b, c);
+      mesh_add_triangle(m, a, c, d);
+    }
+  }
+}
+
+/* A horizontal annulus r0 < r1 at height y (r0 = 0: a disk, a fan of k), facing up (+1)
+ * or down (-1). */
+static void add_annulus(mesh *m, uint32_t k, double r0, double r1, double y, double up) {
+  for (uint32_t i = 0; i < k; i++) {
+    uint32_t b = ring_vertex(m, i, k, r1, y, 0, up), c = ring_vertex(m, i + 1, k, r1, y, 0, up);
+    if (r0 > 0) {
+      uint32_t a = ring_vertex(m, i, k, r0, y, 0, up), d = ring_vertex(m, i + 1, k, r0, y, 0, up);
+      mesh_add_triangle(m, a, b, c);
+      mesh_add_triangle(m, a, c, d);
+    } else {
+      mesh_add_triangle(m, mesh_add_vertex(m, v3(0, y, 0), v3(0, up, 0), 0, 0), b, c);
+    }
+  }
+}
+
+/* Rows of about square cells for a height h on a ring of k around radius CUP_R. */
+static uint32_t cup_rows(double h, uint32_t k) {
+  return round_at_least_1(h / (2 * PI * CUP_R / k));
+}
+
+static void gen_glass_of_water(scene *s, unsigned long size) {
+  /* A glass of water as Blender users model one: the glass is one closed mesh (outer
+   * wall, rim, inner wall, the thick base's top and bottom), its normals out of the
+   * glass (the inner wall's into the cavity); the water is another closed mesh whose
+   * side and bottom reach CUP_OVERLAP into the glass, so that no air is left between
+   * them (docs/materials.md, "Media"): the glass-water interface is the glass's inner
+   * wall, ior 1.5 / 1.33. The inner wall has a ring at the water line. k segments
+   * around, cells about square; --size counts both meshes' triangles. */
+  uint32_t k = round_at_least_1(sqrt(size / 2.2));
+  if (k < 8) k = 8;
+  const double ri = CUP_R - CUP_WALL, y0 = CUP_LIFT, base = CUP_LIFT + CUP_BASE;
+  const double top = CUP_LIFT + CUP_HEIGHT, water = CUP_LIFT + CUP_WATER;
+  mesh *glass = scene_add_mesh(s, "glass", MAT_GLASS, ROLE_CASTER);
+  add_band(glass, k, cup_rows(CUP_HEIGHT, k), CUP_R, y0, top, 1);
+  add_annulus(glass, k, ri, CUP_R, top, 1);
+  add_band(glass, k, cup_rows(water - base, k), ri, base, water, -1);
+  add_band(glass, k, cup_rows(top - water, k), ri, water, top, -1);
+  add_annulus(glass, k, 0, ri, base, 1);
+  add_annulus(glass, k, 0, CUP_R, y0, -1);
+  mesh *liquid = scene_add_mesh(s, "water", MAT_WATER, ROLE_CASTER);
+  const double rw = ri + CUP_OVERLAP, bottom = base - CUP_OVERLAP;
+  add_band(liquid, k, cup_rows(water - bottom, k), rw, bottom, water, 1);
+  add_annulus(liquid, k, 0, rw, water, 1);
+  add_annulus(liquid, k, 0, rw, bottom, -1);
+  mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
+  add_plane(floor, -2, 2, -2, 2, 0, 1, floor_side(s));
+  /* The light, up and to one side, throws the glass's caustic onto the floor beside it,
+   * toward the camera. */
+  s->light = v3(1.2, 2.6, -1.2), s->intensity = 20;
+  s->eye = v3(0, 3.2, 3.6), s->target = v3(-0.3, 0.35, 0.3);
+}
+
 const kind_info KINDS[KIND_COUNT] = {
     {"floor", 2, "a 4 x 4 floor under a point light, no caster (E = I cos/r^2)", gen_floor},
     {"flat-mirror", 2000, "a flat mirror wall beside the floor (mirrored-light test)",
@@ -843,6 +954,10 @@ const kind_info KINDS[KIND_COUNT] = {
     {"diamond", 280, "a faceted gem (ior 2.42) in the set-up of the shared diamond", gen_diamond},
     {"wide-pool", 4000, "wide wavy water in the set-up of the shared pools (paper's Pool)",
      gen_wide_pool},
+    {"hollow-sphere", 1280, "a hollow glass ball (radii 1, 0.85): two separate meshes",
+     gen_hollow_sphere},
+    {"glass-of-water", 1000, "a thick-based glass with water (ior 1.33, its own mesh) in it",
+     gen_glass_of_water},
 };
 
 void build_scene(scene *s, const options *o) {

@@ -61,6 +61,11 @@ scene flat-mirror --size 8 --orbit 5 -o "$out/orbit.gltf"
 # Curved casters for single reflection, double refraction and single refraction.
 scene wavy-mirror --size 800 -o "$out/wavy-mirror.gltf"
 scene glass-sphere --size 320 -o "$out/glass-sphere.gltf"
+# Media from the geometry (test_media): a hollow glass ball of two separate closed meshes,
+# fine enough for its rays to follow the analytic ones, and a glass of water.
+scene hollow-sphere --size 20000 -o "$out/hollow-sphere.gltf"
+scene hollow-sphere --size 640 -o "$out/hollow-sphere-small.gltf"
+scene glass-of-water --size 600 -o "$out/glass-of-water.gltf"
 scene glass-slab --size 500 -o "$out/glass-slab.gltf"
 scene pool --size 800 -o "$out/pool.gltf"
 # The binary container, so the loader's .glb path is exercised too.

@@ -100,9 +100,8 @@ test_render_write_partial_is_documented() {
   grep -q "130" "$TMP/stdout" || fail "--help does not mention exit status 130"
 }
 
-# bbc-precompute checks for a signal between batches of 2048 candidate tuples, so the
-# scene must have several batches (demo has about 4500 candidates) and a level at which
-# a batch takes seconds, not minutes (about 1.5 s here, 5 s under the sanitizers).
+# bbc-precompute checks for a signal between batches and within each tuple's bounding;
+# the demo at --max-level 8 runs long enough (several seconds) to be interrupted.
 test_precompute_sigint_writes_nothing() {
   "$PRECOMPUTE" "$BBC_TEST_SCENES/demo.gltf" -o "$OUT/demo.bbc" --max-level 8 --no-progress \
     >"$TMP/stdout" 2>"$TMP/err" &
@@ -127,6 +126,26 @@ test_precompute_sigint_while_spilling_leaves_no_file() {
   [ "$status" -eq 130 ] || fail "exit status $status, expected 130"
   expect_files
   [ -z "$(ls -A "$TMP/spill")" ] || fail "spill files left behind: $(ls -A "$TMP/spill")"
+}
+
+# A signal reaches bbc-precompute within the bounding of a tuple, not only between
+# batches: a two-bounce precompute at a deep level takes minutes for its first batch
+# (before the cancel check within a tuple, it ran on past 90 s after SIGTERM), and must
+# stop within 20 s (it stops in about 0.1 s; seconds under the sanitizers).
+test_precompute_sigterm_stops_within_a_batch() {
+  "$PRECOMPUTE" "$BBC_TEST_SCENES/ball320.gltf" -o "$OUT/ball.bbc" --chains TT --max-level 14 \
+    --threads 1 --no-progress >"$TMP/stdout" 2>"$TMP/err" &
+  pid=$!
+  sleep 2
+  kill -TERM "$pid" || fail "cannot send SIGTERM (the precompute has already exited?)"
+  (sleep 20 && kill -KILL "$pid") >/dev/null 2>&1 &
+  dog=$!
+  wait "$pid"
+  status=$?
+  kill "$dog" 2>/dev/null
+  [ "$status" -eq 137 ] && fail "bbc-precompute did not stop within 20 s of SIGTERM"
+  [ "$status" -eq 130 ] || fail "exit status $status, expected 130"
+  expect_files
 }
 
 "test_$1"

@@ -188,6 +188,8 @@ test_kind_ball() { check_kind ball; }
 test_kind_slab_sheets() { check_kind slab-sheets; }
 test_kind_diamond() { check_kind diamond; }
 test_kind_wide_pool() { check_kind wide-pool; }
+test_kind_hollow_sphere() { check_kind hollow-sphere; }
+test_kind_glass_of_water() { check_kind glass-of-water; }
 
 # The triangles of the mesh named $2 in the glTF file $1 and its positions' bounds.
 mesh_shape() {

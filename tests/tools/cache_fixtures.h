@@ -29,8 +29,8 @@ static float fx_uvs[] = {0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 1, 1, 0, 1};
 static uint32_t fx_indices[] = {0, 1, 2, 3, 5, 4, 3, 6, 5};
 static uint32_t fx_triangle_mesh[] = {0, 1, 1};
 static bbc_mesh fx_meshes[] = {
-    {"mirror", 0, 3, 0, 1, 0, BBC_ROLE_CASTER, 1, 0, 0, 1, 0, {{0, 0, 0}}},
-    {"floor", 3, 4, 1, 2, 1, BBC_ROLE_RECEIVER, 1, 1, 0, 1, 0, {{0, 0, 0}}},
+    {"mirror", 0, 3, 0, 1, 0, BBC_ROLE_CASTER, 1, 0, 0, 1, 0, {{0, 0, 0}}, 0},
+    {"floor", 3, 4, 1, 2, 1, BBC_ROLE_RECEIVER, 1, 1, 0, 1, 0, {{0, 0, 0}}, 0},
 };
 static bbc_material fx_materials[] = {
     {.name = "mirror", .type = BBC_MATERIAL_MIRROR, .base_color = {1, 1, 1}, .ior = 1.5f},

@@ -19,6 +19,7 @@
 #include <string.h>
 
 #include "bbc/bbc.h"
+#include "box_mesh.h"
 #include "gltf_shim_internal.h"
 #include "harness.h"
 #include "json_text.h"
@@ -39,31 +40,6 @@ typedef struct slab_scene {
   uint32_t size;      /* the film's width and height */
 } slab_scene;
 
-/* A mesh's arrays: 4 vertices and 2 triangles per face. */
-typedef struct box_mesh {
-  float p[24][3], n[24][3];
-  uint32_t i[36];
-  int faces;
-} box_mesh;
-
-/* Adds the face of box [lo, hi] on axis a at side s (+1: hi, normal +e_a; -1: lo),
- * counter-clockwise seen from where its normal points. */
-static void add_face(box_mesh *m, int a, int s, const double lo[3], const double hi[3]) {
-  const int b = (a + 1) % 3, c = (a + 2) % 3;
-  const int corner[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
-  uint32_t v0 = 4 * (uint32_t)m->faces;
-  for (int k = 0; k < 4; k++) {
-    float *p = m->p[v0 + k], *n = m->n[v0 + k];
-    p[a] = (float)(s > 0 ? hi[a] : lo[a]);
-    p[b] = (float)(corner[k][0] ? hi[b] : lo[b]);
-    p[c] = (float)(corner[k][1] ? hi[c] : lo[c]);
-    n[a] = (float)s, n[b] = 0, n[c] = 0;
-  }
-  static const uint32_t ccw[6] = {0, 1, 2, 0, 2, 3}, cw[6] = {0, 2, 1, 0, 3, 2};
-  for (int k = 0; k < 6; k++) m->i[6 * m->faces + k] = v0 + (s > 0 ? ccw : cw)[k];
-  m->faces++;
-}
-
 /* The glTF text of the scene (malloc'd). */
 static char *slab_gltf(const slab_scene *q) {
   box_mesh floor, box;
@@ -76,17 +52,9 @@ static char *slab_gltf(const slab_scene *q) {
     for (int s = -1; s <= 1; s += 2) add_face(&box, a, s, blo, bhi);
   /* Buffer: floor positions, normals, indices; then the box's. */
   unsigned char buf[2 * sizeof(box_mesh)];
-  size_t at = 0, view[6][2];
+  size_t view[6][2];
   const box_mesh *m[2] = {&floor, &box};
-  for (int k = 0; k < 2; k++) {
-    size_t nv = 4 * (size_t)m[k]->faces, ni = 6 * (size_t)m[k]->faces;
-    view[3 * k][0] = at, view[3 * k][1] = 12 * nv;
-    memcpy(buf + at, m[k]->p, 12 * nv), at += 12 * nv;
-    view[3 * k + 1][0] = at, view[3 * k + 1][1] = 12 * nv;
-    memcpy(buf + at, m[k]->n, 12 * nv), at += 12 * nv;
-    view[3 * k + 2][0] = at, view[3 * k + 2][1] = 4 * ni;
-    memcpy(buf + at, m[k]->i, 4 * ni), at += 4 * ni;
-  }
+  const size_t at = box_meshes_pack(m, 2, buf, view);
   const char *turn = "\"rotation\":[-0.7071067811865476,0,0,0.7071067811865476]";
   json_text t = {0};
   json_printf(

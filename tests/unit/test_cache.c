@@ -214,7 +214,7 @@ static void make_field(field_scene *f, int n, double width, double depth, double
       memcpy(&f->indices[3 * k], tri, sizeof tri);
       k += 2;
     }
-  f->mesh = (bbc_mesh){"field", 0, v, 0, t, 0, BBC_ROLE_RECEIVER, 1, 0, 0, 1, 0, {{0, 0, 0}}};
+  f->mesh = (bbc_mesh){"field", 0, v, 0, t, 0, BBC_ROLE_RECEIVER, 1, 0, 0, 1, 0, {{0, 0, 0}}, 0};
   f->material = (bbc_material){
       .name = "floor", .type = BBC_MATERIAL_DIFFUSE, .base_color = {1, 1, 1}, .ior = 1.5f};
   f->light = (bbc_point_light){.position = {0, 5, 0}, .intensity = {1, 1, 1}};

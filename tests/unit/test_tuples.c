@@ -117,7 +117,8 @@ static void trace_path(const bbc_scene *s, const bbc_accel *accel, uint32_t ligh
       if (length == 0) return;
       /* Inside a closed mesh, a receiver wholly outside it is reached only by a ray that
        * slipped through the mesh (between its triangles, in float): no path. */
-      if (medium != 0 && s->meshes[medium - 1].closed && !boxes_meet(s, h.triangle, medium - 1)) {
+      if (!s->media && medium != 0 && s->meshes[medium - 1].closed &&
+          !boxes_meet(s, h.triangle, medium - 1)) {
         out->leaked++;
         return;
       }
@@ -152,15 +153,26 @@ static void trace_path(const bbc_scene *s, const bbc_accel *accel, uint32_t ligh
         const int side = bbc__media_side(s, h.triangle, area->centroid);
         if (side == 0 || (side > 0) != from_front) return;
       }
-      if (medium == 0 && from_front)
+      double eta = from_front ? 1.0 / m->ior : m->ior;
+      if (s->media) {
+        /* Media from the geometry (docs/materials.md, "Media"): a surface that does not
+         * bound the ray's medium is gone through unchanged, as the path tracer does. */
+        uint32_t after;
+        if (!bbc__media_refract(s, medium, h.triangle, from_front ? 1 : -1, &after)) {
+          out->wrong_medium++;
+          o = v3_offset_origin(x, ng, d);
+          continue;
+        }
+        medium = after;
+        eta = bbc__media_eta(s, h.triangle, from_front ? 1 : -1);
+      } else if (medium == 0 && from_front) {
         medium = here;
-      else if (medium == here && !from_front)
+      } else if (medium == here && !from_front) {
         medium = 0;
-      else {
+      } else {
         out->wrong_medium++;
         return;
       }
-      double eta = from_front ? 1.0 / m->ior : m->ior;
       double k = 1 - eta * eta * (1 - c * c);
       if (k < 0) return; /* total internal reflection: not a refraction chain */
       d = v3_normalize(v3_sub(v3_scale(d, eta), v3_scale(n, eta * c + sqrt(k))));
@@ -497,4 +509,18 @@ TEST(flat_mirror_coplanar) {
   static const long min[BBC_CHAIN_COUNT] = {10000, 0, 0, 0, 0, 0};
   check_loaded(s, BBC_CHAIN_MASK_ALL, harness_scale(100000, 1000000), min);
   bbc_scene_free(s);
+}
+
+/* Where dielectrics meet, media come from the geometry: every light path of one or two
+ * refractions through a glass of water (its water a separate mesh reaching into the
+ * glass; rays go on through a surface that does not bound their medium) and through a
+ * hollow ball of two meshes has its candidate tuple, so the rules that drop tuples there
+ * (the sides of T2, light enclosed by a closed mesh or a cavity) drop no path. */
+TEST(media_from_geometry) {
+  static const long min[BBC_CHAIN_COUNT] = {0, 0, 0, 0, 0, 100};
+  check_scene(TEST_SCENE("glass-of-water.gltf"), (1u << BBC_CHAIN_T) | (1u << BBC_CHAIN_TT),
+              harness_scale(100000, 1000000), min);
+  static const long none[BBC_CHAIN_COUNT] = {0};
+  check_scene(TEST_SCENE("hollow-sphere-small.gltf"), (1u << BBC_CHAIN_T) | (1u << BBC_CHAIN_TT),
+              harness_scale(50000, 500000), none);
 }

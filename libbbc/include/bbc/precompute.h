@@ -46,6 +46,11 @@ typedef struct bbc_precompute_options {
    * while it is bounded (the search twice, its memory bounded). 0: 64 MiB. The written
    * file does not depend on it. */
   size_t candidate_memory;
+  /* Optional: asked by the bounding threads before each tuple and at each piece they
+   * keep, with `user` (often, from several threads at once: it must only read, e.g. a
+   * flag a signal handler sets); non-zero stops the precompute with BBC_ERR_CANCELLED
+   * within a piece's bounding, where `progress` is asked only between batches. */
+  int (*cancel_fn)(void *user);
 } bbc_precompute_options;
 
 /* What a precompute will cost, known before its bounding starts (estimate_fn): the

@@ -110,6 +110,23 @@ typedef struct bbc_render_options {
                                  with samples per pixel done / planned (planned is 0
                                  under a pure time limit) */
   void *progress_user;
+  /* Light tracing of caustic paths (docs/light-tracing.md), with a cache: photons from
+   * the point, spot and delta-sun lights through one or more specular casters to a
+   * diffuse point the camera sees directly. It counts the paths of three or more
+   * specular vertices and of chain types the cache does not hold, and, for points seen
+   * directly in a cell whose tuples of a chain type include one with a bound (per unit
+   * intensity, as stored) of at least light_trace_bound, that chain type's paths, which
+   * the caustic estimator then leaves out there: each path counted once. */
+  int light_trace;          /* 1: on; default 0 */
+  double light_trace_bound; /* the cells' threshold: INFINITY (or 0) only cells with an
+                               unbounded tuple, a negative value every cell, NaN
+                               none (only the chains the cache cannot hold) */
+  uint32_t photons_per_spp; /* photons traced per sample; 0 = the image's pixel
+                               count (one per pixel per sample; the same for a region,
+                               so that its pixels stay those of the whole image), a
+                               sixteenth of it
+                               when no caster is a dielectric and no cell is
+                               light-traced (only chains of 3+ mirrors remain) */
 } bbc_render_options;
 
 typedef struct bbc_render_stats {
@@ -140,6 +157,8 @@ typedef struct bbc_render_stats {
   double solving_seconds;    /* thread time drawing tuples, solving them and tracing
                                 the paths' visibility */
   double thread_seconds;     /* thread time rendering, for the shares above */
+  uint64_t photons;          /* light tracing: photons traced */
+  uint64_t photon_splats;    /* ... and those that added to a pixel */
 } bbc_render_stats;
 
 /* Renders options->camera (else the scene's first camera) into image (whose size sets the resolution and the

@@ -125,8 +125,11 @@ typedef struct bbc_mesh {
   int has_uvs;     /* TEXCOORD_0 from the file; otherwise uvs are zero */
   /* Dielectrics only (else 0 and 1): closed is 1 when every edge is shared by exactly
    * two of its triangles (a watertight volume); outward is +1 when the winding normals
-   * of a closed mesh point out of it, -1 when in. An open mesh's outside is where its
-   * vertex normals point. */
+   * of a closed mesh point to its front, -1 when not. The front of a closed mesh is its
+   * outside, except for a cavity's wall (a closed mesh inside another closed dielectric
+   * whose vertex normals point into it, the inner surface of a hollow glass), whose
+   * front is its inside (cavity, at the end of the struct, is then 1). An open mesh's
+   * front is where its vertex normals point. */
   int closed, outward;
   /* Receivers whose every vertex has one same coordinate x, y or z (a floor, a wall or
    * a table top as files store them): plane is 1 + that axis (1, 2 or 3), else 0.
@@ -138,6 +141,7 @@ typedef struct bbc_mesh {
    * (lo_a, lo_b + 2L) (format-spec Sec. 6.5). */
   int plane;
   bbc_vec3 plane_triangle[3];
+  int cavity; /* dielectrics: 1 for a cavity's wall (above), else 0 */
 } bbc_mesh;
 
 /* How KHR_lights_punctual intensities are read. The glTF specification gives point and
@@ -221,7 +225,7 @@ BBC_API double bbc_light_sun_radiance_scale(double delta);
 typedef struct bbc_point_light {
   bbc_vec3 position;
   float intensity[3];
-  uint32_t medium; /* 0: in air; m + 1: inside the closed dielectric mesh m (suns: 0) */
+  uint32_t medium; /* 0: in air; m + 1: inside the material of dielectric mesh m (suns: 0) */
   bbc_light_model model;
 } bbc_point_light;
 
@@ -298,6 +302,14 @@ typedef struct bbc_scene {
   uint32_t camera_count;
   bbc_camera *cameras;
   struct bbc__camera_motion *camera_motion; /* internal, one per camera */
+
+  /* The media on the two sides of each dielectric triangle (docs/materials.md, "Media"):
+   * media[2 t] lies in front of triangle t and media[2 t + 1] behind it, each 0 for air,
+   * m + 1 for the material of dielectric mesh m, or mesh_count + 1 + m for the air
+   * enclosed by the cavity's wall m (bbc_mesh.cavity). NULL when no two dielectric
+   * meshes' bounding boxes meet: then every dielectric has air in front and its own mesh
+   * behind. */
+  uint32_t *media;
 
   /* The units the file's KHR_lights_punctual intensities were read in (never
    * BBC_LIGHT_UNITS_FILE); the light fields above are radiometric either way. */

@@ -15,6 +15,7 @@
 #include "bounder_internal.h"
 #include "chain_internal.h"
 #include "light_internal.h"
+#include "media_internal.h"
 #include "rounding_internal.h"
 #include "vec_internal.h"
 
@@ -152,16 +153,14 @@ bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene
   int front = load_oriented(scene, tuple->specular[0], source, g->p, g->n);
   g->refract = bbc_chain_refracts((bbc_chain)tuple->chain, 0);
   if (g->refract) {
-    double ior = bbc_scene_triangle_material(scene, tuple->specular[0])->ior;
-    g->eta = front ? 1.0 / ior : ior;
+    g->eta = bbc__media_eta(scene, tuple->specular[0], front ? 1 : -1);
   }
   if (length == 2) {
     bbc_vec3 centroid = v3_scale(v3_add(g->p[0], v3_add(g->p[1], g->p[2])), 1.0 / 3.0);
     int front2 = load_oriented(scene, tuple->specular[1], centroid, g->p2, g->n2);
     g->refract2 = bbc_chain_refracts((bbc_chain)tuple->chain, 1);
     if (g->refract2) {
-      double ior = bbc_scene_triangle_material(scene, tuple->specular[1])->ior;
-      g->eta2 = front2 ? 1.0 / ior : ior;
+      g->eta2 = bbc__media_eta(scene, tuple->specular[1], front2 ? 1 : -1);
     }
   }
   return BBC_OK;

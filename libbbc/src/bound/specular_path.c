@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "light_internal.h"
+#include "media_internal.h"
 #include "vec_internal.h"
 
 /* ------------------------------------------------------------------------------------ */
@@ -370,7 +371,7 @@ bbc_result bbc_path_geometry_init(bbc_path_geometry *g, const bbc_scene *scene,
       t->n[j] = v3_load(scene->normals + 3 * (size_t)idx[j]);
     }
     t->refract = bbc_chain_refracts(chain, i);
-    t->ior = bbc_scene_triangle_material(scene, tuple->specular[i])->ior;
+    t->ior = bbc__media_ior(scene, tuple->specular[i]); /* behind over front */
   }
 
   /* Two-sided mirrors: turn a reflecting triangle's normals toward the side its light

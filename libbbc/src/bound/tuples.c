@@ -372,11 +372,12 @@ static uint32_t bvh_beam(const bvh *b, const bbc_scene *scene, const bbc_ivec3 *
   return n;
 }
 
-/* Whether light travelling in `medium` (0 air, m + 1 inside mesh m) after the last
- * specular vertex can reach receiver item r. Inside a closed mesh it reaches only what
- * may lie inside: a receiver whose box misses the mesh's box lies wholly outside, and
- * every segment to it crosses the mesh, a specular vertex more than the chain has (the
- * medium rule, media_internal.h). Exact on the float data. */
+/* Whether light enclosed by `medium` (0 nothing, m + 1 inside the volume closed mesh m
+ * encloses, bbc__media_enclosure) after the last specular vertex can reach receiver item
+ * r. Inside a closed mesh it reaches only what may lie inside: a receiver whose box
+ * misses the mesh's box lies wholly outside, and every segment to it crosses the mesh, a
+ * specular vertex more than the chain has (the medium rule, media_internal.h). Exact on
+ * the float data. */
 static int medium_reaches(const bvh *b, const bbc_scene *scene, uint32_t medium, uint32_t r) {
   if (medium == 0 || !scene->meshes[medium - 1].closed) return 1;
   double lo[3], hi[3];
@@ -477,10 +478,10 @@ static int plane_sides(const bbc_scene *scene, uint32_t t1, uint32_t t2) {
   return sides;
 }
 
-/* The medium rule (media_internal.h) for T2, over every x1 of T1: 1 when light in
- * `medium` may refract at dielectric T2 coming from some point of T1. A side is
- * possible when some vertex of T1 lies strictly on it (light from a point in T2's plane
- * never meets T2 elsewhere). */
+/* The medium rule (media_internal.h) for T2, over every x1 of T1: the sides of T2 (1
+ * front, 2 behind) from which light in `medium` may refract at dielectric T2 coming from
+ * some point of T1; 0 when none. A side is possible when some vertex of T1 lies strictly
+ * on it (light from a point in T2's plane never meets T2 elsewhere). */
 static int second_refraction_possible(const bbc_scene *scene, uint32_t medium, uint32_t t1,
                                       uint32_t t2) {
   const uint32_t *idx = scene->indices + 3 * (size_t)t1;
@@ -491,8 +492,8 @@ static int second_refraction_possible(const bbc_scene *scene, uint32_t medium, u
     behind |= side < 0;
   }
   uint32_t after;
-  return (front && bbc__media_refract(scene, medium, t2, 1, &after)) ||
-         (behind && bbc__media_refract(scene, medium, t2, -1, &after));
+  return (front && bbc__media_refract(scene, medium, t2, 1, &after) ? 1 : 0) |
+         (behind && bbc__media_refract(scene, medium, t2, -1, &after) ? 2 : 0);
 }
 
 /* 0 only when the outer cone of a spot light provably misses triangle t: the cone of
@@ -598,12 +599,12 @@ static void scratch_free(search_scratch *s) {
 
 /* The tuples of the second triangles of a prefix (s->found2[0, s->n2) with their reach),
  * from the place *at on, as prefix_tuples says. `tuple` is the prefix's single
- * scattering tuple, `first` its scattering at T1 (1: refraction) and medium the one
- * beyond T1. */
+ * scattering tuple, `first` its scattering at T1 (1: refraction), medium the one
+ * beyond T1 and enclosure what encloses it there (bbc__media_enclosure). */
 static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, int beam_receivers,
-                                const bvh *receivers, uint32_t medium, const bbc_tuple *tuple,
-                                int first, search_place *at, search_scratch *s, tuple_list *list,
-                                int *stopped) {
+                                const bvh *receivers, uint32_t medium, uint32_t enclosure,
+                                const bbc_tuple *tuple, int first, search_place *at,
+                                search_scratch *s, tuple_list *list, int *stopped) {
   const uint32_t after[2] = {1u << (first ? BBC_CHAIN_TR : BBC_CHAIN_RR),
                              1u << (first ? BBC_CHAIN_TT : BBC_CHAIN_RT)};
   for (uint32_t j = at->stage ? at->stage - 1 : 0; j < s->n2; j++) {
@@ -611,7 +612,8 @@ static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, int bea
     const uint32_t t1 = tuple->specular[0], t2 = s->found2[j];
     int second = scattering_of(scene, t2);
     if (second < 0 || !(chains & after[second])) continue;
-    if (second == 1 && !second_refraction_possible(scene, medium, t1, t2)) continue;
+    const int sides = second == 1 ? second_refraction_possible(scene, medium, t1, t2) : 0;
+    if (second == 1 && !sides) continue;
     bbc_tuple pair = *tuple;
     pair.chain = (uint32_t)(first ? (second ? BBC_CHAIN_TT : BBC_CHAIN_TR)
                                   : (second ? BBC_CHAIN_RT : BBC_CHAIN_RR));
@@ -621,9 +623,14 @@ static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, int bea
     if (result != BBC_OK) return result;
     bbc_ivec3 x2, d2;
     if (!second_beam(&g2, &s->reach[t2], &x2, &d2)) continue;
-    /* The medium after T2: a refraction enters T2's mesh from air or leaves it into
-     * air (second_refraction_possible), a reflection keeps the medium. */
-    const uint32_t last = second == 0 ? medium : medium == 0 ? scene->triangle_mesh[t2] + 1 : 0;
+    /* What encloses the light after T2: a reflection keeps it, a refraction decides it
+     * from the side T2 is met from (of both, when they agree). */
+    uint32_t last = enclosure;
+    if (second == 1) {
+      const uint32_t a = bbc__media_enclosure(scene, t2, 1),
+                     b = bbc__media_enclosure(scene, t2, -1);
+      last = sides == 1 ? a : sides == 2 ? b : a == b ? a : 0;
+    }
     uint32_t n = bvh_beam(receivers, scene, &x2, &d2, s->stack, s->found);
     if (beam_receivers) n = beam_items(receivers, scene, last, s->found, n);
     for (uint32_t i = start; i < n; i++) {
@@ -661,9 +668,13 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int bea
   uint32_t medium = light->medium;
   const bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t]);
   const bbc_vec3 source = bbc__light_source(light->position, &light->model, p0);
-  if (first == 1 &&
-      !bbc__media_refract(scene, light->medium, t, bbc__media_side(scene, t, source), &medium))
-    return BBC_OK;
+  const int side = bbc__media_side(scene, t, source);
+  if (first == 1 && !bbc__media_refract(scene, light->medium, t, side, &medium)) return BBC_OK;
+  /* What encloses the light beyond T1: a light's own medium bounds nothing where media
+   * are found per triangle (its mesh may be any of the medium's). */
+  const uint32_t enclosure = first == 1     ? bbc__media_enclosure(scene, t, side)
+                             : scene->media ? 0
+                                            : light->medium;
   /* A spot whose cone misses T1's bounding sphere lights none of it. */
   if (!spot_may_light(light, scene, t)) return BBC_OK;
   const bbc_chain single = first ? BBC_CHAIN_T : BBC_CHAIN_R;
@@ -688,9 +699,9 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int bea
     bbc_arena_reset(&s->arena, 0);
     if ((result = beam_of(&s->arena, &g, whole, &whole_beam)) != BBC_OK) return result;
     uint32_t n = bvh_beam(receivers, scene, &whole_beam.x, &whole_beam.d, s->stack, s->found);
-    if (beam_receivers) n = beam_items(receivers, scene, medium, s->found, n);
+    if (beam_receivers) n = beam_items(receivers, scene, enclosure, s->found, n);
     for (uint32_t i = at->index; i < n; i++) {
-      if (!item_reaches(receivers, scene, medium, s->found[i])) continue;
+      if (!item_reaches(receivers, scene, enclosure, s->found[i])) continue;
       if (list->count == list->limit) {
         at->index = i;
         *stopped = 1;
@@ -702,8 +713,8 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int bea
   }
   if (!(chains & (after[0] | after[1])) || casters->node_count == 0) return BBC_OK;
   if (s->listed && s->listed_light == l && s->listed_t1 == t)
-    return second_tuples(scene, chains, beam_receivers, receivers, medium, &tuple, first, at, s,
-                         list, stopped);
+    return second_tuples(scene, chains, beam_receivers, receivers, medium, enclosure, &tuple, first,
+                         at, s, list, stopped);
   s->listed = 0;
   /* T2 from the beams of the BEAM_SPLIT x BEAM_SPLIT s->boxes of T1's unit box that
    * meet the triangle (far tighter than T1's whole beam, whose box of u1 is twice
@@ -770,8 +781,8 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int bea
   s->listed = 1;
   s->listed_light = l;
   s->listed_t1 = t;
-  return second_tuples(scene, chains, beam_receivers, receivers, medium, &tuple, first, at, s, list,
-                       stopped);
+  return second_tuples(scene, chains, beam_receivers, receivers, medium, enclosure, &tuple, first,
+                       at, s, list, stopped);
 }
 
 /* Prefixes are searched in chunks of SEARCH_CHUNK T1, a window of chunks in parallel;

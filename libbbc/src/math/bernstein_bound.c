@@ -92,26 +92,28 @@ int bbc_range_contains(const bbc_range *r, double v) {
 #define BBC__BOUND_KERNEL __attribute__((noinline))
 #endif
 
-/* (The helpers are inlined: the warning about passing AVX vectors between functions
- * compiled without AVX does not apply; GCC gives it at the end of the file.) */
+/* (The helpers are always inlined, at -O0 too, so that each clone has its own copy: the
+ * warning about passing AVX vectors between functions compiled without AVX does not
+ * apply; GCC gives it at the end of the file. A call to a helper of the default target
+ * from the AVX2 clone, as -O0 made, passes the vectors in another way and crashed.) */
 #pragma GCC diagnostic ignored "-Wpsabi"
 /* Four lanes of doubles (GCC's vector extension; two SSE2 registers without AVX2) and
  * their masks. */
 typedef double v4d __attribute__((vector_size(32)));
 typedef long long v4m __attribute__((vector_size(32)));
 
-static inline v4d v4_select(v4m mask, v4d a, v4d b) {
+static inline __attribute__((always_inline)) v4d v4_select(v4m mask, v4d a, v4d b) {
   return (v4d)(((v4m)a & mask) | ((v4m)b & ~mask));
 }
-static inline v4d v4_splat(double x) {
+static inline __attribute__((always_inline)) v4d v4_splat(double x) {
   return (v4d){x, x, x, x};
 }
-static inline v4d v4_down(v4d x) {
+static inline __attribute__((always_inline)) v4d v4_down(v4d x) {
   const v4d t = x - ((v4d)((v4m)x & 0x7fffffffffffffffLL) * 0x1p-51 + BBC__ETA);
   const v4d r = v4_select(x > v4_splat(-INFINITY), t, x);
   return v4_select(x == v4_splat(INFINITY), v4_splat(DBL_MAX), r);
 }
-static inline v4d v4_up(v4d x) {
+static inline __attribute__((always_inline)) v4d v4_up(v4d x) {
   const v4d t = x + ((v4d)((v4m)x & 0x7fffffffffffffffLL) * 0x1p-51 + BBC__ETA);
   const v4d r = v4_select(x < v4_splat(INFINITY), t, x);
   return v4_select(x == v4_splat(-INFINITY), v4_splat(-DBL_MAX), r);

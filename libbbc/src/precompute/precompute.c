@@ -114,6 +114,10 @@ typedef struct tuple_sink {
    * outside the raster, or its E_hi is not positive): the tuple's cells are then
    * splatted again from its pieces (tuple_cells_from_pieces). */
   int escaped;
+  /* The precompute's cancel_fn and its user (NULL: none); cancelled once it said stop. */
+  int (*cancel_fn)(void *user);
+  void *cancel_user;
+  int cancelled;
 } tuple_sink;
 
 static bbc_result coverage_begin(coverage *c, const bbc_grid *grid, uint32_t receiver) {
@@ -208,6 +212,7 @@ static bbc_piece_need piece_need(void *user, const bbc_piece *piece) {
 static int keep_piece(void *user, const bbc_piece *piece) {
   tuple_sink *s = user;
   piece_list *l = s->pieces;
+  if (s->cancel_fn && s->cancel_fn(s->cancel_user)) return s->cancelled = 1;
   if (piece->status != BBC_PIECE_KEPT) return 0;
   coverage *c = s->cover;
   bbc_cell_range r;
@@ -530,6 +535,8 @@ typedef struct bound_context {
   beam_list *beam_pieces;
   bbc__beam_scratch *beam_scratch;
   beam_cover *beam_covers;
+  int (*cancel_fn)(void *user);
+  void *cancel_user;
 } bound_context;
 
 /* What a beam tuple's cell test and keeper share (bbc_bound_params.beam_need). */
@@ -543,8 +550,10 @@ typedef struct beam_sink {
   /* The piece being looked at: its value, the cells seen (0, 1 or 2 for more), the
    * first one, and whether every cell seen holds at least the value. */
   double value;
-  int cells, dominated, raises, failed;
+  int cells, dominated, raises, failed, cancelled;
   uint32_t fk, fx, fy;
+  int (*cancel_fn)(void *user);
+  void *cancel_user;
 } beam_sink;
 
 static double beam_value(double e_hi) {
@@ -628,6 +637,7 @@ static int beam_keep_row(void *user, uint32_t k, uint32_t y, uint32_t x0, uint32
 static int keep_beam_piece(void *user, const bbc_beam_piece *piece) {
   beam_sink *s = user;
   beam_list *l = s->list;
+  if (s->cancel_fn && s->cancel_fn(s->cancel_user)) return s->cancelled = 1;
   if (piece->status != BBC_PIECE_KEPT) return 0;
   s->value = beam_value(piece->e_hi);
   s->raises = 0;
@@ -653,12 +663,14 @@ static int bound_beam_one(const bound_context *x, int id, const bbc_tuple *t, ce
   c->stored = 0;
   c->segments = 0;
   c->entries = 0;
+  if (x->cancel_fn && x->cancel_fn(x->cancel_user)) return -1;
   if (bbc_tuple_geometry_init(&g, x->scene, t) != BBC_OK) return 0;
   if (bbc__beam_scratch_reserve(&x->beam_scratch[id], x->beams) != BBC_OK) return 0;
   beam_sink sink;
   memset(&sink, 0, sizeof sink);
   sink.beams = x->beams, sink.scene = x->scene, sink.grid = x->grid;
   sink.scratch = &x->beam_scratch[id], sink.cover = &x->beam_covers[id], sink.list = list;
+  sink.cancel_fn = x->cancel_fn, sink.cancel_user = x->cancel_user;
   bbc_bound_params prm = g.light_model.kind == BBC_LIGHT_AREA ? x->bound_area
                          : g.length == 2                      ? x->bound2
                                                               : x->bound;
@@ -683,11 +695,15 @@ static int bound_beam_one(const bound_context *x, int id, const bbc_tuple *t, ce
       memset(pl->cells + y * w + pl->tx0, 0, ((size_t)pl->tx1 - pl->tx0 + 1) * sizeof *pl->cells);
     pl->touched = 0;
   }
+  if (sink.cancelled) {
+    c->stored = 0, c->segments = 0, c->entries = 0;
+    return -1;
+  }
   return ok;
 }
 
 /* Bounds tuple t on thread `id` and gives its cells (in arena a, thread id's); 0 on
- * failure. */
+ * failure, -1 when cancel_fn said stop. */
 static int bound_one(const bound_context *x, int id, const bbc_tuple *t, cell_arena *a,
                      tuple_cells *c, bbc_bound_stats *stats) {
   if (bbc_receiver_is_beam(t->receiver)) return bound_beam_one(x, id, t, a, c, stats);
@@ -695,10 +711,12 @@ static int bound_one(const bound_context *x, int id, const bbc_tuple *t, cell_ar
   piece_list *list = &x->pieces[id];
   list->count = 0;
   list->failed = 0;
+  if (x->cancel_fn && x->cancel_fn(x->cancel_user)) return -1;
   tuple_sink sink;
   memset(&sink, 0, sizeof sink);
   sink.pieces = list, sink.cover = &x->covers[id], sink.grid = x->grid;
   sink.receiver = t->receiver;
+  sink.cancel_fn = x->cancel_fn, sink.cancel_user = x->cancel_user;
   int ok = bbc_tuple_geometry_init(&g, x->scene, t) == BBC_OK &&
            coverage_begin(&x->covers[id], x->grid, sink.receiver) == BBC_OK;
   if (ok) {
@@ -710,6 +728,11 @@ static int bound_one(const bound_context *x, int id, const bbc_tuple *t, cell_ar
     prm.need_user = &sink;
     ok = bbc_bound_tuple(x->bounders[id], &g, &prm, keep_piece, &sink, stats) == BBC_OK &&
          !list->failed;
+    if (sink.cancelled) {
+      coverage_end(&x->covers[id]);
+      c->stored = 0, c->segments = 0, c->entries = 0;
+      return -1;
+    }
   }
   /* The tuple's cells, while the raster holds them (a tuple is stored when it has a
    * stored piece). */
@@ -734,9 +757,10 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
   const size_t n = census->sample_count;
   double cpu = 0;
   uint64_t stored = 0, entries = 0;
-  int failed = 0;
+  int failed = 0, cancelled = 0;
   for (int i = 0; i < threads; i++) arena_clear(&arenas[i]);
-#pragma omp parallel num_threads(threads) reduction(+ : cpu, stored, entries) reduction(| : failed)
+#pragma omp parallel num_threads(threads) reduction(+ : cpu, stored, entries) \
+    reduction(| : failed, cancelled)
   {
     const int id = omp_get_thread_num();
     bbc_bound_stats unused;
@@ -744,7 +768,9 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
     const double cpu0 = thread_cpu_seconds();
 #pragma omp for schedule(dynamic, 1)
     for (size_t i = 0; i < n; i++) {
-      if (!bound_one(x, id, &census->sample[i], &arenas[id], &cells[i], &unused)) failed = 1;
+      const int r = bound_one(x, id, &census->sample[i], &arenas[id], &cells[i], &unused);
+      if (r == 0) failed = 1;
+      if (r < 0) cancelled = 1;
       stored += cells[i].stored;
       entries += cells[i].stored ? cells[i].entries : 0;
       arena_clear(&arenas[id]); /* only the counts are needed: one tuple's cells at a time */
@@ -752,6 +778,7 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
     cpu += thread_cpu_seconds() - cpu0;
   }
   for (int i = 0; i < threads; i++) arena_clear(&arenas[i]);
+  if (cancelled) return BBC_ERR_CANCELLED;
   if (failed) return BBC_ERR_OUT_OF_MEMORY;
   e->sample_tuples = (uint32_t)n;
   e->sample_cpu_seconds = cpu;
@@ -975,9 +1002,11 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     if (!beam_covers[i].planes) result = BBC_ERR_OUT_OF_MEMORY;
   }
   const size_t batch_tuples = beam_batch_tuples(&beams, grid, options);
-  const bound_context context = {scene,      params,      grid,         bound,      bound2,
-                                 bound_area, bounders,    pieces,       rasters,    covers,
-                                 &beams,     beam_pieces, beam_scratch, beam_covers};
+  const bound_context context = {
+      scene,        params,      grid,         bound,       bound2,
+      bound_area,   bounders,    pieces,       rasters,     covers,
+      &beams,       beam_pieces, beam_scratch, beam_covers, options->cancel_fn,
+      options->user};
 
   /* The estimate, from the census and its sample bounded first (SAMPLE_MAX tuples
    * fit a batch's cells), before the bounding: the caller may stop there. */
@@ -1008,8 +1037,8 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     for (int i = 0; i < threads; i++) arena_clear(&cur->arenas[i]);
     for (uint32_t p = 0; p < parts; p++) resume[p] = 0;
     double b0 = omp_get_wtime();
-    int failed = 0, stopped = 0;
-#pragma omp parallel num_threads(threads) reduction(| : failed, stopped)
+    int failed = 0, stopped = 0, cancelled = 0;
+#pragma omp parallel num_threads(threads) reduction(| : failed, stopped, cancelled)
     {
       /* The thread's CPU time over its bounding (one system call at each end, not per
        * tuple), split between position and irradiance bounds as their clocked times
@@ -1021,9 +1050,10 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
 #pragma omp for schedule(dynamic, 1) nowait
       for (size_t i = 0; i < n; i++) {
         const int id = omp_get_thread_num();
-        if (!bound_one(&context, id, &cur->tuples[i], &cur->arenas[id], &cur->cells[i],
-                       &thread_stats[id]))
-          failed = 1;
+        const int r = bound_one(&context, id, &cur->tuples[i], &cur->arenas[id], &cur->cells[i],
+                                &thread_stats[id]);
+        if (r == 0) failed = 1;
+        if (r < 0) cancelled = 1;
       }
       const double cpu = thread_cpu_seconds() - cpu0;
       const double pos = thread_stats[self].position_seconds - pos0;
@@ -1047,6 +1077,10 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     }
     double b1 = omp_get_wtime();
     st.bounding_seconds += b1 - b0;
+    if (cancelled) {
+      result = BBC_ERR_CANCELLED;
+      break;
+    }
     if (failed) {
       result = BBC_ERR_OUT_OF_MEMORY;
       break;

@@ -25,6 +25,7 @@
  * number of draws of K does not shift the path's later random numbers. */
 #include "caustics_internal.h"
 #include "light_internal.h"
+#include "light_trace_internal.h"
 #include "media_internal.h"
 
 #include <math.h>
@@ -92,12 +93,33 @@ static void absorb(const bbc_scene *scene, uint32_t medium, bbc_vec3 a, bbc_vec3
 /* 1 if the segment from a (on the surface with unit geometric normal na) to b (on the
  * surface with normal nb) is unoccluded. Both ends are pushed off their surfaces toward
  * the segment, as the path tracer's rays are. */
-static int segment_visible(const bbc__caustics *c, bbc_vec3 a, bbc_vec3 na, bbc_vec3 b,
-                           bbc_vec3 nb) {
+/* Whether nothing stops light in `medium` along origin + t d, t in (0, tmax). Where the
+ * scene's media come from the geometry, a dielectric that does not bound `medium` on the
+ * side met (the part of a liquid's wall inside its glass) is gone through, as the path
+ * tracer goes through it (media_internal.h); elsewhere every surface stops it. */
+static int clear_for(const bbc__caustics *c, bbc_vec3 origin, bbc_vec3 d, double tmax,
+                     uint32_t medium) {
+  const bbc_scene *scene = c->scene;
+  if (!scene->media) return !bbc_accel_occluded(c->accel, origin, d, 0.0, tmax);
+  double from = 0.0;
+  for (int k = 0; k < 64; k++) {
+    bbc_hit h;
+    if (!bbc_accel_intersect(c->accel, origin, d, from, tmax, &h)) return 1;
+    if (bbc_scene_triangle_material(scene, h.triangle)->type != BBC_MATERIAL_DIELECTRIC) return 0;
+    const int side = bbc__media_side(scene, h.triangle, origin);
+    uint32_t after;
+    if (side == 0 || bbc__media_refract(scene, medium, h.triangle, side, &after)) return 0;
+    from = h.t + 1e-7;
+  }
+  return 0;
+}
+
+static int segment_visible(const bbc__caustics *c, bbc_vec3 a, bbc_vec3 na, bbc_vec3 b, bbc_vec3 nb,
+                           uint32_t medium) {
   bbc_vec3 d = v3_sub(b, a);
   bbc_vec3 origin = v3_offset_origin(a, na, d);
   bbc_vec3 target = v3_offset_origin(b, nb, v3_neg(d));
-  return !bbc_accel_occluded(c->accel, origin, v3_sub(target, origin), 0.0, 1.0 - 1e-6);
+  return clear_for(c, origin, v3_sub(target, origin), 1.0 - 1e-6, medium);
 }
 
 /* See bbc__caustics_solution_value; returns 0 for an inadmissible or invisible path
@@ -140,12 +162,12 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
   double factor[3] = {1, 1, 1};
   bbc_vec3 ngeo[2];
   uint32_t medium = light->medium;
+  uint32_t segment_medium[3] = {medium, medium, medium}; /* of x[i] -> x[i + 1] */
   /* Beer-Lambert absorption along each segment inside a dielectric, starting with the
    * light's own medium (air for suns and emitters). */
   absorb(scene, medium, x[0], x[1], factor);
   for (int i = 0; i < length; i++) {
     const uint32_t tri = tuple->specular[i];
-    const bbc_material *m = bbc_scene_triangle_material(scene, tri);
     /* A specular vertex in a cut-out is no vertex: the path does not exist. Partial
      * coverage (BLEND) scales it, the expectation of the path tracer's coin flip. */
     const double *u = i == 0 ? s->u1 : s->u2;
@@ -172,7 +194,7 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
       /* The medium rule (media_internal.h), for the point the light comes from. */
       if (!bbc__media_refract(scene, medium, tri, bbc__media_side(scene, tri, x[i]), &medium))
         return 0;
-      double eta = dn < 0 ? 1.0 / m->ior : m->ior;
+      double eta = bbc__media_eta(scene, tri, dn < 0 ? 1 : -1);
       double f = c->no_fresnel ? 0.0 : fresnel(fabs(dn), eta);
       /* Transmitted light is tinted by the base colour at every refraction. */
       double tint[3];
@@ -184,6 +206,7 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
       for (int k = 0; k < 3; k++) factor[k] *= reflectance[k];
     }
     absorb(scene, medium, x[i + 1], x[i + 2], factor);
+    segment_medium[i + 1] = medium;
   }
   /* Visibility of every segment: light -> x1 (traced from the light, which needs no
    * offset), x1 -> x2, x_last -> p. */
@@ -191,19 +214,19 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
   if (sun) {
     /* The sun's light comes from infinity: nothing may lie on the ray from x1 back
      * against its direction. */
-    if (bbc_accel_occluded(c->accel, x1_light_side, v3_neg(light->model.direction), 0.0, INFINITY))
+    if (!clear_for(c, x1_light_side, v3_neg(light->model.direction), INFINITY, segment_medium[0]))
       return 0;
   } else if (area) {
     /* From the emitter point, pushed off the emitter toward x1. */
     bbc_vec3 ne = v3_normalize(light->model.emitter_normal);
     bbc_vec3 y = v3_offset_origin(x[0], ne, v3_sub(x[1], x[0]));
-    if (bbc_accel_occluded(c->accel, y, v3_sub(x1_light_side, y), 0.0, 1.0 - 1e-6)) return 0;
-  } else if (bbc_accel_occluded(c->accel, x[0], v3_sub(x1_light_side, x[0]), 0.0, 1.0 - 1e-6)) {
+    if (!clear_for(c, y, v3_sub(x1_light_side, y), 1.0 - 1e-6, segment_medium[0])) return 0;
+  } else if (!clear_for(c, x[0], v3_sub(x1_light_side, x[0]), 1.0 - 1e-6, segment_medium[0])) {
     return 0;
   }
   for (int i = 1; i <= length; i++) {
     bbc_vec3 nb = i < length ? ngeo[i] : ng;
-    if (!segment_visible(c, x[i], ngeo[i - 1], x[i + 1], nb)) return 0;
+    if (!segment_visible(c, x[i], ngeo[i - 1], x[i + 1], nb, segment_medium[i])) return 0;
   }
   for (int k = 0; k < 3; k++) factor[k] *= light->intensity[k] * s->irradiance * weight;
   if (shading) {
@@ -492,12 +515,16 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
     t->candidates = grown;
     t->candidate_capacity = capacity;
   }
+  /* The chain types light tracing counts here, from the lights it handles
+   * (docs/light-tracing.md). */
+  const uint32_t traced = t->seen_directly ? bbc__light_traced_chains(c, entries, n, triangle) : 0;
   uint32_t m = 0;
   for (uint32_t i = 0; i < n; i++) {
     const bbc_tuple *tuple = &c->tuples[entries[i].tuple];
     if ((tuple->receiver == triangle || tuple->receiver == plane || tuple->receiver == beam) &&
         (c->chains & (1u << tuple->chain)) &&
-        bbc_chain_length((bbc_chain)tuple->chain) <= max_vertices)
+        bbc_chain_length((bbc_chain)tuple->chain) <= max_vertices &&
+        !((traced & (1u << tuple->chain)) && bbc__light_traced_light(c->scene, tuple->light)))
       t->candidates[m++] = entries[i];
   }
   t->candidate_count += m;

@@ -33,6 +33,11 @@ typedef struct bbc__caustics {
   int area_lights;            /* the cache holds the emitters' tuples (R, T) */
   int area_double;            /* ... and their double-scattering ones (PARM flags bit 2) */
   uint32_t cache_chains;      /* BBC_CHAIN_BIT mask of the chain types the cache holds */
+  /* Light tracing counts some of the paths seen directly by the camera
+   * (light_trace_internal.h, docs/light-tracing.md): a receiver cell's chain type goes to
+   * it when a tuple of the chain type has a bound of at least light_trace_bound. */
+  int light_trace;
+  double light_trace_bound;
 } bbc__caustics;
 
 /* A glossy receiver's reflectance at the shading point: each solution's value is
@@ -49,6 +54,9 @@ typedef struct bbc__caustics_thread {
   /* Set by the caller around an estimate: with it the estimate is radiance (each
    * solution times the BSDF), without it (NULL) irradiance. */
   const bbc__receiver_shading *shading;
+  /* Set by the caller around an estimate at a point the camera sees directly: with
+   * light tracing, the chain types light tracing counts there are skipped. */
+  int seen_directly;
   bbc_cache_cursor *cursor;
   bbc__tuple_sampler sampler;
   bbc_cache_entry *candidates;

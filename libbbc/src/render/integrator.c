@@ -30,9 +30,11 @@
 
 #include "caustics_internal.h"
 #include "light_internal.h"
+#include "light_trace_internal.h"
 #include "media_internal.h"
 #include "rng_internal.h"
 #include "sobol_internal.h"
+#include "specular_internal.h"
 #include "vec_internal.h"
 
 #define BBC_PI 3.14159265358979323846
@@ -119,15 +121,7 @@ static double bin_uniform(const void *user, uint32_t j) {
   return u[j % 2];
 }
 
-/* A surface point where a ray hit: normals oriented so that ns and ng agree. */
-typedef struct surface {
-  bbc_vec3 p;
-  double b1, b2; /* barycentrics of vertices 1 and 2 */
-  bbc_vec3 ng;   /* unit geometric normal */
-  bbc_vec3 ns;   /* unit shading normal (interpolated vertex normal) */
-  uint32_t triangle;
-  const bbc_material *material;
-} surface;
+typedef bbc__surface surface;
 
 static bbc_vec3 v3_mul(bbc_vec3 a, bbc_vec3 b) {
   return v3(a.x * b.x, a.y * b.y, a.z * b.z);
@@ -142,37 +136,7 @@ static bbc_vec3 glossy_weight(const bbc_bsdf *bsdf, const surface *s, bbc_vec3 w
 }
 
 static surface surface_at(const bbc_scene *scene, const bbc_hit *hit) {
-  const uint32_t *idx = scene->indices + 3 * (size_t)hit->triangle;
-  bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)idx[0]);
-  bbc_vec3 p1 = v3_load(scene->positions + 3 * (size_t)idx[1]);
-  bbc_vec3 p2 = v3_load(scene->positions + 3 * (size_t)idx[2]);
-  bbc_vec3 n0 = v3_load(scene->normals + 3 * (size_t)idx[0]);
-  bbc_vec3 n1 = v3_load(scene->normals + 3 * (size_t)idx[1]);
-  bbc_vec3 n2 = v3_load(scene->normals + 3 * (size_t)idx[2]);
-  double w = 1.0 - hit->u - hit->v;
-  surface s;
-  s.p = v3_add(v3_add(v3_scale(p0, w), v3_scale(p1, hit->u)), v3_scale(p2, hit->v));
-  s.ng = v3_normalize(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
-  s.ns = v3_normalize(v3_add(v3_add(v3_scale(n0, w), v3_scale(n1, hit->u)), v3_scale(n2, hit->v)));
-  /* The vertex normals say which side is the front; the winding may disagree. */
-  if (v3_dot(s.ng, s.ns) < 0) s.ng = v3_neg(s.ng);
-  s.b1 = hit->u;
-  s.b2 = hit->v;
-  s.triangle = hit->triangle;
-  s.material = bbc_scene_triangle_material(scene, hit->triangle);
-  return s;
-}
-
-static bbc_vec3 reflect(bbc_vec3 d, bbc_vec3 n) {
-  return v3_madd(d, n, -2.0 * v3_dot(d, n));
-}
-
-/* Fresnel reflectance of a smooth dielectric boundary for unpolarised light, given the
- * cosines on both sides and eta = n_incident / n_transmitted. */
-static double fresnel_dielectric(double cos_i, double cos_t, double eta) {
-  double rs = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-  double rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-  return 0.5 * (rs * rs + rp * rp);
+  return bbc__surface_at(scene, hit);
 }
 
 /* e after a length x (may be infinite) inside medium (media_internal.h). */
@@ -305,11 +269,13 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
     /* A glossy receiver: the estimator weighs each solution by the BSDF itself. */
     bbc__receiver_shading shading = {bsdf, s->ns, wo};
     ct->shading = bsdf->glossy ? &shading : NULL;
+    ct->seen_directly = segments == 1;
     bbc_vec3 e = bbc__caustics_estimate(ctx->caustics, ct, s->p, s->ng, s->triangle, s->b1, s->b2,
                                         (int)(ctx->max_depth - segments - 1),
                                         bbc__mix64(ps->key ^ bbc__mix64(segments + 0xE7037ED1A0B428DBull)),
                                         &bins);
     ct->shading = NULL;
+    ct->seen_directly = 0;
     out.caustic = bsdf->glossy ? e
                                : v3(e.x * albedo[0] / BBC_PI, e.y * albedo[1] / BBC_PI,
                                     e.z * albedo[2] / BBC_PI);
@@ -459,48 +425,23 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         if (v3_dot(dir, s.ng) <= 0) break; /* below the geometric surface */
         throughput = v3_mul(throughput, v3(bsdf.base[0], bsdf.base[1], bsdf.base[2]));
       }
-    } else if (m->type == BBC_MATERIAL_MIRROR) {
-      note_specular(&run, &s, 0);
-      bbc_vec3 n = front ? s.ns : v3_neg(s.ns);
-      bbc_vec3 ng = front ? s.ng : v3_neg(s.ng);
-      dir = reflect(dir, n);
-      if (v3_dot(dir, ng) <= 0) break; /* shading normal sent it into the surface */
-      double reflectance[3];
-      bbc_scene_base_color(scene, s.triangle, s.b1, s.b2, reflectance);
-      throughput = v3_mul(throughput, v3(reflectance[0], reflectance[1], reflectance[2]));
-      count_emission = 1;
     } else {
-      double eta = front ? 1.0 / m->ior : m->ior;
-      bbc_vec3 n = front ? s.ns : v3_neg(s.ns);
-      bbc_vec3 ng = front ? s.ng : v3_neg(s.ng);
-      double cos_i = -v3_dot(dir, n);
-      if (cos_i <= 0) break;
-      double sin2_t = eta * eta * (1.0 - cos_i * cos_i);
-      int reflect_it;
-      double cos_t = 0;
-      if (sin2_t >= 1.0) {
-        reflect_it = 1; /* total internal reflection */
-      } else {
-        cos_t = sqrt(1.0 - sin2_t);
-        double f = ctx->no_fresnel ? 0.0 : fresnel_dielectric(cos_i, cos_t, eta);
-        reflect_it = sample(ps, (int)depth, SLOT_FRESNEL) < f;
+      double u = m->type == BBC_MATERIAL_DIELECTRIC ? sample(ps, (int)depth, SLOT_FRESNEL) : 0.0;
+      bbc__scatter sc;
+      int goes_on = bbc__scatter_specular(scene, &s, dir, medium, u, ctx->no_fresnel, &sc);
+      if (goes_on == BBC__SCATTER_PASSES) {
+        origin = v3_offset_origin(s.p, s.ng, dir);
+        continue;
       }
-      note_specular(&run, &s, reflect_it ? -1 : 1);
-      if (reflect_it) {
-        dir = reflect(dir, n);
-        if (v3_dot(dir, ng) <= 0) break;
-      } else {
-        dir = v3_normalize(v3_add(v3_scale(dir, eta), v3_scale(n, eta * cos_i - cos_t)));
-        if (v3_dot(dir, ng) >= 0) break;
-        /* Radiance is scaled by (n_t / n_i)^2 across the boundary; along a camera path
-         * the factor is its inverse, eta^2. The transmitted light is tinted by the base
-         * colour (reflected light is not). */
-        throughput = v3_scale(throughput, eta * eta);
-        double tint[3];
-        bbc__media_tint(scene, s.triangle, s.b1, s.b2, tint);
-        throughput = v3_mul(throughput, v3(tint[0], tint[1], tint[2]));
-        medium = front ? scene->triangle_mesh[s.triangle] + 1 : 0;
-      }
+      note_specular(&run, &s, sc.letter);
+      if (goes_on == BBC__SCATTER_ENDS) break;
+      dir = sc.dir;
+      /* Radiance is scaled by (n_t / n_i)^2 across a refraction; along a camera path the
+       * factor is its inverse, eta^2. */
+      if (sc.letter == 1) throughput = v3_scale(throughput, sc.eta * sc.eta);
+      if (sc.letter >= 0)
+        throughput = v3_mul(throughput, v3(sc.weight[0], sc.weight[1], sc.weight[2]));
+      medium = sc.medium;
       count_emission = 1;
     }
     origin = v3_offset_origin(s.p, s.ng, dir);
@@ -513,6 +454,11 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
   }
   return radiance;
 }
+
+/* Light tracing's photons go in rounds of PHOTON_BATCHES batches of PHOTON_BATCH
+ * consecutive indices, each batch traced by one thread into its own splat list. */
+#define PHOTON_BATCH 4096
+#define PHOTON_BATCHES 64
 
 bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
                       const bbc_render_options *options, bbc_image *image,
@@ -604,6 +550,8 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     if (opts.gamma_mode == BBC_GAMMA_FIXED) value /= reference;
     if (opts.gamma_mode == BBC_GAMMA_VARIANCE) value *= reference * reference;
     caustics.sampling.value = value;
+    caustics.light_trace = opts.light_trace;
+    caustics.light_trace_bound = opts.light_trace_bound == 0 ? INFINITY : opts.light_trace_bound;
     ctx.caustics = &caustics;
     for (int i = 0; i < threads; i++) {
       if (bbc__caustics_thread_init(&thread_state[i], opts.cache) != BBC_OK) {
@@ -614,11 +562,39 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     }
   }
   double *sum = calloc(pixels * 3, sizeof *sum);
-  if (!sum) {
+  /* Light tracing: its own sum, its photons' splats per batch. */
+  bbc__light_tracer tracer;
+  memset(&tracer, 0, sizeof tracer);
+  double *traced = NULL;
+  bbc__splat *splats = NULL;
+  uint32_t *splat_count = NULL;
+  const int light_trace =
+      ctx.caustics && opts.light_trace && (ctx.components & BBC_COMPONENT_CAUSTICS);
+  uint64_t photons_per_spp = opts.photons_per_spp;
+  bbc_result lt_ok = BBC_OK;
+  if (sum && light_trace) {
+    const uint32_t region[4] = {x0, y0, x1, y1};
+    lt_ok = bbc__light_tracer_init(&tracer, scene, accel, ctx.caustics,
+                                   opts.camera ? opts.camera : &scene->camera, width, height,
+                                   region, ctx.max_depth, opts.no_fresnel, opts.chains, opts.seed);
+    traced = calloc(pixels * 3, sizeof *traced);
+    splats = malloc((size_t)PHOTON_BATCHES * PHOTON_BATCH * sizeof *splats);
+    splat_count = calloc(PHOTON_BATCHES, sizeof *splat_count);
+    if (!photons_per_spp)
+      photons_per_spp =
+          bbc__light_tracer_default_photons(&tracer, thread_state[0].cursor, pixels);
+  }
+  if (!sum || lt_ok != BBC_OK || (light_trace && (!traced || !splats || !splat_count))) {
+    free(sum);
+    free(traced);
+    free(splats);
+    free(splat_count);
+    bbc__light_tracer_free(&tracer);
     for (int i = 0; i < threads; i++) bbc__caustics_thread_free(&thread_state[i]);
     free(thread_state);
     return BBC_ERR_OUT_OF_MEMORY;
   }
+  uint64_t photons = 0, photon_splats = 0;
 
   bbc_result result = BBC_OK;
   uint64_t rays = 0;
@@ -665,6 +641,39 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
         damaged = 1;
       }
     }
+    /* The photons of samples first .. last - 1 (photons_per_spp each), in batches of
+     * consecutive photon indices; each batch's splats go to the image in index order, so
+     * that the sum does not depend on the thread count or on how passes were cut. */
+    if (light_trace && !damaged) {
+      const uint64_t end = (uint64_t)last * photons_per_spp;
+      for (uint64_t at = (uint64_t)first * photons_per_spp; at < end;) {
+        const uint64_t round_end = at + (uint64_t)PHOTON_BATCHES * PHOTON_BATCH < end
+                                       ? at + (uint64_t)PHOTON_BATCHES * PHOTON_BATCH
+                                       : end;
+        const int batches = (int)((round_end - at + PHOTON_BATCH - 1) / PHOTON_BATCH);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(+ : pass_rays)
+        for (int b = 0; b < batches; b++) {
+          bbc__caustics_thread *ct = &thread_state[omp_get_thread_num()];
+          const uint64_t lo = at + (uint64_t)b * PHOTON_BATCH;
+          const uint64_t hi = lo + PHOTON_BATCH < round_end ? lo + PHOTON_BATCH : round_end;
+          bbc__splat *out = splats + (size_t)b * PHOTON_BATCH;
+          uint32_t count = 0;
+          for (uint64_t i = lo; i < hi; i++)
+            count += (uint32_t)bbc__light_trace_photon(&tracer, ct, i, &out[count], &pass_rays);
+          splat_count[b] = count;
+        }
+        for (int b = 0; b < batches; b++) {
+          const bbc__splat *out = splats + (size_t)b * PHOTON_BATCH;
+          for (uint32_t j = 0; j < splat_count[b]; j++)
+            for (int k = 0; k < 3; k++) traced[3 * (size_t)out[j].pixel + k] += out[j].rgb[k];
+          photon_splats += splat_count[b];
+        }
+        photons += round_end - at;
+        at = round_end;
+      }
+      for (int i = 0; i < threads; i++)
+        if (thread_state[i].damage != BBC_OK) damaged = 1;
+    }
     rays += pass_rays;
     if (damaged) {
       for (int i = 0; i < threads && result == BBC_OK; i++) result = thread_state[i].damage;
@@ -693,8 +702,15 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
 
   /* Nothing of a damaged cache reaches the image. */
   double scale = done && !damaged ? 1.0 / done : 0.0;
-  for (size_t i = 0; i < pixels * 3; i++) image->rgb[i] = (float)(sum[i] * scale);
+  /* Each photon estimates the pixels' mean radiance; photons_per_spp x done of them. */
+  double traced_scale = photons_per_spp ? scale / (double)photons_per_spp : 0.0;
+  for (size_t i = 0; i < pixels * 3; i++)
+    image->rgb[i] = (float)(sum[i] * scale + (traced ? traced[i] * traced_scale : 0.0));
   free(sum);
+  free(traced);
+  free(splats);
+  free(splat_count);
+  bbc__light_tracer_free(&tracer);
   if (stats) {
     memset(stats, 0, sizeof *stats);
     for (int i = 0; i < threads; i++) {
@@ -720,6 +736,8 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     stats->samples = (uint64_t)done * region_pixels;
     stats->rays = rays;
     stats->threads = threads;
+    stats->photons = photons;
+    stats->photon_splats = photon_splats;
   }
   for (int i = 0; i < threads; i++) bbc__caustics_thread_free(&thread_state[i]);
   free(thread_state);

@@ -21,6 +21,7 @@
 
 #include "bbc/scene.h"
 #include "bbc/texture.h"
+#include "vec_internal.h"
 
 /* Fills every mesh's closed/outward and every point light's medium. */
 bbc_result bbc__scene_media(bbc_scene *scene);
@@ -39,18 +40,58 @@ int bbc__media_refract(const bbc_scene *scene, uint32_t medium, uint32_t t, int 
                        uint32_t *after);
 
 /* The medium at point x: m + 1 for the first closed dielectric mesh m holding it (by
- * the parity of a ray's crossings), else 0 (air). What a point light's medium is, and
+ * the parity of a ray's crossings), else 0 (air); with scene->media, the medium on the
+ * side of the first dielectric a ray from x meets. What a point light's medium is, and
  * the path tracer's camera's. */
 uint32_t bbc__media_at(const bbc_scene *scene, bbc_vec3 x);
 
+/* Where light refracted at dielectric triangle t, met from `side`, is enclosed: m + 1
+ * when t's mesh m is closed and the light goes into the volume it encloses (through the
+ * front of a solid, through the back of a cavity's wall), else 0. Such light reaches
+ * only what may lie inside that volume (the tuple search's receivers, whose boxes must
+ * meet the mesh's) before it meets another specular surface. */
+uint32_t bbc__media_enclosure(const bbc_scene *scene, uint32_t t, int side);
+
+/* The index of refraction of dielectric triangle t relative to its front: the index of
+ * the medium behind it over that of the medium in front (the material's ior for glass
+ * in air, 1.5 / 1.33 for glass behind water). */
+double bbc__media_ior(const bbc_scene *scene, uint32_t t);
+
+/* eta = n_incident / n_transmitted for light meeting dielectric triangle t from `side`
+ * (+1 front, -1 behind): 1 / bbc__media_ior from the front, bbc__media_ior from behind
+ * (each computed from the two indices, so 1.33 / 1.5 is that quotient). Every place
+ * that refracts at a dielectric asks this: the path tracer, the caustic estimator, the
+ * bounds (bbc_tuple_geometry_init) and the solvers (through bbc_specular_triangle.ior =
+ * bbc__media_ior). */
+double bbc__media_eta(const bbc_scene *scene, uint32_t t, int side);
+
+/* A ray in `medium` meets dielectric triangle t from its front (front = 1) or behind:
+ * returns 1 with *eta (bbc__media_eta) and *after, the medium it is in once refracted,
+ * or 0 when t does not bound `medium` on that side (only with scene->media: the part of
+ * a mesh that reaches into another, as a liquid's wall into its glass), where a tracer
+ * goes on unchanged. Without scene->media every hit refracts (1): the path tracer's
+ * rule before media were found per triangle. */
+int bbc__media_interface(const bbc_scene *scene, uint32_t medium, uint32_t t, int front,
+                         double *eta, uint32_t *after);
+
+/* Snell's law: the refracted unit direction of unit dir at shading normal n (unit, on
+ * the incident side), cos_i = -dir . n > 0 and cos_t = sqrt(1 - eta^2 (1 - cos_i^2)). */
+static inline bbc_vec3 bbc__media_transmit(bbc_vec3 dir, bbc_vec3 n, double eta, double cos_i,
+                                           double cos_t) {
+  return v3_normalize(v3_add(v3_scale(dir, eta), v3_scale(n, eta * cos_i - cos_t)));
+}
+
 /* Beer-Lambert: the fraction of light per RGB channel left after a length x (>= 0, may
- * be infinite) inside `medium` (0 air, m + 1 inside mesh m), exp(-absorption x) with the
- * mesh material's absorption (bbc_material); 1 in air and where nothing is absorbed.
+ * be infinite) inside `medium` (0 air, m + 1 inside mesh m, above mesh_count an air
+ * cavity), exp(-absorption x) with the mesh material's absorption (bbc_material); 1 in
+ * air and where nothing is absorbed.
  * Each factor lies in [0, 1], so the cache's irradiance bounds, which leave it out,
  * stay bounds. */
 static inline void bbc__media_transmittance(const bbc_scene *scene, uint32_t medium, double x,
                                             double t[3]) {
-  const bbc_material *m = medium ? &scene->materials[scene->meshes[medium - 1].material] : NULL;
+  const bbc_material *m = medium && medium <= scene->mesh_count
+                              ? &scene->materials[scene->meshes[medium - 1].material]
+                              : NULL;
   for (int k = 0; k < 3; k++) {
     const double a = m ? m->absorption[k] : 0.0;
     t[k] = a > 0.0 ? exp(-a * x) : 1.0;

@@ -1241,8 +1241,9 @@ static bbc_result load_cameras(const loader *ld, const bbc__gltf_data *g, bbc_sc
 /* A dielectric whose material has no KHR_materials_volume (thickness 0) is, for glTF, a
  * thin wall that transmits without bending light. bbc has no thin walls: a closed mesh
  * is rendered as the solid it encloses, an open one as a single refracting surface with
- * the dielectric behind its vertex normals (the media rule, media_internal.h). One
- * warning per mesh says which. */
+ * the dielectric behind its vertex normals (the media rule, media_internal.h); where
+ * dielectrics meet, the medium in front comes from the geometry, and a closed mesh may
+ * be a cavity's wall (docs/materials.md, "Media"). One warning per mesh says which. */
 static void volume_warnings(const loader *ld, const bbc__gltf_data *g, const bbc_scene *s) {
   for (uint32_t i = 0; i < s->mesh_count; i++) {
     const bbc_mesh *mesh = &s->meshes[i];
@@ -1252,7 +1253,14 @@ static void volume_warnings(const loader *ld, const bbc__gltf_data *g, const bbc
       continue;
     char label[128];
     material_label(&g->materials[m->source], (uint32_t)m->source, label, sizeof label);
-    if (mesh->closed)
+    if (mesh->cavity)
+      warn(ld,
+           "mesh \"%s\" (%s): KHR_materials_transmission without KHR_materials_volume; the "
+           "mesh is closed, inside another dielectric and its normals point into it, so it "
+           "is rendered as the wall of a cavity: a dielectric of ior %g behind its vertex "
+           "normals, air inside",
+           mesh->name, label, (double)m->ior);
+    else if (mesh->closed)
       warn(ld,
            "mesh \"%s\" (%s): KHR_materials_transmission without KHR_materials_volume; the "
            "mesh is closed, so it is rendered as a solid dielectric of ior %g",
@@ -1261,8 +1269,9 @@ static void volume_warnings(const loader *ld, const bbc__gltf_data *g, const bbc
       warn(ld,
            "mesh \"%s\" (%s): KHR_materials_transmission without KHR_materials_volume on an "
            "open mesh; it is rendered as one refracting surface with a dielectric of ior %g "
-           "behind its vertex normals and air in front, not as the thin wall glTF means",
-           mesh->name, label, (double)m->ior);
+           "behind its vertex normals and %s in front, not as the thin wall glTF means",
+           mesh->name, label, (double)m->ior,
+           s->media ? "the medium the geometry puts there" : "air");
   }
 }
 
@@ -1360,5 +1369,6 @@ void bbc_scene_free(bbc_scene *scene) {
   free(scene->emitter_cdf);
   bbc__camera_motion_free(scene->camera_motion, scene->camera_count);
   free(scene->cameras);
+  free(scene->media);
   free(scene);
 }
