@@ -105,6 +105,12 @@ typedef struct bbc_bound_params {
   /* bbc_bound_beam: the same question for a beam's pieces (their world boxes), with
    * need_user; NULL: always split by the rules. */
   bbc_piece_need (*beam_need)(void *user, const struct bbc_beam_piece *piece);
+  /* bbc_bound_beam: the range [*depth_lo, *depth_hi] along `axis` of the receivers'
+   * points inside the box lo..hi (with need_user), or 0 when the box holds none; the
+   * beam then narrows a piece's slab to the receivers it can meet (docs/beams.md). NULL:
+   * every point of the receivers' box may be a receiver's. */
+  int (*beam_depth)(void *user, int axis, const double lo[3], const double hi[3], double *depth_lo,
+                    double *depth_hi);
 } bbc_bound_params;
 
 typedef enum bbc_piece_status {

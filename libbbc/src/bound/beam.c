@@ -31,6 +31,9 @@
 
 int bbc__beam_ablation = 0;
 
+/* The most times a piece's box is taken over a slab its receivers narrowed. */
+#define BEAM_PASSES 4
+
 typedef struct beam_ctx {
   bbc_bounder *bounder;
   const bbc_tuple_geometry *g;
@@ -147,6 +150,33 @@ static bbc_interval world(double base, double side, double x_lo, double x_hi) {
       bbc_interval_mul(bbc_interval_point(side), bbc_interval_make(x_lo, x_hi)));
 }
 
+static double coord(bbc_vec3 p, int a) {
+  return a == 0 ? p.x : a == 1 ? p.y : p.z;
+}
+
+/* The range on axis a of the last specular vertex of a piece's paths: T2's for two
+ * vertices; for one, that of x1 = p0 + u (p1 - p0) + v (p2 - p0) over the piece's box
+ * {u_lo, u_hi, v_lo, v_hi} (affine, so the box's corners bound it), rounded outward. */
+static bbc_interval last_vertex_range(const bbc_tuple_geometry *g, int a, const double box[4]) {
+  if (g->length == 2) {
+    double lo = coord(g->p2[0], a), hi = lo;
+    for (int k = 1; k < 3; k++)
+      lo = fmin(lo, coord(g->p2[k], a)), hi = fmax(hi, coord(g->p2[k], a));
+    return bbc_interval_make(lo, hi);
+  }
+  const bbc_interval c0 = bbc_interval_point(coord(g->p[0], a));
+  const bbc_interval e1 = bbc_interval_sub(bbc_interval_point(coord(g->p[1], a)), c0);
+  const bbc_interval e2 = bbc_interval_sub(bbc_interval_point(coord(g->p[2], a)), c0);
+  double lo = INFINITY, hi = -INFINITY;
+  for (int k = 0; k < 4; k++) {
+    const bbc_interval x = bbc_interval_add(
+        c0, bbc_interval_add(bbc_interval_mul(bbc_interval_point(box[k & 1]), e1),
+                             bbc_interval_mul(bbc_interval_point(box[2 + (k >> 1)]), e2)));
+    lo = fmin(lo, x.lo), hi = fmax(hi, x.hi);
+  }
+  return bbc_interval_make(lo, hi);
+}
+
 typedef enum outcome { OUT_DISCARD, OUT_PARTIAL, OUT_FULL } outcome;
 
 /* The piece's checks (Supp. Sec. 4.1's, without a receiver triangle), its axis when it
@@ -171,7 +201,7 @@ static int wants_irradiance(const beam_ctx *c, const bbc_beam_piece *piece, int 
 /* The piece's checks, axis and box, then (when wants_irradiance says so, *irradiance set)
  * its irradiance bound in the same forms; *need receives the caller's answer. */
 static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int *irradiance, bbc_piece_need *need,
-                          outcome *out, int *no_axis) {
+                          outcome *out, int *no_axis, double *tan_hi) {
   *irradiance = 0;
   *need = BBC_NEED_SPLIT;
   const bbc_tuple_geometry *g = c->g;
@@ -239,54 +269,93 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int *irradiance, b
    * find the best, but which must still separate: a remainder's linearisation may have
    * widened the directions' bound; then no bound but the box is known). */
   const double cos_lo_axis = cos_lo3[a], cos_hi = cos_hi3[a];
+  *tan_hi =
+      cos_lo_axis > 0 ? sqrt(fmax(0.0, 1 - cos_lo_axis * cos_lo_axis)) / cos_lo_axis : INFINITY;
   if (!(cos_lo_axis > 0)) {
     *no_axis = 1;
     *out = OUT_PARTIAL;
     return BBC_OK;
   }
-  /* The forms on the slab's end planes, then over the slab. */
+  /* The slab starts where the rays do, ahead of the last vertex. */
+  {
+    const bbc_interval dir_a = bbc_poly_bound(a == 0 ? &dir.x : a == 1 ? &dir.y : &dir.z);
+    const bbc_interval at = last_vertex_range(g, a, box);
+    if (dir_a.lo > 0) piece->lambda_lo = fmax(piece->lambda_lo, at.lo);
+    if (dir_a.hi < 0) piece->lambda_hi = fmin(piece->lambda_hi, at.hi);
+    if (!(piece->lambda_lo <= piece->lambda_hi)) return BBC_OK; /* no receiver ahead */
+  }
+  /* The slab narrowed to the depths of the receivers inside the box its paths stay in
+   * (the parent's): a path of the piece reaches a receiver only there. */
+  double depth_lo, depth_hi;
+  if (c->prm.beam_depth) {
+    double blo[3], bhi[3];
+    for (int i = 0; i < 3; i++) blo[i] = piece->box_lo[i], bhi[i] = piece->box_hi[i];
+    blo[a] = fmax(blo[a], piece->lambda_lo), bhi[a] = fmin(bhi[a], piece->lambda_hi);
+    if (!(blo[a] <= bhi[a]) ||
+        !c->prm.beam_depth(c->prm.need_user, a, blo, bhi, &depth_lo, &depth_hi))
+      return BBC_OK;
+    piece->lambda_lo = fmax(piece->lambda_lo, depth_lo);
+    piece->lambda_hi = fmin(piece->lambda_hi, depth_hi);
+  }
+  /* The forms on the slab's end planes, then over the slab, and the box they give.
+   * When the receivers inside that box lie in a much thinner slab, the box is taken
+   * again over it (a few times: on a curved receiver crossed at a shallow angle each
+   * pass narrows the slab by about the ratio of the slopes). */
   bbc_tuple_geometry g_lo = *g, g_hi = *g;
-  plane_triangle(c, a, piece->lambda_lo, g_lo.r);
-  plane_triangle(c, a, piece->lambda_hi, g_hi.r);
   chain_forms f0, f1, fs;
-  /* A slab of no thickness is one plane: its forms without the axis l. */
-  const int thin = !(piece->lambda_hi > piece->lambda_lo);
-  TRY(bbc__chain_forms_retarget(arena, &space, g_lo.r, &f, &f0));
-  f1 = f0;
-  if (!thin) TRY(bbc__chain_forms_retarget(arena, &space, g_hi.r, &f, &f1));
-  int l_axis = -1;
-  if (!thin) TRY(bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &l_axis));
-  if (thin)
-    fs = f0;
-  else
-    TRY(stack_forms(arena, l_axis, &f0, &f1, &fs));
-  /* Ahead of the last vertex where tnum kappa > 0. */
-  bbc_poly forward;
-  TRY(bbc_poly_mul(arena, &forward, &fs.tnum, &fs.kappa));
-  iv = bbc_poly_bound(&forward);
-  if (iv.hi < 0) return BBC_OK;
-  if (iv.lo < 0) partial = 1;
-  /* The box: lambda's range on the axis, the plane triangle's barycentrics mapped to the
-   * world on the others, within the receivers' box. */
-  bbc_range ru, rv;
-  TRY(bbc_rational_bound(arena, &fs.up, &fs.kappa, &ru));
-  TRY(bbc_rational_bound(arena, &fs.vp, &fs.kappa, &rv));
-  const double side = plane_side(c, a);
+  int thin = 0, l_axis = -1;
+  const int partial_before = partial;
   double lo[3], hi[3];
-  lo[a] = piece->lambda_lo, hi[a] = piece->lambda_hi;
-  lo[b] = c->lo[b], hi[b] = c->hi[b], lo[d] = c->lo[d], hi[d] = c->hi[d];
-  if (ru.kind == BBC_RANGE_BOUNDED) {
-    bbc_interval w = world(c->lo[b], side, ru.lo, ru.hi);
-    lo[b] = fmax(lo[b], w.lo), hi[b] = fmin(hi[b], w.hi);
-  }
-  if (rv.kind == BBC_RANGE_BOUNDED) {
-    bbc_interval w = world(c->lo[d], side, rv.lo, rv.hi);
-    lo[d] = fmax(lo[d], w.lo), hi[d] = fmin(hi[d], w.hi);
-  }
-  for (int i = 0; i < 3; i++) {
-    /* The parent's box holds the piece's paths too. */
-    lo[i] = fmax(lo[i], piece->box_lo[i]), hi[i] = fmin(hi[i], piece->box_hi[i]);
-    if (!(lo[i] <= hi[i])) return BBC_OK; /* no receiver is reached */
+  for (int pass = 0;; pass++) {
+    partial = partial_before;
+    plane_triangle(c, a, piece->lambda_lo, g_lo.r);
+    plane_triangle(c, a, piece->lambda_hi, g_hi.r);
+    /* A slab of no thickness is one plane: its forms without the axis l. */
+    thin = !(piece->lambda_hi > piece->lambda_lo);
+    TRY(bbc__chain_forms_retarget(arena, &space, g_lo.r, &f, &f0));
+    f1 = f0;
+    if (!thin) TRY(bbc__chain_forms_retarget(arena, &space, g_hi.r, &f, &f1));
+    if (!thin && l_axis < 0) TRY(bbc_space_add_axis(&space, BBC_AXIS_GEOMETRIC, &l_axis));
+    if (thin)
+      fs = f0;
+    else
+      TRY(stack_forms(arena, l_axis, &f0, &f1, &fs));
+    /* Ahead of the last vertex where tnum kappa > 0. */
+    bbc_poly forward;
+    TRY(bbc_poly_mul(arena, &forward, &fs.tnum, &fs.kappa));
+    iv = bbc_poly_bound(&forward);
+    if (iv.hi < 0) return BBC_OK;
+    if (iv.lo < 0) partial = 1;
+    /* The box: lambda's range on the axis, the plane triangle's barycentrics mapped to
+     * the world on the others, within the receivers' box. */
+    bbc_range ru, rv;
+    TRY(bbc_rational_bound(arena, &fs.up, &fs.kappa, &ru));
+    TRY(bbc_rational_bound(arena, &fs.vp, &fs.kappa, &rv));
+    const double side = plane_side(c, a);
+    lo[a] = piece->lambda_lo, hi[a] = piece->lambda_hi;
+    lo[b] = c->lo[b], hi[b] = c->hi[b], lo[d] = c->lo[d], hi[d] = c->hi[d];
+    if (ru.kind == BBC_RANGE_BOUNDED) {
+      bbc_interval w = world(c->lo[b], side, ru.lo, ru.hi);
+      lo[b] = fmax(lo[b], w.lo), hi[b] = fmin(hi[b], w.hi);
+    }
+    if (rv.kind == BBC_RANGE_BOUNDED) {
+      bbc_interval w = world(c->lo[d], side, rv.lo, rv.hi);
+      lo[d] = fmax(lo[d], w.lo), hi[d] = fmin(hi[d], w.hi);
+    }
+    for (int i = 0; i < 3; i++) {
+      /* The parent's box holds the piece's paths too. */
+      lo[i] = fmax(lo[i], piece->box_lo[i]), hi[i] = fmin(hi[i], piece->box_hi[i]);
+      if (!(lo[i] <= hi[i])) return BBC_OK; /* no receiver is reached */
+    }
+    if (!c->prm.beam_depth) break;
+    /* The receivers inside the box: none, and the piece reaches none; else their
+     * depths narrow the box on the axis and the slab. */
+    if (!c->prm.beam_depth(c->prm.need_user, a, lo, hi, &depth_lo, &depth_hi)) return BBC_OK;
+    const double before = piece->lambda_hi - piece->lambda_lo;
+    lo[a] = piece->lambda_lo = fmax(lo[a], depth_lo);
+    hi[a] = piece->lambda_hi = fmin(hi[a], depth_hi);
+    for (int i = 0; i < 3; i++) piece->box_lo[i] = lo[i], piece->box_hi[i] = hi[i];
+    if (pass == BEAM_PASSES - 1 || !(piece->lambda_hi - piece->lambda_lo < 0.5 * before)) break;
   }
   for (int i = 0; i < 3; i++) piece->box_lo[i] = lo[i], piece->box_hi[i] = hi[i];
   *out = partial ? OUT_PARTIAL : OUT_FULL;
@@ -436,7 +505,8 @@ bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
     outcome v;
     int no_axis, irradiance;
     bbc_piece_need need;
-    result = examine(&c, &piece, &irradiance, &need, &v, &no_axis);
+    double tan_hi = INFINITY;
+    result = examine(&c, &piece, &irradiance, &need, &v, &no_axis, &tan_hi);
     if (irradiance)
       c.local.irradiance_seconds += clock_seconds() - t0;
     else
@@ -484,7 +554,7 @@ bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
       else if (!(piece.e_hi < INFINITY) && v != OUT_PARTIAL)
         split_lambda = piece.lambda_level <= piece.level;
       else
-        split_lambda = along > across;
+        split_lambda = along * tan_hi > 0.5 * across; /* the slab makes most of the width */
       if (split_lambda && !lambda_ok) split_lambda = 0;
       if (!split_lambda && !u1_ok) split_lambda = 1;
     }

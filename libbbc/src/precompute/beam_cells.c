@@ -1,6 +1,8 @@
 /* The cells a beam piece reaches (beam_cells_internal.h). */
 #include "beam_cells_internal.h"
 
+#include "bbc/interval.h"
+
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -374,4 +376,56 @@ int bbc__beam_piece_rows(const bbc__beam_receivers *b, const bbc_scene *scene, c
 
 bbc_result bbc__beam_scratch_reserve(bbc__beam_scratch *s, const bbc__beam_receivers *b) {
   return scratch_reserve(s, b);
+}
+
+int bbc__beam_depth(const bbc__beam_receivers *b, const bbc_scene *scene, bbc__beam_scratch *s,
+                    int axis, const double lo[3], const double hi[3], double *depth_lo,
+                    double *depth_hi) {
+  double dlo = INFINITY, dhi = -INFINITY;
+  for (uint32_t k = 0; k < b->count; k++) {
+    const bbc__beam_receiver *item = &b->items[k];
+    if (item->root == UINT32_MAX || !boxes_meet(lo, hi, item->lo, item->hi)) continue;
+    uint32_t top = 0;
+    s->stack[top++] = item->root;
+    while (top) {
+      const bbc__beam_node *node = &b->nodes[s->stack[--top]];
+      if (!boxes_meet(lo, hi, node->lo, node->hi)) continue;
+      /* Nothing under the node can widen the range found. */
+      if (node->lo[axis] >= dlo && node->hi[axis] <= dhi) continue;
+      if (node->count == 0) {
+        s->stack[top++] = node->right;
+        s->stack[top++] = node->left;
+        continue;
+      }
+      for (uint32_t j = node->first; j < node->first + node->count; j++) {
+        double tlo[3], thi[3];
+        triangle_box(scene, b->order[j], tlo, thi);
+        if (!boxes_meet(lo, hi, tlo, thi)) continue;
+        double t_lo = fmax(tlo[axis], lo[axis]), t_hi = fmin(thi[axis], hi[axis]);
+        double region[8];
+        if (!box_holds(lo, hi, tlo, thi)) {
+          /* The part in the box: its barycentrics' range maps to the axis affinely. */
+          if (!clipped_region(scene, b->order[j], lo, hi, region)) continue;
+          const float *v[3];
+          for (int q = 0; q < 3; q++)
+            v[q] = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)b->order[j] + q];
+          const bbc_interval p0 = bbc_interval_point(v[0][axis]);
+          const bbc_interval x = bbc_interval_add(
+              p0, bbc_interval_add(
+                      bbc_interval_mul(bbc_interval_make(region[0], region[1]),
+                                       bbc_interval_sub(bbc_interval_point(v[1][axis]), p0)),
+                      bbc_interval_mul(bbc_interval_make(region[2], region[3]),
+                                       bbc_interval_sub(bbc_interval_point(v[2][axis]), p0))));
+          t_lo = fmax(t_lo, x.lo), t_hi = fmin(t_hi, x.hi);
+          if (!(t_lo <= t_hi)) continue;
+        }
+        dlo = fmin(dlo, t_lo), dhi = fmax(dhi, t_hi);
+      }
+      if (dlo <= lo[axis] && dhi >= hi[axis]) top = 0; /* the whole range: done */
+    }
+    if (dlo <= lo[axis] && dhi >= hi[axis]) break;
+  }
+  if (!(dlo <= dhi)) return 0;
+  *depth_lo = dlo, *depth_hi = dhi;
+  return 1;
 }

@@ -73,6 +73,14 @@ bbc_result bbc__beam_cells(const bbc__beam_receivers *b, const bbc_scene *scene,
                            size_t n, bbc__beam_scratch *s, bbc__beam_emit_fn emit, void *user,
                            uint64_t *triangles_found);
 
+/* The range [*depth_lo, *depth_hi] along `axis` of the receivers' triangles inside the
+ * box lo..hi (of each triangle whose box meets it, its box's range clipped to the box),
+ * or 0 when no triangle's box meets it. The scratch must be reserved. Exact: every value
+ * is a double. */
+int bbc__beam_depth(const bbc__beam_receivers *b, const bbc_scene *scene, bbc__beam_scratch *s,
+                    int axis, const double lo[3], const double hi[3], double *depth_lo,
+                    double *depth_hi);
+
 /* Calls fn for each row of cells piece p reaches (the same cells bbc__beam_cells gives
  * it): receiver item k (b->items[k]), row y, columns x0..x1, and when not NULL the
  * receiver's mask row (indexed by column; only columns whose mask is 1 are reached). A

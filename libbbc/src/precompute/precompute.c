@@ -587,6 +587,13 @@ static int beam_need_row(void *user, uint32_t k, uint32_t y, uint32_t x0, uint32
   return 0;
 }
 
+/* bbc_bound_params.beam_depth: the depths of the receivers in a piece's box. */
+static int beam_depth(void *user, int axis, const double lo[3], const double hi[3],
+                      double *depth_lo, double *depth_hi) {
+  beam_sink *s = user;
+  return bbc__beam_depth(s->beams, s->scene, s->scratch, axis, lo, hi, depth_lo, depth_hi);
+}
+
 /* The beam counterpart of piece_need: NONE when the piece reaches no cell or every cell
  * it reaches already holds at least its E_hi, KEEP when it reaches one cell, else SPLIT. */
 static bbc_piece_need beam_need(void *user, const bbc_beam_piece *piece) {
@@ -675,6 +682,7 @@ static int bound_beam_one(const bound_context *x, int id, const bbc_tuple *t, ce
                          : g.length == 2                      ? x->bound2
                                                               : x->bound;
   prm.beam_need = beam_need;
+  prm.beam_depth = beam_depth;
   prm.need_user = &sink;
   int ok = bbc_bound_beam(x->bounders[id], &g, x->beams->lo, x->beams->hi, &prm, keep_beam_piece,
                           &sink, stats) == BBC_OK &&

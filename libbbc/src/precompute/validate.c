@@ -488,67 +488,73 @@ static bbc_result validate_cached_beam(const bbc_cache *cache, bbc_cache_cursor 
 
 /* ---- the bounds of a beam tuple (bbc_bound_beam) against its true paths ---------------- */
 
+/* The kept pieces of a beam, in the order reported. */
 typedef struct beam_leaves {
-  leaf_set leaves;       /* their u1 boxes and status, for find_leaf */
-  bbc_beam_piece *items; /* the pieces themselves, in the same order */
-  size_t capacity;
+  bbc_beam_piece *items;
+  size_t count, capacity;
+  int failed;
 } beam_leaves;
 
 static int collect_beam_leaf(void *user, const bbc_beam_piece *piece) {
   beam_leaves *l = user;
-  bbc_piece p;
-  memset(&p, 0, sizeof p);
-  p.u_lo = piece->u_lo, p.u_hi = piece->u_hi, p.v_lo = piece->v_lo, p.v_hi = piece->v_hi;
-  p.level = piece->level;
-  p.status = piece->status;
-  p.a_hi = p.b_hi = 1;
-  p.e_lo = piece->e_lo, p.e_hi = piece->e_hi;
-  if (l->leaves.count == l->capacity) {
+  if (piece->status != BBC_PIECE_KEPT) return 0;
+  if (l->count == l->capacity) {
     const size_t capacity = l->capacity ? 2 * l->capacity : 64;
     bbc_beam_piece *grown = realloc(l->items, capacity * sizeof *grown);
     if (!grown) {
-      l->leaves.failed = 1;
+      l->failed = 1;
       return 1;
     }
     l->items = grown;
     l->capacity = capacity;
   }
-  l->items[l->leaves.count] = *piece;
-  return collect_leaf(&l->leaves, &p);
+  l->items[l->count++] = *piece;
+  return 0;
 }
 
+/* A landing and the kept pieces whose u1 boxes hold its u1 (one per slab of the
+ * distance along the ray when the beam split it). */
 typedef struct bound_landing {
   bbc_validation *acc;
   const bbc_tuple *tuple;
-  const bbc_beam_piece *piece;
+  const bbc_beam_piece **pieces;
+  size_t count;
   uint32_t sample;
 } bound_landing;
 
+/* A landing must lie in the box of one of the pieces, with its irradiance at most that
+ * piece's e_hi. (e_lo bounds the irradiance on the surface normal to the ray from
+ * below, not on the surface it lands on: it is not checked.) */
 static bbc_result check_bound_landing(void *user, uint32_t t, const bbc_specular_path *path) {
   (void)t;
   bound_landing *c = user;
   bbc_validation *v = c->acc;
-  const bbc_beam_piece *q = c->piece;
   v->admissible++;
-  uint32_t kinds = 0;
   const double x[3] = {path->xk.x, path->xk.y, path->xk.z};
-  for (int a = 0; a < 3; a++)
-    if (!(x[a] >= q->box_lo[a] && x[a] <= q->box_hi[a])) kinds = BBC_VALIDATION_POSITION;
-  if (kinds) v->position_violations++;
+  double e_hi = -INFINITY;
+  int inside = 0;
+  for (size_t k = 0; k < c->count; k++) {
+    const bbc_beam_piece *q = c->pieces[k];
+    int in = 1;
+    for (int a = 0; a < 3; a++)
+      if (!(x[a] >= q->box_lo[a] && x[a] <= q->box_hi[a])) in = 0;
+    if (in) inside = 1, e_hi = fmax(e_hi, q->e_hi);
+  }
+  uint32_t kinds = 0;
   const double e = path->irradiance;
-  if (!(e <= q->e_hi)) {
-    kinds |= BBC_VALIDATION_UPPER;
+  if (!inside) {
+    kinds = BBC_VALIDATION_POSITION;
+    v->position_violations++;
+  } else if (!(e <= e_hi)) {
+    kinds = BBC_VALIDATION_UPPER;
     v->upper_violations++;
   }
-  if (!(e >= q->e_lo)) {
-    kinds |= BBC_VALIDATION_LOWER;
-    v->lower_violations++;
-  }
   if (kinds) record_failure(v, c->tuple, c->sample, kinds, path, NULL);
-  if (!isfinite(q->e_hi))
+  if (!inside) return BBC_OK;
+  if (!isfinite(e_hi))
     v->unbounded++;
   else if (e >= 0 && e < INFINITY)
-    add_ratio(v, e > 0 ? log10(q->e_hi / e) : INFINITY);
+    add_ratio(v, e > 0 ? log10(e_hi / e) : INFINITY);
   return BBC_OK;
 }
 
@@ -588,8 +594,9 @@ static bbc_result validate_beam(bbc_bounder *bounder, const bbc_scene *scene,
   beam_leaves leaves;
   memset(&leaves, 0, sizeof leaves);
   r = bbc_bound_beam(bounder, &tg, lo, hi, params, collect_beam_leaf, &leaves, NULL);
-  if (leaves.leaves.failed) r = BBC_ERR_OUT_OF_MEMORY;
-  if (r == BBC_OK && !build_grid(&leaves.leaves)) r = BBC_ERR_OUT_OF_MEMORY;
+  if (leaves.failed) r = BBC_ERR_OUT_OF_MEMORY;
+  const bbc_beam_piece **held = malloc((leaves.count ? leaves.count : 1) * sizeof *held);
+  if (r == BBC_OK && !held) r = BBC_ERR_OUT_OF_MEMORY;
   bbc_validation local;
   bbc_validation_reset(&local);
   local.tuples = 1;
@@ -602,10 +609,14 @@ static bbc_result validate_beam(bbc_bounder *bounder, const bbc_scene *scene,
       sample_emitter(seed, tuple, i, ab);
       pgi.light = bbc__area_point(&pg.light_model, ab[0], ab[1]);
     }
-    const bbc_piece *leaf = find_leaf(&leaves.leaves, u1[0], u1[1], NULL);
-    bound_landing c = {&local, tuple, NULL, i};
-    if (leaf && leaf->status == BBC_PIECE_KEPT) {
-      c.piece = &leaves.items[leaf - leaves.leaves.items];
+    bound_landing c = {&local, tuple, held, 0, i};
+    for (size_t k = 0; k < leaves.count; k++) {
+      const bbc_beam_piece *q = &leaves.items[k];
+      if (u1[0] >= q->u_lo && u1[0] <= q->u_hi && u1[1] >= q->v_lo && u1[1] <= q->v_hi &&
+          (!area || (ab[0] >= q->a_lo && ab[0] <= q->a_hi && ab[1] >= q->b_lo && ab[1] <= q->b_hi)))
+        held[c.count++] = q;
+    }
+    if (c.count) {
       r = beam_landings(scene, tuple, &pgi, o, u1, check_bound_landing, &c);
       continue;
     }
@@ -613,15 +624,12 @@ static bbc_result validate_beam(bbc_bounder *bounder, const bbc_scene *scene,
     bbc_validation before = local;
     r = beam_landings(scene, tuple, &pgi, o, u1, count_landing, &local);
     const uint64_t landed = local.admissible - before.admissible;
-    if (landed && !leaf)
+    if (landed) {
       local.uncovered += landed;
-    else if (landed)
-      local.in_discarded += landed;
-    if (landed)
-      record_failure(&local, tuple, i, leaf ? BBC_VALIDATION_DISCARDED : BBC_VALIDATION_UNCOVERED,
-                     &(bbc_specular_path){0}, NULL);
+      record_failure(&local, tuple, i, BBC_VALIDATION_UNCOVERED, &(bbc_specular_path){0}, NULL);
+    }
   }
-  free_leaves(&leaves.leaves);
+  free(held);
   free(leaves.items);
   if (r != BBC_OK) return r;
   bbc_validation_merge(acc, &local);
