@@ -197,9 +197,9 @@ TEST(per_triangle_caches_keep_their_version) {
   teardown(&f);
 }
 
-/* The bound itself (bbc_bound_beam) against true paths, as bbc-inspect validates it:
- * every landing on a floor triangle lies in its piece's box with an irradiance in its
- * piece's [e_lo, e_hi] (the placeholder's box is the floor's, its bound +inf). */
+/* The bound itself (bbc_bound_beam) against true paths: every landing on a floor
+ * triangle lies in the box of a kept piece holding its u1, with an irradiance at most
+ * that piece's E_hi (docs/beams.md, "Validation"). */
 TEST(beam_bound_holds_on_true_paths) {
   bbc_scene *s = NULL;
   REQUIRE(bbc_scene_load(&s, BENT(512), NULL) == BBC_OK);
