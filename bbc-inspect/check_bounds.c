@@ -81,9 +81,17 @@ int cmd_check_bounds(cli_args *a, const char *scene_path, const char *cache_path
   bbc_cache_get_info(c, &in);
   bbc_tuple *cand = NULL;
   size_t count = 0;
-  if (bbc_tuples_find(scene, in.params.chains, &cand, &count) != BBC_OK)
+  /* Beam receivers: the search gives both kinds of light at once. */
+  const uint32_t beam_area_chains =
+      !in.params.area_lights ? 0
+      : in.params.area_double
+          ? in.params.chains
+          : in.params.chains & (BBC_CHAIN_BIT(BBC_CHAIN_R) | BBC_CHAIN_BIT(BBC_CHAIN_T));
+  if ((in.params.beam_receivers
+           ? bbc_tuples_find_beam(scene, in.params.chains, beam_area_chains, &cand, &count)
+           : bbc_tuples_find(scene, in.params.chains, &cand, &count)) != BBC_OK)
     cli_fail("%s: cannot list the candidate tuples (out of memory)", scene_path);
-  if (in.params.area_lights) {
+  if (in.params.area_lights && !in.params.beam_receivers) {
     /* The area lights' candidates follow the punctual lights' (bbc_precompute). */
     bbc_tuple *area = NULL;
     size_t area_count = 0;

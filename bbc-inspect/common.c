@@ -60,7 +60,9 @@ int inspect_is_cache(const char *path) {
 }
 
 const char *inspect_receiver_text(uint32_t receiver, char *out, size_t size) {
-  if (bbc_receiver_is_plane(receiver))
+  if (bbc_receiver_is_beam(receiver))
+    snprintf(out, size, "beam");
+  else if (bbc_receiver_is_plane(receiver))
     snprintf(out, size, "plane:%u", bbc_receiver_plane_mesh(receiver));
   else
     snprintf(out, size, "%u", receiver);

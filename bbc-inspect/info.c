@@ -32,6 +32,8 @@ int cmd_info(const char *path) {
     printf("area lights  on, double scattering %s, alpha %g%s\n", p->area_double ? "on" : "off",
            p->alpha_area > 0 ? p->alpha_area : p->alpha_double,
            p->alpha_area > 0 ? "" : " (the two-bounce alpha: a cache before 1.5)");
+  if (p->beam_receivers)
+    printf("receivers    beam: receiver triangles not on a plane share one tuple per prefix\n");
   const bbc_fingerprint *f = &in.fingerprint;
   printf(
       "fingerprint  %016llx (geometry %016llx, materials %016llx, meshes %016llx, "

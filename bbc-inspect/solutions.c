@@ -85,8 +85,13 @@ int cmd_solutions(cli_args *a, const char *scene_path, const char *cache_path) {
         if ((r = bbc_cache_lookup(cur, t, b[0], b[1], &xk, &e, &n)) != BBC_OK) break;
         points++;
         for (uint32_t k = 0; k < n && r == BBC_OK; k++) {
-          const bbc_tuple *u = &tuples[e[k].tuple];
-          if ((u->receiver != t && u->receiver != BBC_RECEIVER_PLANE(scene->triangle_mesh[t])) ||
+          /* A beam tuple ends on the point's triangle (when it is not on a plane). */
+          bbc_tuple ended = tuples[e[k].tuple];
+          const uint32_t mesh = scene->triangle_mesh[t];
+          if (bbc_receiver_is_beam(ended.receiver) && !scene->meshes[mesh].plane)
+            ended.receiver = t;
+          const bbc_tuple *u = &ended;
+          if ((u->receiver != t && u->receiver != BBC_RECEIVER_PLANE(mesh)) ||
               (u->chain != BBC_CHAIN_R && u->chain != BBC_CHAIN_T))
             continue;
           bbc_path_geometry pg;

@@ -68,6 +68,11 @@ static const char help[] =
     "                        the cache instead of path tracing (docs/lights.md)\n"
     "  --area-double         with --area-lights, their double-scattering chain types of\n"
     "                        --chains (RR, RT, TR, TT) too: far costlier to bound\n"
+    "  --receivers MODE      per-triangle (default) or beam: whether receiver triangles\n"
+    "                        not on a plane end one tuple each, or one beam tuple per\n"
+    "                        specular prefix stands for all of them (docs/receivers.md):\n"
+    "                        beam costs the same on a finely cut curved receiver as on\n"
+    "                        a coarse one\n"
     "  --no-remainder        drop the remainder variables of refraction: faster, but the\n"
     "                        bounds are no longer conservative (the paper's Fig. 18)\n"
     "  --jacobian FORM       determinant (default) or quotient: the form of the\n"
@@ -448,6 +453,13 @@ int main(int argc, char **argv) {
       options.params.area_lights = 1;
     } else if (cli_flag(&a, "--area-double")) {
       options.params.area_double = 1;
+    } else if (cli_option(&a, "--receivers", &value)) {
+      if (strcmp(value, "per-triangle") == 0)
+        options.params.beam_receivers = 0;
+      else if (strcmp(value, "beam") == 0)
+        options.params.beam_receivers = 1;
+      else
+        cli_usage_error(usage, "--receivers: '%s' is neither per-triangle nor beam", value);
     } else if (cli_option(&a, "--jacobian", &value)) {
       if (strcmp(value, "determinant") == 0)
         options.jacobian = BBC_JACOBIAN_DETERMINANT;

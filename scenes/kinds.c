@@ -106,8 +106,11 @@ static void mesh_add_grid(mesh *m, uint32_t ni, uint32_t nj, surface_fn f, const
 /* Surfaces. */
 
 /* A horizontal rectangle [x0,x1] x [z0,z1] at height y, facing up or down. */
+static double sin_cycles(double k, uint32_t i, uint32_t n);
+
 typedef struct plane_params {
   double x0, x1, z0, z1, y, facing;
+  double bend; /* 0, or the height of one wave along x (a bent floor, --floor-bend) */
 } plane_params;
 
 static void plane_surface(const void *params, uint32_t i, uint32_t ni, uint32_t j, uint32_t nj,
@@ -116,6 +119,12 @@ static void plane_surface(const void *params, uint32_t i, uint32_t ni, uint32_t 
   double s = (double)i / ni, t = (double)j / nj;
   *p = v3(q->x0 + (q->x1 - q->x0) * s, q->y, q->z0 + (q->z1 - q->z0) * t);
   *n = v3(0, q->facing, 0);
+  if (q->bend == 0) return;
+  /* One wave of height `bend` across x: y + bend sin(2 pi s), and its normal. */
+  const double slope = q->bend * 2 * PI / (q->x1 - q->x0) * cos(2 * PI * s);
+  p->y += q->bend * sin_cycles(1, i, ni);
+  const double len = sqrt(slope * slope + 1);
+  *n = v3(-q->facing * slope / len, q->facing / len, 0);
 }
 
 /* sin(2 pi k i / n) with exact zeros where k i / n is a multiple of 1/2, so heightfields
@@ -358,7 +367,7 @@ static uint32_t sphere_frequency(unsigned long size) {
 
 static void add_plane(mesh *m, double x0, double x1, double z0, double z1, double y, double facing,
                       uint32_t n) {
-  plane_params q = {x0, x1, z0, z1, y, facing};
+  plane_params q = {x0, x1, z0, z1, y, facing, 0};
   mesh_add_grid(m, n, n, plane_surface, &q);
 }
 
@@ -566,6 +575,14 @@ static uint32_t floor_side(const scene *s) {
   return s->opts->floor_size ? square_grid_side(s->opts->floor_size) : 1;
 }
 
+/* A receiver floor: add_plane on floor_side(s)'s grid, bent by --floor-bend. */
+static void add_floor(const scene *s, mesh *m, double x0, double x1, double z0, double z1, double y,
+                      double facing) {
+  plane_params q = {x0, x1, z0, z1, y, facing, s->opts->floor_bend};
+  const uint32_t n = floor_side(s);
+  mesh_add_grid(m, n, n, plane_surface, &q);
+}
+
 static mesh *scene_add_mesh(scene *s, const char *name, material_kind material, role r) {
   mesh *m = &s->meshes[s->mesh_count++];
   *m = mesh_make(name, material, r, r == ROLE_RECEIVER);
@@ -596,13 +613,13 @@ static void gen_mirror_wall(scene *s, unsigned long size) {
     /* The analytic mirror test: the floor receives the light at (1,1,0) plus exactly
      * that of its mirror image at (-1,1,0); every floor point sees both. The camera
      * looks straight down so pixels map simply to floor points. */
-    add_plane(floor, 0, 4, -2, 2, 0, 1, floor_side(s));
+    add_floor(s, floor, 0, 4, -2, 2, 0, 1);
     s->light = v3(1, 1, 0), s->intensity = 10;
     s->eye = v3(2, 6, 0), s->target = v3(2, 0, 0), s->up = v3(0, 0, -1);
   } else {
     /* The reflected light lands on x in about [0, 5]; the camera looks from beyond
      * the floor's far edge back at the wall, taking in the floor and the mirror. */
-    add_plane(floor, -0.5, 5, -3, 3, 0, 1, floor_side(s));
+    add_floor(s, floor, -0.5, 5, -3, 3, 0, 1);
     s->light = v3(1.2, 1.2, 0), s->intensity = 20;
     s->eye = v3(7.5, 4.5, 0), s->target = v3(1.8, 0.55, 0);
   }
@@ -612,7 +629,7 @@ static void gen_glass_sphere(scene *s, unsigned long size) {
   mesh *ball = scene_add_mesh(s, "glass_sphere", MAT_GLASS, ROLE_CASTER);
   add_sphere(ball, sphere_frequency(size), v3(0, 1, 0), 1.0, 1.0);
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -3, 3, -3, 3, 0, 1, floor_side(s));
+  add_floor(s, floor, -3, 3, -3, 3, 0, 1);
   /* A fairly low light, so the ball's focus falls near the floor (a ball lens of
    * index 1.5 focuses about 1.5 radii beyond its centre for distant light). The
    * brightest part of the caustic lands around (-0.8, 0, 1.4), on the side away from
@@ -630,7 +647,7 @@ static void gen_glass_slab(scene *s, unsigned long size) {
   slab_params q = {box ? 0.0 : 0.06, 1.0, 0.8};
   add_slab(slab, slab_grid_side(size), &q);
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -3, 3, -3, 3, 0, 1, floor_side(s));
+  add_floor(s, floor, -3, 3, -3, 3, 0, 1);
   /* The slab floats 0.5 above the floor and its caustic falls mostly under it, within
    * about 1.3 of the centre; a low camera off the corner sees it through the gap as
    * well as through the glass. */
@@ -643,7 +660,7 @@ static void gen_pool(scene *s, unsigned long size) {
   uint32_t n = square_grid_side(size);
   mesh_add_grid(water, n, n, pool_surface, NULL);
   mesh *floor = scene_add_mesh(s, "pool_floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -2.5, 2.5, -2.5, 2.5, -1.5, 1, floor_side(s));
+  add_floor(s, floor, -2.5, 2.5, -2.5, 2.5, -1.5, 1);
   /* The camera looks straight down through the water at the pool floor. */
   s->light = v3(0.5, 3, 1), s->intensity = 30;
   s->eye = v3(0, 6, 0), s->target = v3(0, -1.5, 0), s->up = v3(0, 0, -1);
@@ -680,7 +697,7 @@ static void gen_corner(scene *s, unsigned long size) {
   mesh_add_grid(mirrors, n, n, rect_surface, &a);
   mesh_add_grid(mirrors, n, n, rect_surface, &b);
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, 0, 4, 0, 4, 0, 1, floor_side(s));
+  add_floor(s, floor, 0, 4, 0, 4, 0, 1);
   s->light = v3(1.0, 1.0, 0.7), s->intensity = 10;
   s->eye = v3(2, 7, 2), s->target = v3(2, 0, 2), s->up = v3(0, 0, -1);
 }
@@ -698,7 +715,7 @@ static void gen_glass_pool(scene *s, unsigned long size) {
   mesh *ball = scene_add_mesh(s, "glass_ball", MAT_GLASS, ROLE_CASTER);
   add_sphere(ball, sphere_frequency(320), v3(3.1, 0.65, 0.3), 0.6, 1.0);
   mesh *floor = scene_add_mesh(s, "pool_floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -2.0, 2.0, -2.0, 2.0, -1.5, 1, floor_side(s));
+  add_floor(s, floor, -2.0, 2.0, -2.0, 2.0, -1.5, 1);
   /* The deck surrounds the pool ([-5, 5]^2 less the pool's [-2, 2]^2); the pool's
    * walls receive the water's caustic too. */
   mesh *deck = scene_add_mesh(s, "deck", MAT_DECK, ROLE_RECEIVER);
@@ -732,7 +749,7 @@ static void gen_wavy_plane(scene *s, unsigned long size) {
   uint32_t n = square_grid_side(size);
   mesh_add_grid(plane, n, n, wavy_plane_surface, NULL);
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -3, 3, -3, 3, 0, 1, floor_side(s));
+  add_floor(s, floor, -3, 3, -3, 3, 0, 1);
   s->light = v3(3, 1, 4), s->intensity = 50;
   s->eye = v3(2.709, 4.605, 1.895), s->target = v3(0.981, 1.433, 0.177);
 }
@@ -742,7 +759,7 @@ static void gen_wavy_plane(scene *s, unsigned long size) {
  * 40 degrees. */
 static void add_research_floor(scene *s) {
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -3, 3, -3, 3, 0, 1, floor_side(s));
+  add_floor(s, floor, -3, 3, -3, 3, 0, 1);
   s->intensity = 50;
   s->eye = v3(0, 6, 6), s->target = v3(0, 0, 0.8);
 }
@@ -796,7 +813,7 @@ static void gen_wide_pool(scene *s, unsigned long size) {
   uint32_t nz = round_at_least_1(size / (2.0 * nx));
   mesh_add_grid(water, nx, nz, heightfield_surface, &q);
   mesh *floor = scene_add_mesh(s, "floor", MAT_DIFFUSE, ROLE_RECEIVER);
-  add_plane(floor, -8, 8, -8, 8, -2, 1, floor_side(s));
+  add_floor(s, floor, -8, 8, -8, 8, -2, 1);
   s->light = v3(0.5, 4, 1), s->intensity = 50;
   s->eye = v3(0, 9, 12), s->target = v3(0, 0, 24.0 / 11.0);
   s->yfov = 0.87266462599716477;

@@ -104,6 +104,8 @@ static void print_help(FILE *f) {
           "  --floor-size N        the floor as a flat grid of about N triangles in the same\n"
           "                        plane (default: 2, one quad; the pool floor and the\n"
           "                        glass pool's floor too; not for floor)\n"
+          "  --floor-bend H        bend that floor into one wave of height H in [0, 1] along\n"
+          "                        x: a curved receiver, not a plane (default 0)\n"
           "  --checker N           a base colour texture: an N x N checker of sand and blue\n"
           "                        (sRGB PNG in the buffer, NEAREST, REPEAT), texel (0, 0)\n"
           "                        light, over TEXCOORD_0 in [0, 1]\n"
@@ -199,7 +201,8 @@ static int parse_args(int argc, char **argv, options *o) {
                 strcmp(name, "--sun") == 0 || strcmp(name, "--spot") == 0 ||
                 strcmp(name, "--sun-angle") == 0 || strcmp(name, "--orbit") == 0 ||
                 strcmp(name, "--checker") == 0 || strcmp(name, "--roughness") == 0 ||
-                strcmp(name, "--metallic") == 0 || strcmp(name, "--floor-size") == 0;
+                strcmp(name, "--metallic") == 0 || strcmp(name, "--floor-size") == 0 ||
+                strcmp(name, "--floor-bend") == 0;
     if (!known) return usage_error("unknown option '%s'", arg);
     if (!value) {
       if (i + 1 >= argc) return usage_error("option %s needs a value", name);
@@ -230,8 +233,9 @@ static int parse_args(int argc, char **argv, options *o) {
       if (parse_count(value, 1, 4096, &o->checker))
         return usage_error("--checker wants a whole number of squares from 1 to 4096, not '%s'",
                            value);
-    } else if (strcmp(name, "--roughness") == 0 || strcmp(name, "--metallic") == 0) {
-      double *dst = name[2] == 'r' ? &o->roughness : &o->metallic;
+    } else if (strcmp(name, "--roughness") == 0 || strcmp(name, "--metallic") == 0 ||
+               strcmp(name, "--floor-bend") == 0) {
+      double *dst = name[2] == 'r' ? &o->roughness : name[2] == 'm' ? &o->metallic : &o->floor_bend;
       char *end;
       errno = 0;
       double x = strtod(value, &end);
@@ -256,7 +260,7 @@ static int parse_args(int argc, char **argv, options *o) {
   if ((o->area_side > 0) + (o->sun > 0) + (o->spot > 0) > 1)
     return usage_error("--area-light, --sun and --spot each replace the point light: give one");
   if (o->sun_angle > 0 && !(o->sun > 0)) return usage_error("--sun-angle needs --sun");
-  if (o->floor_size && o->kind == KIND_FLOOR)
+  if ((o->floor_size || o->floor_bend > 0) && o->kind == KIND_FLOOR)
     return usage_error("--floor-size is for kinds with a caster; floor takes --size");
   if (!o->output) return usage_error("no output file given (-o OUT.gltf)");
   /* Loaders pick the parser by extension, so a name that says the other format would

@@ -123,6 +123,7 @@ typedef struct options {
   unsigned long checker;      /* 0, or the receiver's base colour texture: a checker of N x N */
   double roughness, metallic; /* the receiver's factors (default 1 and 0: Lambertian) */
   unsigned long floor_size;   /* 0, or the floor's triangles (about): a flat grid */
+  double floor_bend;          /* 0, or the height of a wave bending the floor along x */
   int glb;
 } options;
 

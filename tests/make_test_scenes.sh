@@ -113,3 +113,9 @@ for spec in "wavy-mirror 200" "pool 200" "glass-sphere 80"; do
   scene "$1" --size "$2" -o "$out/plane-$1.gltf"
   scene "$1" --size "$2" --floor-size 3000 -o "$out/plane-$1-3k.gltf"
 done
+# Curved receivers: the wavy mirror over its floor bent into a wave (no plane), cut into
+# 128 and 512 triangles whose vertices both take the wave's crest and trough, so that
+# the two floors have the same bounding box (beam receivers).
+for n in 128 512; do
+  scene wavy-mirror --size 200 --floor-size $n --floor-bend 0.2 -o "$out/bent-wavy-mirror-$n.gltf"
+done

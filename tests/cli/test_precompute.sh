@@ -40,6 +40,7 @@ test_bad_usage_exits_2() {
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --max-level 99
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --resolution 0
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --frobnicate
+  expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --receivers beams
   [ -e "$TMP/x.bbc" ] && fail "an output was written"
   return 0
 }

@@ -449,4 +449,23 @@ test_parallel_example() {
   cmp "$TMP/one.bbc" "$TMP/local/cache.bbc" >&2 || fail "--resume: the cache differs"
 }
 
+# Beam receivers (a bent floor, not a plane): two shards merge to the unsharded cache,
+# which is format 1.7 (info says beam: the control that the option took) and the same
+# on one thread and on two with its entries spilled.
+test_beam_receivers_shard_and_thread_alike() {
+  bent="$BBC_TEST_SCENES/bent-wavy-mirror-128.gltf"
+  beam() { expect_status 0 "$PRECOMPUTE" "$bent" --chains R,RR --max-level 3 --resolution 32 \
+    --receivers beam --no-progress "$@"; }
+  beam -o "$TMP/full.bbc" --threads 1
+  beam -o "$TMP/spilled.bbc" --threads 2 --entry-memory 1
+  cmp "$TMP/full.bbc" "$TMP/spilled.bbc" >&2 || fail "threads or spill changed the beam cache"
+  beam -o "$TMP/s0.bbc" --shard 0/2
+  beam -o "$TMP/s1.bbc" --shard 1/2
+  expect_status 0 "$INSPECT" merge "$TMP/merged.bbc" "$TMP/s1.bbc" "$TMP/s0.bbc" --no-progress
+  cmp "$TMP/full.bbc" "$TMP/merged.bbc" >&2 || fail "merged beam cache differs from the whole one"
+  expect_status 0 "$INSPECT" info "$TMP/merged.bbc"
+  grep -q "^format       1.7" "$TMP/out" || fail "not format 1.7: $(cat "$TMP/out")"
+  grep -q "^receivers    beam" "$TMP/out" || fail "info does not say beam: $(cat "$TMP/out")"
+}
+
 "test_$1"

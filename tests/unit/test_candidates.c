@@ -53,7 +53,7 @@ static void check_stream(const char *scene, uint32_t chains, uint32_t area_chain
   for (int threads = 1; threads <= 2; threads++)
     for (int b = 0; b < 3; b++) {
       bbc__tuple_search *search = NULL;
-      REQUIRE(bbc__tuple_search_create(&search, s, chains, area_chains, threads, budgets[b]) ==
+      REQUIRE(bbc__tuple_search_create(&search, s, chains, area_chains, 0, threads, budgets[b]) ==
               BBC_OK);
       size_t got = 0, blocks = 0, mismatches = 0, largest = 0;
       size_t first_splits = 0, pair_splits = 0;

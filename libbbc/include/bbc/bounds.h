@@ -76,6 +76,7 @@ typedef enum bbc_piece_need {
 } bbc_piece_need;
 
 struct bbc_piece;
+struct bbc_beam_piece;
 typedef bbc_piece_need (*bbc_piece_need_fn)(void *user, const struct bbc_piece *piece);
 
 /* Parameters of the subdivision; a zero-initialised struct means the defaults. */
@@ -101,6 +102,15 @@ typedef struct bbc_bound_params {
    * subdivision early but never changes a bound, so every reported leaf stays valid. */
   bbc_piece_need_fn need;
   void *need_user;
+  /* bbc_bound_beam: the same question for a beam's pieces (their world boxes), with
+   * need_user; NULL: always split by the rules. */
+  bbc_piece_need (*beam_need)(void *user, const struct bbc_beam_piece *piece);
+  /* bbc_bound_beam: the range [*depth_lo, *depth_hi] along `axis` of the receivers'
+   * points inside the box lo..hi (with need_user), or 0 when the box holds none; the
+   * beam then narrows a piece's slab to the receivers it can meet (docs/beams.md). NULL:
+   * every point of the receivers' box may be a receiver's. */
+  int (*beam_depth)(void *user, int axis, const double lo[3], const double hi[3], double *depth_lo,
+                    double *depth_hi);
 } bbc_bound_params;
 
 typedef enum bbc_piece_status {
@@ -165,6 +175,54 @@ BBC_API void bbc_bounder_free(bbc_bounder *bounder); /* NULL is allowed */
 BBC_API bbc_result bbc_bound_tuple(bbc_bounder *bounder, const bbc_tuple_geometry *g,
                                    const bbc_bound_params *params, bbc_piece_fn fn, void *user,
                                    bbc_bound_stats *stats);
+
+/* A piece of a beam (bbc_bound_beam): the light leaving the last specular vertex of the
+ * paths of T1's box [u_lo, u_hi] x [v_lo, v_hi] (the light's box [a_lo, a_hi] x [b_lo,
+ * b_hi] for area lights), bounded without a receiver: every point x those paths reach
+ * (forward along the ray) with x[axis] in [lambda_lo, lambda_hi] and x in the receivers'
+ * box lies in [box_lo, box_hi] (world space), and the irradiance there on a receiving
+ * surface of any orientation is at most e_hi (per unit light intensity, as
+ * bbc_piece.e_hi; +inf near a focus). e_lo is a lower bound of the irradiance on the
+ * surface normal to the ray (0 when unknown); a surface at an angle receives less.
+ * axis is -1 when no axis separates the rays from the planes (the box is then the
+ * receivers' box and e_hi is +inf). Discarded pieces hold no path reaching the box. */
+typedef struct bbc_beam_piece {
+  double u_lo, u_hi, v_lo, v_hi;
+  int level;
+  bbc_piece_status status;
+  int axis; /* 0, 1, 2 (x, y, z) or -1 */
+  double lambda_lo, lambda_hi;
+  int lambda_level; /* halvings of the receivers' range on the axis */
+  double box_lo[3], box_hi[3];
+  double e_lo, e_hi;
+  double a_lo, a_hi, b_lo, b_hi; /* area lights; [0, 1]^2 for the others */
+  int light_level;
+} bbc_beam_piece;
+
+/* Asked for every piece of a beam whose box is known (see bbc_bound_params.beam_need). */
+typedef bbc_piece_need (*bbc_beam_need_fn)(void *user, const struct bbc_beam_piece *piece);
+typedef int (*bbc_beam_piece_fn)(void *user, const bbc_beam_piece *piece);
+
+/* Bounds the beam of a tuple (g's receiver is unused) over the receivers' world box
+ * [receivers_lo, receivers_hi]: subdivides T1's barycentric box and the distance along
+ * the ray (the coordinate lambda of a dominant axis) breadth-first and reports every leaf
+ * (docs/beams.md). params as for bbc_bound_tuple (max_level caps both subdivisions; sigma
+ * is the box's area across the axis as a fraction of the receivers' box's; need is not
+ * used, beam_need is). BBC_ERR_INVALID_ARGUMENT for an empty or non-finite receivers'
+ * box; BBC_ERR_CANCELLED if fn returned non-zero. */
+BBC_API bbc_result bbc_bound_beam(bbc_bounder *bounder, const bbc_tuple_geometry *g,
+                                  const double receivers_lo[3], const double receivers_hi[3],
+                                  const bbc_bound_params *params, bbc_beam_piece_fn fn, void *user,
+                                  bbc_bound_stats *stats);
+
+/* The candidate tuples with beam receivers (bbc_precompute_params.beam_receivers), in
+ * bbc_precompute's order: those of bbc_tuples_find for `chains`, then those of
+ * bbc_tuples_find_area for `area_chains` (0: none), but with the receiver triangles
+ * that are not on a receiver plane replaced, per (light, T1[, T2]) prefix whose beam
+ * can reach one, by one tuple whose receiver is BBC_RECEIVER_BEAM (after the prefix's
+ * plane tuples). */
+BBC_API bbc_result bbc_tuples_find_beam(const bbc_scene *scene, uint32_t chains,
+                                        uint32_t area_chains, bbc_tuple **out, size_t *count);
 
 /* The candidate tuples of the scene for the chain types in `chains` (a mask of
  * BBC_CHAIN_BIT), in the deterministic order bbc_precompute uses: by light, then first

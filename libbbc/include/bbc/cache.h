@@ -46,6 +46,12 @@ typedef struct bbc_precompute_params {
    * what the area lights of caches before 1.5 used, and what a cache without area lights
    * stores. */
   double alpha_area;
+  /* 1: beam receivers (format 1.7, PARM flags bit 3; bbc-precompute --receivers beam):
+   * the tuples of receiver triangles that are not on a receiver plane are one per
+   * (light, T1[, T2]) prefix, with receiver BBC_RECEIVER_BEAM (tuple.h), bounded by
+   * bbc_bound_beam and recorded in the cells of every such triangle the light can reach.
+   * 0 (the default): one tuple per such triangle, as every cache before 1.7. */
+  uint32_t beam_receivers;
 } bbc_precompute_params;
 
 /* The paper's defaults: all chains, level 10, sigma 1e-4, alpha 2 and 10, m 1, 512

@@ -35,8 +35,9 @@ typedef struct bbc_tuple {
   uint32_t light;       /* index into scene->point_lights */
   uint32_t chain;       /* a bbc_chain */
   uint32_t specular[2]; /* T1 and T2 (BBC_NO_TRIANGLE for one bounce), scene triangles */
-  uint32_t receiver;    /* Tk: a scene triangle of a receiver mesh, or
-                           BBC_RECEIVER_PLANE(m), the plane of receiver mesh m */
+  uint32_t receiver;    /* Tk: a scene triangle of a receiver mesh,
+                           BBC_RECEIVER_PLANE(m), the plane of receiver mesh m, or
+                           BBC_RECEIVER_BEAM, every receiver triangle not on a plane */
 } bbc_tuple;
 
 /* A tuple of a receiver that lies in a plane (bbc_mesh.plane) ends on the plane,
@@ -45,8 +46,18 @@ typedef struct bbc_tuple {
  * of tuples, and their cost, do not depend on how finely the plane is cut. */
 #define BBC_RECEIVER_PLANE_BIT 0x80000000u
 #define BBC_RECEIVER_PLANE(mesh) (BBC_RECEIVER_PLANE_BIT | (uint32_t)(mesh))
+/* A beam tuple (light, T1[, T2]) ends on no receiver: its bounds are of the light
+ * leaving its last specular vertex (bbc_bound_beam), recorded in the cells of every
+ * receiver triangle that is not on a receiver plane and that the light can reach. One
+ * such tuple stands for all those triangles, so their number does not multiply the
+ * tuples (bbc_precompute_params.beam_receivers; docs/receivers.md). The value is no
+ * plane's: meshes are far fewer than 2^31 - 1. */
+#define BBC_RECEIVER_BEAM 0xFFFFFFFFu
+static inline int bbc_receiver_is_beam(uint32_t receiver) {
+  return receiver == BBC_RECEIVER_BEAM;
+}
 static inline int bbc_receiver_is_plane(uint32_t receiver) {
-  return (receiver & BBC_RECEIVER_PLANE_BIT) != 0;
+  return (receiver & BBC_RECEIVER_PLANE_BIT) != 0 && receiver != BBC_RECEIVER_BEAM;
 }
 static inline uint32_t bbc_receiver_plane_mesh(uint32_t receiver) {
   return receiver & ~BBC_RECEIVER_PLANE_BIT;
@@ -54,7 +65,7 @@ static inline uint32_t bbc_receiver_plane_mesh(uint32_t receiver) {
 
 /* The triangle a tuple's receiver field names, the one its bounds are taken on: the
  * scene triangle, or a plane's plane_triangle. Returns 0 when the field names neither a
- * scene triangle nor the plane of a receiver. */
+ * scene triangle nor the plane of a receiver (a beam names no triangle). */
 BBC_API int bbc_receiver_triangle(const bbc_scene *scene, uint32_t receiver, bbc_vec3 out[3]);
 
 /* Number of specular vertices of a chain type (1 or 2). */

@@ -119,7 +119,14 @@ BBC_API void bbc_validation_sample_u1(uint64_t seed, const bbc_tuple *tuple, uin
  * does, a discarded one. Thread safety: reads scene, tuple and params only and writes
  * only *bounder and *acc, so threads may validate at once with a bounder and an
  * accumulator each. Returns BBC_ERR_INVALID_ARGUMENT for NULL pointers or a tuple that
- * is not R or T, BBC_ERR_OUT_OF_MEMORY, or the bounder's error; *acc is then unchanged. */
+ * is not R or T, BBC_ERR_OUT_OF_MEMORY, or the bounder's error; *acc is then unchanged.
+ *
+ * A beam tuple (receiver BBC_RECEIVER_BEAM, any chain type) is bounded by bbc_bound_beam
+ * over the box of the scene's receivers that are not planes; each sampled path is traced
+ * to every such receiver triangle its last segment meets (admissible there), and each
+ * landing counts as an admissible path: outside the box of the kept piece holding u1 a
+ * position violation, its irradiance on that triangle outside [e_lo, e_hi] an upper or
+ * lower one, and with no kept piece uncovered or in a discarded piece. */
 BBC_API bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene,
                                       const bbc_tuple *tuple, const bbc_bound_params *params,
                                       uint32_t samples, uint64_t seed, bbc_validation *acc);
@@ -134,7 +141,9 @@ BBC_API bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *sce
  * did not store, which must then have no admissible path at all. A missing entry counts
  * as a position violation, a low bound as an upper violation, an admissible path of an
  * unstored tuple as in_discarded; the ratio histogram is of log10(stored / true).
- * cursor is the caller's (one per thread). Thread safety as bbc_validate_tuple. */
+ * cursor is the caller's (one per thread). Thread safety as bbc_validate_tuple.
+ * A beam tuple's paths are traced to every receiver triangle not on a plane they meet
+ * (as bbc_validate_tuple does) and each landing is looked up at that triangle. */
 BBC_API bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *cursor,
                                              const bbc_scene *scene, const bbc_tuple *tuple,
                                              int64_t tuple_id, uint32_t samples, uint64_t seed,

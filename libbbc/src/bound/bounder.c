@@ -12,6 +12,7 @@
 #include <time.h>
 
 #include "bbc/interval.h"
+#include "bounder_internal.h"
 #include "chain_internal.h"
 #include "light_internal.h"
 #include "media_internal.h"
@@ -142,7 +143,10 @@ bbc_result bbc_tuple_geometry_init(bbc_tuple_geometry *g, const bbc_scene *scene
   g->light = light.position;
   g->light_model = light.model;
   g->length = length;
-  if (!bbc_receiver_triangle(scene, tuple->receiver, g->r)) return BBC_ERR_INVALID_ARGUMENT;
+  /* A beam tuple ends on no triangle: its r stays zero (bbc_bound_beam ignores it). */
+  if (!bbc_receiver_is_beam(tuple->receiver) &&
+      !bbc_receiver_triangle(scene, tuple->receiver, g->r))
+    return BBC_ERR_INVALID_ARGUMENT;
   const uint32_t *a = scene->indices + 3 * (size_t)tuple->specular[0];
   bbc_vec3 source =
       bbc__light_source(g->light, &g->light_model, v3_load(scene->positions + 3 * (size_t)a[0]));
@@ -1597,4 +1601,25 @@ done:
     stats->irradiance_seconds += local.irradiance_seconds;
   }
   return result;
+}
+
+bbc_arena *bbc__bounder_arena(bbc_bounder *b) {
+  return &b->arena;
+}
+
+bbc_result bbc__ray_lands(bbc_arena *arena, const bbc_poly *up, const bbc_poly *vp,
+                          const bbc_poly *kappa, const bbc_poly *tnum, double box[8], int *partial,
+                          int *wide, int *inside) {
+  return ray_lands(arena, up, vp, kappa, tnum, box, partial, wide, inside, NULL);
+}
+
+bbc_result bbc__irradiance_bound_explicit(bbc_arena *arena, const bbc_space *space,
+                                          const bbc_tuple_geometry *g, const chain_forms *f,
+                                          const double box[4], int s_axis, int t_axis,
+                                          bbc_jacobian_form form, double *e_lo, double *e_hi) {
+  *e_lo = 0;
+  *e_hi = INFINITY;
+  if (!f->slope_enclosed || (f->length == 2 && !f->slope_enclosed2)) return BBC_OK;
+  bbc_interval scale = irradiance_scale(g, f, (box[1] - box[0]) * (box[3] - box[2]));
+  return explicit_bound(arena, space, f, NULL, s_axis, t_axis, form, scale, e_lo, e_hi, NULL);
 }

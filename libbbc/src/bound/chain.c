@@ -169,6 +169,25 @@ bbc_result bbc__chain_forms_rest(bbc_arena *arena, bbc_space *space, const bbc_t
   return BBC_OK;
 }
 
+bbc_result bbc__chain_forms_retarget(bbc_arena *arena, bbc_space *space, const bbc_vec3 tri[3],
+                                     const chain_forms *from, chain_forms *out) {
+  *out = *from;
+  if (from->length == 2) return bbc__chain_double_retarget(arena, space, tri, out);
+  TRY(hit(arena, &from->x1, &from->d1, tri, &out->up, &out->vp, &out->kappa, &out->tnum));
+  if (from->has_value_fold) {
+    bbc_poly tnum_n;
+    TRY(hit(arena, &from->x1, &from->n1, tri, &out->up_n, &out->vp_n, &out->kappa_n, &tnum_n));
+  }
+  return BBC_OK;
+}
+
+void bbc__chain_direction(const chain_forms *f, bbc_poly3 *out) {
+  if (f->length == 2)
+    bbc__chain_double_direction(f, out);
+  else
+    *out = f->d1;
+}
+
 bbc_result bbc__chain_forms_rescatter(bbc_arena *arena, bbc_space *space,
                                       const bbc_tuple_geometry *g, const chain_forms *from,
                                       chain_sqrt_mode mode, chain_forms *out) {

@@ -508,6 +508,8 @@ typedef struct double_state {
   dvec x1, d1;
   dscal up2, vp2, kappa2, tnum2;
   dvec n2, x2; /* N2 and X2, set by the rest */
+  dvec d2;     /* the outgoing direction at T2, set by the rest */
+  int derivatives;
 } double_state;
 
 bbc_result bbc__chain_double_prefix(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
@@ -614,6 +616,8 @@ bbc_result bbc__chain_double_rest(bbc_arena *arena, bbc_space *space, const bbc_
 
   st->n2 = n2;
   st->x2 = x2;
+  st->d2 = d2;
+  st->derivatives = derivatives;
   dscal up, vp, kappa_k, tnum, q;
   TRY(dv_hit(&c, &x2, &st->kappa2, &d2, g->r, &up, &vp, &kappa_k, &tnum));
   TRY(ds_mul(&c, &q, &st->kappa2, &kappa_k));
@@ -624,6 +628,27 @@ bbc_result bbc__chain_double_rest(bbc_arena *arena, bbc_space *space, const bbc_
     out->kappa_s = q.s, out->kappa_t = q.t;
   }
   return BBC_OK;
+}
+
+bbc_result bbc__chain_double_retarget(bbc_arena *arena, bbc_space *space, const bbc_vec3 tri[3],
+                                      chain_forms *out) {
+  const double_state *st = out->scratch;
+  dual_ctx c = {arena, space, st->derivatives, st->area ? st->light_axes : NULL,
+                CHAIN_LIGHT_DEGREE};
+  dscal up, vp, kappa_k, tnum, q;
+  TRY(dv_hit(&c, &st->x2, &st->kappa2, &st->d2, tri, &up, &vp, &kappa_k, &tnum));
+  TRY(ds_mul(&c, &q, &st->kappa2, &kappa_k));
+  out->up = up.v, out->vp = vp.v, out->kappa = q.v, out->tnum = tnum.v;
+  if (st->derivatives) {
+    out->up_s = up.s, out->up_t = up.t, out->vp_s = vp.s, out->vp_t = vp.t;
+    out->kappa_s = q.s, out->kappa_t = q.t;
+  }
+  return BBC_OK;
+}
+
+void bbc__chain_double_direction(const chain_forms *f, bbc_poly3 *out) {
+  const double_state *st = f->scratch;
+  out->x = st->d2.x.v, out->y = st->d2.y.v, out->z = st->d2.z.v;
 }
 
 /* ---- implicit differentiation of the last refraction (Eq. 17-19) ------------------- */

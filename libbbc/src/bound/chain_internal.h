@@ -84,6 +84,19 @@ bbc_result bbc__chain_forms_rescatter(bbc_arena *arena, bbc_space *space,
                                       const bbc_tuple_geometry *g, const chain_forms *from,
                                       chain_sqrt_mode mode, chain_forms *out);
 
+/* The forms of `from` (complete, computed for g->r) for another receiver triangle tri
+ * whose edges are g->r's (a plane of the same family, docs/beams.md): up, vp, kappa,
+ * tnum, the value fold's and the two-bounce derivatives of the same ray against tri, in
+ * the same space; the rest is shared. Two bounces: from's scratch must still live. */
+bbc_result bbc__chain_forms_retarget(bbc_arena *arena, bbc_space *space, const bbc_vec3 tri[3],
+                                     const chain_forms *from, chain_forms *out);
+bbc_result bbc__chain_double_retarget(bbc_arena *arena, bbc_space *space, const bbc_vec3 tri[3],
+                                      chain_forms *out);
+/* The last vertex's unnormalised outgoing direction (d1, or d2 for two bounces: its
+ * value, which encloses the direction in the primal modes). */
+void bbc__chain_direction(const chain_forms *f, bbc_poly3 *out);
+void bbc__chain_double_direction(const chain_forms *f, bbc_poly3 *out);
+
 /* bbc__chain_forms in two steps, so that a piece whose light provably misses T2 is
  * discarded before the costly rest is built: the prefix computes x1, d1, facing, beta,
  * dist2 and (two bounces) up2, vp2, kappa2, tnum2; the rest everything else. */

@@ -21,13 +21,14 @@ typedef struct bbc__tuple_search bbc__tuple_search;
 
 /* A search of the candidates of the scene's point lights for the chain types of
  * `chains`, followed by those of its emitters (light point_light_count + e) for
- * `area_chains` (0: none), in the order of bbc_tuples_find then bbc_tuples_find_area.
+ * `area_chains` (0: none), in the order of bbc_tuples_find then bbc_tuples_find_area;
+ * with `beam`, receiver triangles not on a plane give beam tuples (bbc_tuples_find_beam).
  * `threads` searching threads (0: every core); block_bytes is the most bytes of tuples
  * the search holds at once (0: 16 MiB; at least one tuple per thread).
  * *out is NULL on failure; free with bbc__tuple_search_free. Not thread-safe: one
  * caller at a time, which the search's own threads serve. */
 bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *scene,
-                                    uint32_t chains, uint32_t area_chains, int threads,
+                                    uint32_t chains, uint32_t area_chains, int beam, int threads,
                                     size_t block_bytes);
 
 /* The next candidates in order: *tuples (borrowed, valid until the next call or the

@@ -301,8 +301,11 @@ static bbc_result beam_hits(bbc_arena *arena, const beam *b, const triangle_plan
 }
 
 /* A BVH over the triangles of meshes with the given role; a receiver plane
- * (bbc_mesh.plane) is one item, its plane, boxed by its triangles. */
-static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role) {
+ * (bbc_mesh.plane) is one item, its plane, boxed by its triangles. With `whole_meshes`
+ * (beam receivers) every mesh is one such item, BBC_RECEIVER_PLANE(mesh) whether it is a
+ * plane or not (beam_items tells them apart): a beam tuple then depends on the boxes of
+ * the receivers, not on how finely they are cut. */
+static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role, int whole_meshes) {
   memset(b, 0, sizeof *b);
   b->mesh_box = malloc((scene->mesh_count ? scene->mesh_count : 1) * sizeof *b->mesh_box);
   if (!b->mesh_box) return BBC_ERR_OUT_OF_MEMORY;
@@ -317,7 +320,7 @@ static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role) {
       for (int a = 0; a < 3; a++)
         box[a] = fmin(box[a], lo[a]), box[3 + a] = fmax(box[3 + a], hi[a]);
     }
-    if (mesh->role == role) n += mesh->plane ? 1 : mesh->triangle_count;
+    if (mesh->role == role) n += mesh->plane || whole_meshes ? 1 : mesh->triangle_count;
   }
   if (n == 0) return BBC_OK;
   b->order = malloc(n * sizeof *b->order);
@@ -327,7 +330,7 @@ static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role) {
   for (uint32_t m = 0; m < scene->mesh_count; m++) {
     const bbc_mesh *mesh = &scene->meshes[m];
     if (mesh->role != role) continue;
-    if (mesh->plane != 0) {
+    if (mesh->plane != 0 || whole_meshes) {
       b->order[n++] = BBC_RECEIVER_PLANE(m);
       continue;
     }
@@ -383,6 +386,31 @@ static int medium_reaches(const bvh *b, const bbc_scene *scene, uint32_t medium,
   for (int a = 0; a < 3; a++)
     if (hi[a] < box[a] || lo[a] > box[3 + a]) return 0;
   return 1;
+}
+
+/* Beam receivers (bbc_tuples_find_beam): the n items the walk found, sorted (whole
+ * meshes, bvh_init), with the receivers that are not planes replaced by one
+ * BBC_RECEIVER_BEAM after the planes (the largest value, so the list stays sorted) when
+ * any of them is reachable in `medium`; the items the medium rule drops are dropped
+ * here. Returns the new count. */
+static uint32_t beam_items(const bvh *b, const bbc_scene *scene, uint32_t medium, uint32_t *found,
+                           uint32_t n) {
+  uint32_t k = 0;
+  int any = 0;
+  for (uint32_t i = 0; i < n; i++) {
+    if (!medium_reaches(b, scene, medium, found[i])) continue;
+    if (scene->meshes[bbc_receiver_plane_mesh(found[i])].plane)
+      found[k++] = found[i];
+    else
+      any = 1;
+  }
+  if (any) found[k++] = BBC_RECEIVER_BEAM;
+  return k;
+}
+
+/* Whether the walk's item r is a tuple's receiver in `medium`. */
+static int item_reaches(const bvh *b, const bbc_scene *scene, uint32_t medium, uint32_t r) {
+  return bbc_receiver_is_beam(r) || medium_reaches(b, scene, medium, r);
 }
 
 /* The chain letter of a specular material: 0 mirror (R), 1 dielectric (T), -1 neither. */
@@ -573,10 +601,10 @@ static void scratch_free(search_scratch *s) {
  * from the place *at on, as prefix_tuples says. `tuple` is the prefix's single
  * scattering tuple, `first` its scattering at T1 (1: refraction), medium the one
  * beyond T1 and enclosure what encloses it there (bbc__media_enclosure). */
-static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, const bvh *receivers,
-                                uint32_t medium, uint32_t enclosure, const bbc_tuple *tuple,
-                                int first, search_place *at, search_scratch *s, tuple_list *list,
-                                int *stopped) {
+static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, int beam_receivers,
+                                const bvh *receivers, uint32_t medium, uint32_t enclosure,
+                                const bbc_tuple *tuple, int first, search_place *at,
+                                search_scratch *s, tuple_list *list, int *stopped) {
   const uint32_t after[2] = {1u << (first ? BBC_CHAIN_TR : BBC_CHAIN_RR),
                              1u << (first ? BBC_CHAIN_TT : BBC_CHAIN_RT)};
   for (uint32_t j = at->stage ? at->stage - 1 : 0; j < s->n2; j++) {
@@ -604,8 +632,9 @@ static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, const b
       last = sides == 1 ? a : sides == 2 ? b : a == b ? a : 0;
     }
     uint32_t n = bvh_beam(receivers, scene, &x2, &d2, s->stack, s->found);
+    if (beam_receivers) n = beam_items(receivers, scene, last, s->found, n);
     for (uint32_t i = start; i < n; i++) {
-      if (!medium_reaches(receivers, scene, last, s->found[i])) continue;
+      if (!item_reaches(receivers, scene, last, s->found[i])) continue;
       if (list->count == list->limit) {
         at->stage = j + 1;
         at->index = i;
@@ -623,10 +652,10 @@ static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, const b
  * to list in the order (T2, receiver), single scattering first. When the list reaches
  * its limit before the prefix ends, *stopped is 1 and *at the place of the next tuple,
  * from which a later call carries on (the stages are found again in the same order). */
-static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const bvh *receivers,
-                                const bvh *casters, const bbc_point_light *light, uint32_t l,
-                                search_place *at, search_scratch *s, tuple_list *list,
-                                int *stopped) {
+static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int beam_receivers,
+                                const bvh *receivers, const bvh *casters,
+                                const bbc_point_light *light, uint32_t l, search_place *at,
+                                search_scratch *s, tuple_list *list, int *stopped) {
   bbc_result result = BBC_OK;
   const uint32_t t = at->t1;
   *stopped = 0;
@@ -652,8 +681,10 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const b
   const uint32_t after[2] = {1u << (first ? BBC_CHAIN_TR : BBC_CHAIN_RR),
                              1u << (first ? BBC_CHAIN_TT : BBC_CHAIN_RT)};
   if (!(chains & ((1u << single) | after[0] | after[1]))) return BBC_OK;
-  /* The beam does not depend on the receiver: use any as a stand-in. */
-  bbc_tuple tuple = {l, (uint32_t)single, {t, BBC_NO_TRIANGLE}, receivers->order[0]};
+  /* The beam does not depend on the receiver: use any as a stand-in (a beam's, which
+   * names no triangle, with whole meshes in the walk). */
+  const uint32_t stand_in = beam_receivers ? BBC_RECEIVER_BEAM : receivers->order[0];
+  bbc_tuple tuple = {l, (uint32_t)single, {t, BBC_NO_TRIANGLE}, stand_in};
   bbc_tuple_geometry g;
   if ((result = bbc_tuple_geometry_init(&g, scene, &tuple)) != BBC_OK) return result;
   /* A light in T1's plane sees it edge-on: no light passes through. */
@@ -668,8 +699,9 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const b
     bbc_arena_reset(&s->arena, 0);
     if ((result = beam_of(&s->arena, &g, whole, &whole_beam)) != BBC_OK) return result;
     uint32_t n = bvh_beam(receivers, scene, &whole_beam.x, &whole_beam.d, s->stack, s->found);
+    if (beam_receivers) n = beam_items(receivers, scene, enclosure, s->found, n);
     for (uint32_t i = at->index; i < n; i++) {
-      if (!medium_reaches(receivers, scene, enclosure, s->found[i])) continue;
+      if (!item_reaches(receivers, scene, enclosure, s->found[i])) continue;
       if (list->count == list->limit) {
         at->index = i;
         *stopped = 1;
@@ -681,8 +713,8 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const b
   }
   if (!(chains & (after[0] | after[1])) || casters->node_count == 0) return BBC_OK;
   if (s->listed && s->listed_light == l && s->listed_t1 == t)
-    return second_tuples(scene, chains, receivers, medium, enclosure, &tuple, first, at, s, list,
-                         stopped);
+    return second_tuples(scene, chains, beam_receivers, receivers, medium, enclosure, &tuple, first,
+                         at, s, list, stopped);
   s->listed = 0;
   /* T2 from the beams of the BEAM_SPLIT x BEAM_SPLIT s->boxes of T1's unit box that
    * meet the triangle (far tighter than T1's whole beam, whose box of u1 is twice
@@ -749,8 +781,8 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, const b
   s->listed = 1;
   s->listed_light = l;
   s->listed_t1 = t;
-  return second_tuples(scene, chains, receivers, medium, enclosure, &tuple, first, at, s, list,
-                       stopped);
+  return second_tuples(scene, chains, beam_receivers, receivers, medium, enclosure, &tuple, first,
+                       at, s, list, stopped);
 }
 
 /* Prefixes are searched in chunks of SEARCH_CHUNK T1, a window of chunks in parallel;
@@ -773,6 +805,7 @@ typedef struct search_chunk {
 struct bbc__tuple_search {
   const bbc_scene *scene;
   uint32_t chains, area_chains;
+  int beam; /* beam receivers (beam_items) */
   int threads;
   bvh receivers, casters;
   search_scratch *scratch;
@@ -795,13 +828,14 @@ static uint32_t light_chains(const bbc__tuple_search *s, uint32_t l) {
 }
 
 bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *scene,
-                                    uint32_t chains, uint32_t area_chains, int threads,
+                                    uint32_t chains, uint32_t area_chains, int beam, int threads,
                                     size_t block_bytes) {
   *out = NULL;
   bbc__tuple_search *s = calloc(1, sizeof *s);
   if (!s) return BBC_ERR_OUT_OF_MEMORY;
   s->scene = scene;
   s->chains = chains;
+  s->beam = beam != 0;
   s->area_chains = scene->emitter_count ? area_chains : 0;
   s->threads = threads > 0 ? threads : omp_get_max_threads();
   s->target = block_bytes ? block_bytes : DEFAULT_BLOCK_BYTES;
@@ -818,8 +852,8 @@ bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *sc
   const int two = ((s->chains | s->area_chains) & doubles) != 0;
   s->scratch = calloc((size_t)s->threads, sizeof *s->scratch);
   bbc_result r = s->scratch ? BBC_OK : BBC_ERR_OUT_OF_MEMORY;
-  if (r == BBC_OK) r = bvh_init(&s->receivers, scene, BBC_ROLE_RECEIVER);
-  if (r == BBC_OK && two) r = bvh_init(&s->casters, scene, BBC_ROLE_CASTER);
+  if (r == BBC_OK) r = bvh_init(&s->receivers, scene, BBC_ROLE_RECEIVER, s->beam);
+  if (r == BBC_OK && two) r = bvh_init(&s->casters, scene, BBC_ROLE_CASTER, 0);
   for (int i = 0; i < s->threads && r == BBC_OK; i++) r = scratch_init(&s->scratch[i], scene, two);
   if (r != BBC_OK) {
     bbc__tuple_search_free(s);
@@ -858,8 +892,8 @@ static bbc_result chunk_search(bbc__tuple_search *s, search_chunk *c, search_scr
   const uint32_t chains = light_chains(s, s->light);
   for (; c->at.t1 < c->end; c->at.t1++, c->at.stage = c->at.index = 0) {
     int stopped = 0;
-    bbc_result r = prefix_tuples(s->scene, chains, &s->receivers, &s->casters, &s->point, s->light,
-                                 &c->at, w, &c->part, &stopped);
+    bbc_result r = prefix_tuples(s->scene, chains, s->beam, &s->receivers, &s->casters, &s->point,
+                                 s->light, &c->at, w, &c->part, &stopped);
     if (r != BBC_OK || stopped) return r;
   }
   return BBC_OK;
@@ -977,11 +1011,11 @@ bbc_result bbc__tuple_search_next(bbc__tuple_search *s, const bbc_tuple **tuples
 }
 
 static bbc_result tuples_collect(const bbc_scene *scene, uint32_t chains, uint32_t area_chains,
-                                 bbc_tuple **out, size_t *count) {
+                                 int beam, bbc_tuple **out, size_t *count) {
   *out = NULL;
   *count = 0;
   bbc__tuple_search *s = NULL;
-  bbc_result r = bbc__tuple_search_create(&s, scene, chains, area_chains, 0, 0);
+  bbc_result r = bbc__tuple_search_create(&s, scene, chains, area_chains, beam, 0, 0);
   tuple_list list = {NULL, 0, 0, SIZE_MAX};
   while (r == BBC_OK) {
     const bbc_tuple *block;
@@ -1013,10 +1047,15 @@ static bbc_result tuples_collect(const bbc_scene *scene, uint32_t chains, uint32
 
 bbc_result bbc_tuples_find(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
                            size_t *count) {
-  return tuples_collect(scene, chains, 0, out, count);
+  return tuples_collect(scene, chains, 0, 0, out, count);
+}
+
+bbc_result bbc_tuples_find_beam(const bbc_scene *scene, uint32_t chains, uint32_t area_chains,
+                                bbc_tuple **out, size_t *count) {
+  return tuples_collect(scene, chains, area_chains, 1, out, count);
 }
 
 bbc_result bbc_tuples_find_area(const bbc_scene *scene, uint32_t chains, bbc_tuple **out,
                                 size_t *count) {
-  return tuples_collect(scene, 0, chains, out, count);
+  return tuples_collect(scene, 0, chains, 0, out, count);
 }

@@ -319,11 +319,12 @@ static bbc_result check_params_and_fingerprint(bbc_cache *c) {
   q->remainder = flags & 1u;
   q->area_lights = (flags >> 1) & 1u;
   q->area_double = (flags >> 2) & 1u;
+  q->beam_receivers = (flags >> 3) & 1u;
   q->alpha_area = bbc__ldf64(p + 48);
   if ((q->chains & ~BBC_CHAIN_MASK_ALL) != 0)
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "reserved chain bits 0x%x not zero (R-FILE-2)",
                 q->chains & ~BBC_CHAIN_MASK_ALL);
-  if ((flags & ~7u) != 0 || !all_zero(p + 56, 8))
+  if ((flags & ~15u) != 0 || !all_zero(p + 56, 8))
     return fail(c, BBC_ERR_CORRUPT, "PARM", at + 44, "reserved bits not zero (R-FILE-2)");
   if (!bbc__params_valid(q) || (!q->area_lights && q->alpha_area != 0))
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "parameter out of its range (R-PAR-1)");
@@ -488,7 +489,8 @@ static bbc_result check_tuples(bbc_cache *c) {
              (bbc_chain_length((bbc_chain)(u->chain < BBC_CHAIN_COUNT ? u->chain : 0)) == 1
                   ? u->specular[1] == BBC_NO_TRIANGLE
                   : u->specular[1] < triangles) &&
-             bbc__grid_tuple_end(&c->grid, u->receiver);
+             (bbc_receiver_is_beam(u->receiver) ? c->params.beam_receivers != 0
+                                                : bbc__grid_tuple_end(&c->grid, u->receiver));
     if (!ok)
       return fail(c, BBC_ERR_CORRUPT, "TUPL", c->sec_offset[K_TUPL] + BBC__TUPL_SIZE * i,
                   "tuple %llu (light %u, chain %u, triangles %u %u %u) invalid (R-TUP-1)",
@@ -889,6 +891,10 @@ bbc_result bbc_cache_check_params(const bbc_cache *c, const bbc_precompute_param
            (p->area_lights && p->area_double && (p->chains & BBC_CHAIN_MASK_DOUBLE) ? 1u : 0u))
     snprintf(diff, sizeof diff, "area_double %u (format %u.%u), expected %u", q->area_double,
              c->version_major, c->version_minor, q->area_double ? 0u : 1u);
+  else if (q->beam_receivers != (p->beam_receivers ? 1u : 0u))
+    snprintf(diff, sizeof diff, "receivers %s, expected %s",
+             q->beam_receivers ? "beam" : "per-triangle",
+             p->beam_receivers ? "beam" : "per-triangle");
   if (!diff[0]) return BBC_OK;
   return bbc__report(c->options.error_fn, c->options.user, BBC_ERR_SCENE_MISMATCH,
                      "%s: computed with other parameters: %s", c->path, diff);

@@ -26,6 +26,7 @@
 #define BBC__MINOR_AREA_DOUBLE 4u /* area lights' double scattering (PARM flags bit 2) */
 #define BBC__MINOR_AREA_ALPHA 5u  /* area lights' own ratio (PARM bytes 48-55) */
 #define BBC__MINOR_PLANE 6u       /* receiver planes (RCVR parameterisation 3) */
+#define BBC__MINOR_BEAM 7u        /* beam receivers (PARM flags bit 3) */
 
 /* XXH64 of a candidate list as TUPL records (the candidates_hash of SHRD). */
 uint64_t bbc__candidates_hash(const bbc_tuple *tuples, size_t count);

@@ -112,6 +112,7 @@ bbc_result bbc_cache_builder_create(bbc_cache_builder **out, const bbc_scene *sc
   /* The area lights' double-scattering tuples (format 1.4, PARM flags bit 2). */
   b->params.area_double =
       b->params.area_lights && params->area_double && (params->chains & BBC_CHAIN_MASK_DOUBLE);
+  b->params.beam_receivers = params->beam_receivers ? 1 : 0; /* format 1.7, flags bit 3 */
   bbc_fingerprint_compute(scene, &b->params, &b->fingerprint);
   b->scene_counts[0] = scene->vertex_count;
   b->scene_counts[1] = scene->triangle_count;
@@ -200,7 +201,8 @@ bbc_result bbc_cache_builder_add_tuple(bbc_cache_builder *b, const bbc_tuple *t,
       (t->light >= b->scene_counts[4] && bbc_chain_length((bbc_chain)t->chain) != 1 &&
        !b->params.area_double) ||
       t->specular[0] >= triangles ||
-      !bbc__grid_tuple_end(b->grid, t->receiver))
+      !(bbc_receiver_is_beam(t->receiver) ? b->params.beam_receivers != 0
+                                          : bbc__grid_tuple_end(b->grid, t->receiver)))
     return BBC_ERR_INVALID_ARGUMENT;
   if (bbc_chain_length((bbc_chain)t->chain) == 1 ? t->specular[1] != BBC_NO_TRIANGLE
                                                  : t->specular[1] >= triangles)
@@ -1081,13 +1083,15 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   int planes = 0;
   for (uint32_t i = 0; i < b->grid->receiver_count; i++)
     planes |= b->grid->receivers[i].parameterisation == BBC_PARAM_PLANE;
-  bbc__st16(header + 10, planes ? BBC__MINOR_PLANE
-                         : b->params.area_lights && b->params.alpha_area != 0 ? BBC__MINOR_AREA_ALPHA
-                         : b->params.area_double  ? BBC__MINOR_AREA_DOUBLE
-                         : geom                    ? BBC__MINOR_GEOMETRY
+  bbc__st16(header + 10, b->params.beam_receivers ? BBC__MINOR_BEAM
+                         : planes                 ? BBC__MINOR_PLANE
+                         : b->params.area_lights && b->params.alpha_area != 0
+                             ? BBC__MINOR_AREA_ALPHA
+                         : b->params.area_double ? BBC__MINOR_AREA_DOUBLE
+                         : geom                  ? BBC__MINOR_GEOMETRY
                          : b->params.area_lights ? BBC__MINOR_AREA
-                         : b->shard_count   ? BBC__MINOR_SHARD
-                                            : BBC__MINOR_COMPLETE);
+                         : b->shard_count        ? BBC__MINOR_SHARD
+                                                 : BBC__MINOR_COMPLETE);
   bbc__st32(header + 12, nsec);
   bbc__st64(header + 16, file_size);
   bbc__st32(header + 28, crc_of(crc32_z(0, NULL, 0), dir, BBC__DIR_ENTRY_SIZE * nsec));

@@ -25,8 +25,10 @@ int bbc__params_valid(const bbc_precompute_params *p) {
          isfinite(p->alpha_single) && p->alpha_single >= 1 && isfinite(p->alpha_double) &&
          p->alpha_double >= 1 && isfinite(p->m) && p->m > 0 && p->grid_resolution >= 1 &&
          p->grid_resolution <= BBC__MAX_RESOLUTION && p->remainder <= 1 && p->area_lights <= 1 &&
-         p->area_double <= 1 && (!p->area_double || (p->area_lights && (p->chains & BBC_CHAIN_MASK_DOUBLE))) &&
-         (p->alpha_area == 0 || (isfinite(p->alpha_area) && p->alpha_area >= 1));
+         p->area_double <= 1 &&
+         (!p->area_double || (p->area_lights && (p->chains & BBC_CHAIN_MASK_DOUBLE))) &&
+         (p->alpha_area == 0 || (isfinite(p->alpha_area) && p->alpha_area >= 1)) &&
+         p->beam_receivers <= 1;
 }
 
 double bbc__params_alpha_area(const bbc_precompute_params *p) {
@@ -43,7 +45,7 @@ void bbc__params_encode(const bbc_precompute_params *p, uint8_t out[BBC__PARM_SI
   bbc__stf64(out + 32, p->m);
   bbc__st32(out + 40, p->grid_resolution);
   bbc__st32(out + 44, (p->remainder ? 1u : 0u) | (p->area_lights ? 2u : 0u) |
-                          (p->area_double ? 4u : 0u));
+                          (p->area_double ? 4u : 0u) | (p->beam_receivers ? 8u : 0u));
   /* Without area lights the field is 0, so that the parameters' hash does not depend on
    * a value nothing used. */
   bbc__stf64(out + 48, p->area_lights ? p->alpha_area : 0.0);

@@ -23,7 +23,7 @@ bbc_result bbc__census_take(bbc__census *c, const bbc_scene *scene,
   memset(c, 0, sizeof *c);
   const double t0 = omp_get_wtime();
   bbc__tuple_search *s = NULL;
-  bbc_result r = bbc__tuple_search_create(&s, scene, q->chains, q->area_chains, q->threads,
+  bbc_result r = bbc__tuple_search_create(&s, scene, q->chains, q->area_chains, q->beam, q->threads,
                                           q->block_bytes);
   c->sample = q->sample_max ? malloc(q->sample_max * sizeof *c->sample) : NULL;
   if (r == BBC_OK && q->sample_max && !c->sample) r = BBC_ERR_OUT_OF_MEMORY;
@@ -122,7 +122,7 @@ bbc_result bbc__candidates_begin(bbc__candidates *s, const bbc_scene *scene,
     s->block_count = (size_t)c->count;
     return BBC_OK;
   }
-  return bbc__tuple_search_create(&s->search, scene, q->chains, q->area_chains, q->threads,
+  return bbc__tuple_search_create(&s->search, scene, q->chains, q->area_chains, q->beam, q->threads,
                                   q->block_bytes);
 }
 

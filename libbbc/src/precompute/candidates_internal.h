@@ -19,6 +19,7 @@
  * `bounded` only the shard's). */
 typedef struct bbc__census_request {
   uint32_t chains, area_chains;
+  int beam; /* beam receivers (bbc_precompute_params.beam_receivers) */
   int threads;
   uint32_t shard_index, shard_count;
   size_t hold_bytes;  /* keep the list when its bytes are at most this */

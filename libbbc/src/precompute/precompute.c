@@ -8,6 +8,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include "bbc/precompute.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,6 +16,7 @@
 
 #include <omp.h>
 
+#include "beam_cells_internal.h"
 #include "candidates_internal.h"
 #include "cache_format_internal.h"
 #include "cache_shard_internal.h"
@@ -257,6 +259,14 @@ static int keep_piece(void *user, const bbc_piece *piece) {
   return 0;
 }
 
+/* A beam tuple's kept pieces and their cell bounds (cell_bound of E_hi). */
+typedef struct beam_list {
+  bbc_beam_piece *items;
+  double *bound;
+  size_t count, capacity;
+  int failed;
+} beam_list;
+
 /* A per-thread raster of one tuple's bounds over the cells its pieces cover. */
 typedef struct raster {
   double *cells;
@@ -265,23 +275,36 @@ typedef struct raster {
   size_t rows;
 } raster;
 
+/* A rectangle of a tuple's cells in one receiver: h rows from row y0, its codes and
+ * spans from these indices of its arena on. */
+typedef struct cell_segment {
+  uint32_t receiver, y0, h;
+  size_t codes, spans;
+} cell_segment;
+
 /* The cells of a batch's tuples as the builder takes them (bbc__cache_builder_add_rows),
  * per bounding thread: for each row of a tuple's cell rectangle, the span from its first
  * to its last cell with an entry, and the codes of the span, 0 for no entry. Emptied
- * before each batch, so it holds one batch, about its entries. */
+ * before each batch, so it holds one batch, about its entries. A tuple's cells are one
+ * segment (a rectangle of its receiver), or for a beam tuple one per receiver reached. */
 typedef struct cell_arena {
   uint16_t *codes;
   uint32_t *spans; /* per row: first column, count */
-  size_t codes_used, codes_cap, spans_used, spans_cap;
+  cell_segment *segments;
+  size_t codes_used, codes_cap, spans_used, spans_cap, segments_used, segments_cap;
 } cell_arena;
 
-/* One tuple's cells: h rows from row y0 of its receiver, in arena `arena`; h == 0 when
- * it has none. */
+static void arena_clear(cell_arena *a) {
+  a->codes_used = a->spans_used = a->segments_used = 0;
+}
+
+/* One tuple's cells: `segments` segments from index `segment` on in arena `arena`
+ * (consecutive: one thread appends them); none when it has no cells. */
 typedef struct tuple_cells {
   int stored; /* the tuple has a stored piece (it is stored even with no cells) */
   int arena;
-  size_t codes, spans; /* where its codes and spans start in the arena */
-  uint32_t receiver, y0, h;
+  size_t segment;
+  uint32_t segments;
   uint64_t entries; /* codes not 0 */
 } tuple_cells;
 
@@ -307,10 +330,15 @@ static bbc_result arena_add(cell_arena *a, int arena, tuple_cells *out, uint32_t
   if (!arena_reserve((void **)&a->codes, &a->codes_cap, a->codes_used + (size_t)w * h,
                      sizeof *a->codes) ||
       !arena_reserve((void **)&a->spans, &a->spans_cap, a->spans_used + 2 * (size_t)h,
-                     sizeof *a->spans))
+                     sizeof *a->spans) ||
+      !arena_reserve((void **)&a->segments, &a->segments_cap, a->segments_used + 1,
+                     sizeof *a->segments))
     return BBC_ERR_OUT_OF_MEMORY;
-  out->arena = arena, out->codes = a->codes_used, out->spans = a->spans_used;
-  out->receiver = receiver, out->y0 = y0, out->h = h;
+  out->arena = arena;
+  if (out->segments == 0) out->segment = a->segments_used;
+  cell_segment *seg = &a->segments[a->segments_used];
+  seg->codes = a->codes_used, seg->spans = a->spans_used;
+  seg->receiver = receiver, seg->y0 = y0, seg->h = h;
   uint64_t entries = 0;
   uint16_t *codes = a->codes + a->codes_used;
   uint32_t *spans = a->spans + a->spans_used;
@@ -343,7 +371,9 @@ static bbc_result arena_add(cell_arena *a, int arena, tuple_cells *out, uint32_t
   }
   a->codes_used = (size_t)(codes - a->codes);
   a->spans_used += 2 * (size_t)h;
-  out->entries = entries;
+  a->segments_used++;
+  out->segments++;
+  out->entries += entries;
   return BBC_OK;
 }
 
@@ -371,7 +401,7 @@ static double cell_bound(double e_hi, double power) {
  * `escaped` says when not). */
 static bbc_result tuple_cells_from_coverage(cell_arena *a, int arena, tuple_cells *out,
                                             const coverage *c, double power) {
-  out->h = 0;
+  out->segments = 0;
   out->entries = 0;
   if (!c->touched) return BBC_OK;
   return arena_add(a, arena, out, c->receiver, c->tx0, c->ty0, c->tx1 - c->tx0 + 1,
@@ -385,7 +415,7 @@ static bbc_result tuple_cells_from_pieces(cell_arena *a, int arena, tuple_cells 
                                           const bbc_grid *grid, double power,
                                           const bbc_tuple *tuple, const piece_list *pieces,
                                           raster *r) {
-  out->h = 0;
+  out->segments = 0;
   out->entries = 0;
   bbc_cell_range all = {0, UINT32_MAX, UINT32_MAX, 0, 0};
   int any = 0;
@@ -453,22 +483,40 @@ static int record_part(bbc_cache_builder *builder, const batch *b, uint32_t part
   int status = 0;
   for (; i < b->n; i++) {
     const tuple_cells *t = &b->cells[i];
-    if (b->ids[i] == UINT32_MAX || t->h == 0) continue;
+    if (b->ids[i] == UINT32_MAX || t->segments == 0) continue;
     if (bbc__cache_builder_full(builder)) {
       status = 1;
       break;
     }
     const cell_arena *a = &b->arenas[t->arena];
-    if (bbc__cache_builder_add_rows(builder, b->ids[i], t->receiver, t->y0, t->h,
-                                    a->spans + t->spans, a->codes + t->codes, part,
-                                    parts) != BBC_OK) {
-      status = -1;
-      break;
+    for (uint32_t k = 0; k < t->segments && status == 0; k++) {
+      const cell_segment *s = &a->segments[t->segment + k];
+      if (bbc__cache_builder_add_rows(builder, b->ids[i], s->receiver, s->y0, s->h,
+                                      a->spans + s->spans, a->codes + s->codes, part,
+                                      parts) != BBC_OK)
+        status = -1;
     }
+    if (status) break;
   }
   *resume = i;
   return status;
 }
+
+/* A per-thread raster of one beam tuple's bounds over the cells of each receiver that
+ * is not a plane (allocated when first reached), kept up to date while the tuple is
+ * bounded, as `coverage` is for other tuples: per cell the largest E_hi per unit
+ * intensity of the stored pieces reaching it (at least DBL_TRUE_MIN), 0 where none does.
+ * Only the touched rectangles are cleared after the tuple. */
+typedef struct beam_plane {
+  double *cells; /* width x height of its receiver */
+  int touched;
+  uint32_t tx0, ty0, tx1, ty1;
+} beam_plane;
+
+typedef struct beam_cover {
+  beam_plane *planes; /* per beam receiver (bbc__beam_receivers.items) */
+  uint32_t count;
+} beam_cover;
 
 /* What bounding a tuple needs: the scene, the parameters and per thread its bounder,
  * pieces, raster and coverage. */
@@ -481,14 +529,192 @@ typedef struct bound_context {
   piece_list *pieces;
   raster *rasters;
   coverage *covers;
+  /* Beam tuples: the receivers that are not planes, and per thread the kept pieces,
+   * their cell bounds and the working memory of their cells. */
+  const bbc__beam_receivers *beams;
+  beam_list *beam_pieces;
+  bbc__beam_scratch *beam_scratch;
+  beam_cover *beam_covers;
   int (*cancel_fn)(void *user);
   void *cancel_user;
 } bound_context;
+
+/* What a beam tuple's cell test and keeper share (bbc_bound_params.beam_need). */
+typedef struct beam_sink {
+  const bbc__beam_receivers *beams;
+  const bbc_scene *scene;
+  const bbc_grid *grid;
+  bbc__beam_scratch *scratch;
+  beam_cover *cover;
+  beam_list *list;
+  /* The piece being looked at: its value, the cells seen (0, 1 or 2 for more), the
+   * first one, and whether every cell seen holds at least the value. */
+  double value;
+  int cells, dominated, raises, failed, cancelled;
+  uint32_t fk, fx, fy;
+  int (*cancel_fn)(void *user);
+  void *cancel_user;
+} beam_sink;
+
+static double beam_value(double e_hi) {
+  return e_hi > 0 ? e_hi : DBL_TRUE_MIN; /* 0 would read as no entry */
+}
+
+static int beam_plane_reserve(beam_sink *s, uint32_t k) {
+  beam_plane *pl = &s->cover->planes[k];
+  if (pl->cells) return 1;
+  const bbc_receiver *rc = &s->grid->receivers[s->beams->items[k].receiver];
+  pl->cells = calloc((size_t)rc->width * rc->height, sizeof *pl->cells);
+  return pl->cells != NULL;
+}
+
+static int beam_need_row(void *user, uint32_t k, uint32_t y, uint32_t x0, uint32_t x1,
+                         const uint8_t *mask) {
+  beam_sink *s = user;
+  const beam_plane *pl = &s->cover->planes[k];
+  const size_t w = s->grid->receivers[s->beams->items[k].receiver].width;
+  for (uint32_t x = x0; x <= x1; x++) {
+    if (mask && !mask[x]) continue;
+    if (s->cells == 0) {
+      s->cells = 1, s->fk = k, s->fx = x, s->fy = y;
+    } else if (s->cells == 1 && (k != s->fk || x != s->fx || y != s->fy)) {
+      s->cells = 2;
+    }
+    const double v = pl->cells ? pl->cells[y * w + x] : 0;
+    if (!(v > 0 && v >= s->value)) s->dominated = 0;
+    if (!s->dominated && s->cells > 1) return 1; /* the answer is known: split */
+  }
+  return 0;
+}
+
+/* bbc_bound_params.beam_depth: the depths of the receivers in a piece's box. */
+static int beam_depth(void *user, int axis, const double lo[3], const double hi[3],
+                      double *depth_lo, double *depth_hi) {
+  beam_sink *s = user;
+  return bbc__beam_depth(s->beams, s->scene, s->scratch, axis, lo, hi, depth_lo, depth_hi);
+}
+
+/* The beam counterpart of piece_need: NONE when the piece reaches no cell or every cell
+ * it reaches already holds at least its E_hi, KEEP when it reaches one cell, else SPLIT. */
+static bbc_piece_need beam_need(void *user, const bbc_beam_piece *piece) {
+  beam_sink *s = user;
+  s->value = beam_value(piece->e_hi);
+  s->cells = 0, s->dominated = 1;
+  bbc__beam_piece_rows(s->beams, s->scene, s->grid, piece, s->scratch, beam_need_row, s);
+  if (s->cells == 0 || s->dominated) return BBC_NEED_NONE;
+  return s->cells == 1 ? BBC_NEED_KEEP : BBC_NEED_SPLIT;
+}
+
+static int beam_keep_row(void *user, uint32_t k, uint32_t y, uint32_t x0, uint32_t x1,
+                         const uint8_t *mask) {
+  beam_sink *s = user;
+  if (!beam_plane_reserve(s, k)) {
+    s->failed = 1;
+    return 1;
+  }
+  beam_plane *pl = &s->cover->planes[k];
+  const size_t w = s->grid->receivers[s->beams->items[k].receiver].width;
+  double *row = pl->cells + y * w;
+  int any = 0;
+  uint32_t lo = x1, hi = x0;
+  for (uint32_t x = x0; x <= x1; x++) {
+    if (mask && !mask[x]) continue;
+    if (!(row[x] > 0 && row[x] >= s->value)) {
+      row[x] = s->value;
+      any = 1;
+      if (x < lo) lo = x;
+      if (x > hi) hi = x;
+    }
+  }
+  if (!any) return 0;
+  s->raises = 1;
+  if (!pl->touched) {
+    pl->touched = 1, pl->tx0 = lo, pl->tx1 = hi, pl->ty0 = pl->ty1 = y;
+  } else {
+    if (lo < pl->tx0) pl->tx0 = lo;
+    if (hi > pl->tx1) pl->tx1 = hi;
+    if (y < pl->ty0) pl->ty0 = y;
+    if (y > pl->ty1) pl->ty1 = y;
+  }
+  return 0;
+}
+
+/* A kept piece raises the cells it reaches to its E_hi; one that raises none changes
+ * nothing recorded and is not stored (the tuple is stored when some piece is). */
+static int keep_beam_piece(void *user, const bbc_beam_piece *piece) {
+  beam_sink *s = user;
+  beam_list *l = s->list;
+  if (s->cancel_fn && s->cancel_fn(s->cancel_user)) return s->cancelled = 1;
+  if (piece->status != BBC_PIECE_KEPT) return 0;
+  s->value = beam_value(piece->e_hi);
+  s->raises = 0;
+  bbc__beam_piece_rows(s->beams, s->scene, s->grid, piece, s->scratch, beam_keep_row, s);
+  if (s->failed) {
+    l->failed = 1;
+    return 1;
+  }
+  if (!s->raises) return 0;
+  l->count++;
+  return 0;
+}
+
+/* Bounds beam tuple t (receiver BBC_RECEIVER_BEAM) on thread `id`: its kept pieces'
+ * bounds go to the cells of every receiver triangle not on a plane that their boxes
+ * meet, the largest per cell, one segment per receiver reached. 0 on failure. */
+static int bound_beam_one(const bound_context *x, int id, const bbc_tuple *t, cell_arena *a,
+                          tuple_cells *c, bbc_bound_stats *stats) {
+  bbc_tuple_geometry g;
+  beam_list *list = &x->beam_pieces[id];
+  list->count = 0;
+  list->failed = 0;
+  c->stored = 0;
+  c->segments = 0;
+  c->entries = 0;
+  if (x->cancel_fn && x->cancel_fn(x->cancel_user)) return -1;
+  if (bbc_tuple_geometry_init(&g, x->scene, t) != BBC_OK) return 0;
+  if (bbc__beam_scratch_reserve(&x->beam_scratch[id], x->beams) != BBC_OK) return 0;
+  beam_sink sink;
+  memset(&sink, 0, sizeof sink);
+  sink.beams = x->beams, sink.scene = x->scene, sink.grid = x->grid;
+  sink.scratch = &x->beam_scratch[id], sink.cover = &x->beam_covers[id], sink.list = list;
+  sink.cancel_fn = x->cancel_fn, sink.cancel_user = x->cancel_user;
+  bbc_bound_params prm = g.light_model.kind == BBC_LIGHT_AREA ? x->bound_area
+                         : g.length == 2                      ? x->bound2
+                                                              : x->bound;
+  prm.beam_need = beam_need;
+  prm.beam_depth = beam_depth;
+  prm.need_user = &sink;
+  int ok = bbc_bound_beam(x->bounders[id], &g, x->beams->lo, x->beams->hi, &prm, keep_beam_piece,
+                          &sink, stats) == BBC_OK &&
+           !list->failed;
+  c->stored = ok && list->count > 0;
+  const double power = tuple_power(x->scene, x->params, t);
+  beam_cover *cover = &x->beam_covers[id];
+  for (uint32_t k = 0; k < cover->count; k++) {
+    beam_plane *pl = &cover->planes[k];
+    if (!pl->touched) continue;
+    const uint32_t receiver = x->beams->items[k].receiver;
+    const size_t w = x->grid->receivers[receiver].width;
+    if (ok && c->stored &&
+        arena_add(a, id, c, receiver, pl->tx0, pl->ty0, pl->tx1 - pl->tx0 + 1,
+                  pl->ty1 - pl->ty0 + 1, pl->cells + pl->ty0 * w + pl->tx0, w, 1, power) != BBC_OK)
+      ok = 0;
+    for (uint32_t y = pl->ty0; y <= pl->ty1; y++)
+      memset(pl->cells + y * w + pl->tx0, 0, ((size_t)pl->tx1 - pl->tx0 + 1) * sizeof *pl->cells);
+    pl->touched = 0;
+  }
+  if (sink.cancelled) {
+    c->stored = 0, c->segments = 0, c->entries = 0;
+    return -1;
+  }
+  return ok;
+}
 
 /* Bounds tuple t on thread `id` and gives its cells (in arena a, thread id's); 0 on
  * failure, -1 when cancel_fn said stop. */
 static int bound_one(const bound_context *x, int id, const bbc_tuple *t, cell_arena *a,
                      tuple_cells *c, bbc_bound_stats *stats) {
+  if (bbc_receiver_is_beam(t->receiver)) return bound_beam_one(x, id, t, a, c, stats);
   bbc_tuple_geometry g;
   piece_list *list = &x->pieces[id];
   list->count = 0;
@@ -512,14 +738,14 @@ static int bound_one(const bound_context *x, int id, const bbc_tuple *t, cell_ar
          !list->failed;
     if (sink.cancelled) {
       coverage_end(&x->covers[id]);
-      c->stored = 0, c->h = 0, c->entries = 0;
+      c->stored = 0, c->segments = 0, c->entries = 0;
       return -1;
     }
   }
   /* The tuple's cells, while the raster holds them (a tuple is stored when it has a
    * stored piece). */
   c->stored = ok && list->count > 0;
-  c->h = 0;
+  c->segments = 0;
   c->entries = 0;
   if (c->stored) {
     const double power = tuple_power(x->scene, x->params, t);
@@ -540,7 +766,7 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
   double cpu = 0;
   uint64_t stored = 0, entries = 0;
   int failed = 0, cancelled = 0;
-  for (int i = 0; i < threads; i++) arenas[i].codes_used = arenas[i].spans_used = 0;
+  for (int i = 0; i < threads; i++) arena_clear(&arenas[i]);
 #pragma omp parallel num_threads(threads) reduction(+ : cpu, stored, entries) \
     reduction(| : failed, cancelled)
   {
@@ -555,10 +781,11 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
       if (r < 0) cancelled = 1;
       stored += cells[i].stored;
       entries += cells[i].stored ? cells[i].entries : 0;
+      arena_clear(&arenas[id]); /* only the counts are needed: one tuple's cells at a time */
     }
     cpu += thread_cpu_seconds() - cpu0;
   }
-  for (int i = 0; i < threads; i++) arenas[i].codes_used = arenas[i].spans_used = 0;
+  for (int i = 0; i < threads; i++) arena_clear(&arenas[i]);
   if (cancelled) return BBC_ERR_CANCELLED;
   if (failed) return BBC_ERR_OUT_OF_MEMORY;
   e->sample_tuples = (uint32_t)n;
@@ -568,9 +795,47 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
   return BBC_OK;
 }
 
+/* Every cell of the receivers that are not planes: what a beam tuple's rasters hold. */
+static double beam_cells_total(const bbc__beam_receivers *beams, const bbc_grid *grid) {
+  double cells = 0;
+  for (uint32_t k = 0; k < beams->count; k++) {
+    const bbc_receiver *rc = &grid->receivers[beams->items[k].receiver];
+    cells += (double)rc->width * rc->height;
+  }
+  return cells;
+}
+
+/* The most a beam tuple's cells take in a batch's arena: a code per cell of each
+ * receiver's mask rectangle, a span per row and a segment per receiver. */
+static double beam_tuple_bytes(const bbc__beam_receivers *beams, const bbc_grid *grid) {
+  (void)grid;
+  double bytes = 0;
+  for (uint32_t k = 0; k < beams->count; k++) {
+    const bbc__beam_receiver *item = &beams->items[k];
+    if (item->mx0 > item->mx1) continue;
+    const double w = (double)item->mx1 - item->mx0 + 1, h = (double)item->my1 - item->my0 + 1;
+    bytes += w * h * sizeof(uint16_t) + h * 2 * sizeof(uint32_t) + sizeof(cell_segment);
+  }
+  return bytes;
+}
+
+/* Tuples per batch: BATCH_TUPLES, fewer when beam tuples could fill the two batches'
+ * arenas beyond the entry budget (each may reach every cell of the receivers that are
+ * not planes), at least BEAM_BATCH_MIN. It does not depend on the thread count. */
+#define BEAM_BATCH_MIN 8
+static size_t beam_batch_tuples(const bbc__beam_receivers *beams, const bbc_grid *grid,
+                                const bbc_precompute_options *o) {
+  if (!beams->count) return BATCH_TUPLES;
+  const double per = beam_tuple_bytes(beams, grid);
+  const double budget = o->entry_memory ? (double)o->entry_memory : 8.0 * 1048576.0;
+  const double n = per > 0 ? floor(budget / (2 * per)) : BATCH_TUPLES;
+  return n >= BATCH_TUPLES ? BATCH_TUPLES : n <= BEAM_BATCH_MIN ? BEAM_BATCH_MIN : (size_t)n;
+}
+
 /* The rest of the estimate, from the census and the sample: see precompute.h. */
 static void estimate_costs(const bbc__census *census, const bbc_precompute_options *o,
-                           const bbc_grid *grid, int threads, bbc_precompute_estimate *e) {
+                           const bbc_grid *grid, int threads, const bbc__beam_receivers *beams,
+                           bbc_precompute_estimate *e) {
   const double tuple = sizeof(bbc_tuple);
   e->candidate_tuples = census->count;
   memcpy(e->candidates_per_chain, census->per_chain, sizeof e->candidates_per_chain);
@@ -600,6 +865,15 @@ static void estimate_costs(const bbc__census *census, const bbc_precompute_optio
   double memory = stored * 2 * tuple + (o->shard_count ? stored * 2 * 8 : 0) + 2 * entry_memory;
   if (!e->list_held) memory += 2 * (double)census->block_peak;
   memory += (double)grid->cell_count * BBC__CIDX_SIZE;
+  /* Beam receivers: their BVHs and masks, and per thread a raster of the largest grid.
+   * A beam tuple may reach every cell of those receivers, so the two batches' cells
+   * (codes of 2 bytes over the tuples' rectangles, about their entries) count too. */
+  if (beams->count) {
+    memory += (double)beams->bytes +
+              threads * (double)beams->max_width * beams->max_height * sizeof(double);
+    memory += threads * (double)beam_cells_total(beams, grid) * sizeof(double);
+    memory += 2.0 * beam_batch_tuples(beams, grid, o) * beam_tuple_bytes(beams, grid);
+  }
   e->memory_bytes = (uint64_t)memory;
   /* The file: its fixed sections (as bbc_cache_check_resources counts them), the
    * tuples and the cell lists at about 1.7 bytes per entry once compressed (measured
@@ -637,6 +911,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   bbc__census_request request;
   memset(&request, 0, sizeof request);
   request.chains = params->chains;
+  request.beam = params->beam_receivers != 0;
   request.area_chains = !params->area_lights ? 0
                         : params->area_double ? params->chains
                                               : params->chains & ~BBC_CHAIN_MASK_DOUBLE;
@@ -719,18 +994,27 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
                            !thread_stats || !cpu_split))
     result = BBC_ERR_OUT_OF_MEMORY;
   for (int i = 0; i < threads && result == BBC_OK; i++) result = bbc_bounder_create(&bounders[i]);
-  const bound_context context = {scene,
-                                 params,
-                                 grid,
-                                 bound,
-                                 bound2,
-                                 bound_area,
-                                 bounders,
-                                 pieces,
-                                 rasters,
-                                 covers,
-                                 options->cancel_fn,
-                                 options->user};
+  /* Beam receivers: the receivers that are not planes, for the cells of beam tuples. */
+  bbc__beam_receivers beams;
+  memset(&beams, 0, sizeof beams);
+  beam_list *beam_pieces = calloc((size_t)threads, sizeof *beam_pieces);
+  bbc__beam_scratch *beam_scratch = calloc((size_t)threads, sizeof *beam_scratch);
+  if (result == BBC_OK && (!beam_pieces || !beam_scratch)) result = BBC_ERR_OUT_OF_MEMORY;
+  if (result == BBC_OK && params->beam_receivers)
+    result = bbc__beam_receivers_init(&beams, scene, grid);
+  beam_cover *beam_covers = calloc((size_t)threads, sizeof *beam_covers);
+  if (result == BBC_OK && !beam_covers) result = BBC_ERR_OUT_OF_MEMORY;
+  for (int i = 0; i < threads && result == BBC_OK && beams.count; i++) {
+    beam_covers[i].planes = calloc(beams.count, sizeof *beam_covers[i].planes);
+    beam_covers[i].count = beam_covers[i].planes ? beams.count : 0;
+    if (!beam_covers[i].planes) result = BBC_ERR_OUT_OF_MEMORY;
+  }
+  const size_t batch_tuples = beam_batch_tuples(&beams, grid, options);
+  const bound_context context = {
+      scene,        params,      grid,         bound,       bound2,
+      bound_area,   bounders,    pieces,       rasters,     covers,
+      &beams,       beam_pieces, beam_scratch, beam_covers, options->cancel_fn,
+      options->user};
 
   /* The estimate, from the census and its sample bounded first (SAMPLE_MAX tuples
    * fit a batch's cells), before the bounding: the caller may stop there. */
@@ -738,7 +1022,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     result = bound_sample(&context, threads, &census, batches[0].arenas, batches[0].cells,
                           &st.estimate);
   if (result == BBC_OK) {
-    estimate_costs(&census, options, grid, threads, &st.estimate);
+    estimate_costs(&census, options, grid, threads, &beams, &st.estimate);
     if (options->estimate_fn && options->estimate_fn(options->user, &st.estimate))
       result = BBC_ERR_CANCELLED;
   }
@@ -752,13 +1036,13 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   for (size_t k = 0; result == BBC_OK; k++) {
     batch *cur = &batches[k & 1], *prev = &batches[(k + 1) & 1];
     size_t n = 0;
-    if ((result = bbc__candidates_next(&source, cur->tuples, cur->candidate, BATCH_TUPLES,
-                                       &n)) != BBC_OK)
+    if ((result = bbc__candidates_next(&source, cur->tuples, cur->candidate, batch_tuples, &n)) !=
+        BBC_OK)
       break;
     const int pending = k > 0 && prev->n > 0;
     if (n == 0 && !pending) break;
     cur->n = n;
-    for (int i = 0; i < threads; i++) cur->arenas[i].codes_used = cur->arenas[i].spans_used = 0;
+    for (int i = 0; i < threads; i++) arena_clear(&cur->arenas[i]);
     for (uint32_t p = 0; p < parts; p++) resume[p] = 0;
     double b0 = omp_get_wtime();
     int failed = 0, stopped = 0, cancelled = 0;
@@ -774,8 +1058,8 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
 #pragma omp for schedule(dynamic, 1) nowait
       for (size_t i = 0; i < n; i++) {
         const int id = omp_get_thread_num();
-        const int r = bound_one(&context, id, &cur->tuples[i], &cur->arenas[id],
-                                &cur->cells[i], &thread_stats[id]);
+        const int r = bound_one(&context, id, &cur->tuples[i], &cur->arenas[id], &cur->cells[i],
+                                &thread_stats[id]);
         if (r == 0) failed = 1;
         if (r < 0) cancelled = 1;
       }
@@ -865,6 +1149,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     for (int i = 0; batches[k].arenas && i < threads; i++) {
       free(batches[k].arenas[i].codes);
       free(batches[k].arenas[i].spans);
+      free(batches[k].arenas[i].segments);
     }
     free(batches[k].arenas);
     free(batches[k].cells);
@@ -887,6 +1172,18 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     }
   }
   free(covers);
+  for (int i = 0; i < threads; i++) {
+    if (beam_pieces) free(beam_pieces[i].items), free(beam_pieces[i].bound);
+    if (beam_scratch) bbc__beam_scratch_free(&beam_scratch[i]);
+  }
+  for (int i = 0; beam_covers && i < threads; i++) {
+    for (uint32_t k = 0; k < beam_covers[i].count; k++) free(beam_covers[i].planes[k].cells);
+    free(beam_covers[i].planes);
+  }
+  free(beam_covers);
+  free(beam_pieces);
+  free(beam_scratch);
+  bbc__beam_receivers_free(&beams);
   free(thread_stats);
   free(cpu_split);
   st.construction_seconds += source.search_seconds;

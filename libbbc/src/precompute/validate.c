@@ -314,11 +314,335 @@ static int admissible_path(const bbc_scene *scene, const bbc_tuple *tuple,
   return 1;
 }
 
+/* The first receiver triangle not on a plane, or UINT32_MAX. */
+static uint32_t first_beam_triangle(const bbc_scene *scene) {
+  for (uint32_t m = 0; m < scene->mesh_count; m++)
+    if (scene->meshes[m].role == BBC_ROLE_RECEIVER && !scene->meshes[m].plane &&
+        scene->meshes[m].triangle_count > 0)
+      return scene->meshes[m].first_triangle;
+  return UINT32_MAX;
+}
+
+/* Whether the ray o + t d, t > 0, can meet the box of triangle t (grown by a margin far
+ * above the rounding of the test): a filter only, every landing is then traced. */
+static int ray_may_meet(const bbc_scene *scene, uint32_t t, bbc_vec3 o, bbc_vec3 d) {
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (int j = 0; j < 3; j++) {
+    const float *p = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t + j];
+    for (int a = 0; a < 3; a++) lo[a] = fmin(lo[a], p[a]), hi[a] = fmax(hi[a], p[a]);
+  }
+  const double oo[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
+  double t0 = 0, t1 = INFINITY;
+  for (int a = 0; a < 3; a++) {
+    const double m = 1e-6 * (1 + fabs(lo[a]) + fabs(hi[a]));
+    const double l = lo[a] - m, h = hi[a] + m;
+    if (dd[a] == 0) {
+      if (oo[a] < l || oo[a] > h) return 0;
+      continue;
+    }
+    double ta = (l - oo[a]) / dd[a], tb = (h - oo[a]) / dd[a];
+    if (ta > tb) {
+      const double x = ta;
+      ta = tb, tb = x;
+    }
+    t0 = fmax(t0, ta), t1 = fmin(t1, tb);
+  }
+  return t0 <= t1 * (1 + 1e-9) + 1e-12;
+}
+
+/* Called for each landing of a beam tuple's path on a receiver triangle; non-zero stops
+ * with that result. */
+typedef bbc_result (*landing_fn)(void *user, uint32_t triangle, const bbc_specular_path *path);
+
+/* The landings of the path of beam tuple `tuple` through u1 (pgi: its path geometry with
+ * any receiver; light point drawn): every receiver triangle not on a plane that the
+ * last segment meets, traced with that triangle as the receiver and admissible there. */
+static bbc_result beam_landings(const bbc_scene *scene, const bbc_tuple *tuple,
+                                const bbc_path_geometry *pgi, orientation o, const double u1[2],
+                                landing_fn fn, void *user) {
+  /* The last segment's line, from a trace to the first triangle's plane, to skip the
+   * triangles it cannot meet; every triangle when that trace says nothing. */
+  bbc_specular_path probe;
+  int filter = 0;
+  bbc_vec3 from = v3(0, 0, 0), dir = v3(0, 0, 0);
+  if (bbc_specular_path_trace(pgi, u1[0], u1[1], &probe) == BBC_OK && probe.complete &&
+      !(probe.flags & (BBC_PATH_TIR | BBC_PATH_DEGENERATE))) {
+    from = pgi->length == 2 ? probe.x2 : probe.x1;
+    dir = v3_sub(probe.xk, from);
+    /* xk behind the last vertex: the ray goes the other way (one vertex; with two the
+     * flag may be x2's, and then every triangle is traced). */
+    if (probe.flags & BBC_PATH_BACKWARD && pgi->length == 1) dir = v3_scale(dir, -1);
+    filter = v3_dot(dir, dir) > 0 && !(probe.flags & BBC_PATH_BACKWARD && pgi->length == 2);
+  }
+  bbc_tuple ended = *tuple;
+  for (uint32_t m = 0; m < scene->mesh_count; m++) {
+    const bbc_mesh *mesh = &scene->meshes[m];
+    if (mesh->role != BBC_ROLE_RECEIVER || mesh->plane) continue;
+    for (uint32_t t = mesh->first_triangle; t < mesh->first_triangle + mesh->triangle_count; t++) {
+      if (filter && !ray_may_meet(scene, t, from, dir)) continue;
+      bbc_path_geometry pgt = *pgi;
+      ended.receiver = t;
+      if (!bbc_receiver_triangle(scene, t, pgt.receiver)) continue;
+      bbc_specular_path path;
+      if (!admissible_path(scene, &ended, &pgt, o, u1, &path)) continue;
+      bbc_result r = fn(user, t, &path);
+      if (r != BBC_OK) return r;
+    }
+  }
+  return BBC_OK;
+}
+
+/* A beam tuple's geometries, with the first receiver triangle not on a plane standing
+ * in for the receiver (the bounds ignore it; each landing is traced to its own). */
+static bbc_result beam_geometries(const bbc_scene *scene, const bbc_tuple *tuple,
+                                  bbc_tuple_geometry *tg, bbc_path_geometry *pg) {
+  bbc_tuple ended = *tuple;
+  ended.receiver = first_beam_triangle(scene);
+  if (ended.receiver == UINT32_MAX) return BBC_ERR_INVALID_ARGUMENT;
+  bbc_result r = bbc_tuple_geometry_init(tg, scene, &ended);
+  return r == BBC_OK ? bbc_path_geometry_init(pg, scene, &ended) : r;
+}
+
+typedef struct cached_landing {
+  bbc_validation *acc;
+  bbc_cache_cursor *cursor;
+  const bbc_tuple *tuple;
+  int64_t tuple_id;
+  uint32_t sample;
+  double scale;
+} cached_landing;
+
+static bbc_result check_cached_landing(void *user, uint32_t t, const bbc_specular_path *path) {
+  cached_landing *c = user;
+  bbc_validation *v = c->acc;
+  v->admissible++;
+  if (c->tuple_id < 0) {
+    v->in_discarded++;
+    record_failure(v, c->tuple, c->sample, BBC_VALIDATION_DISCARDED, path, NULL);
+    return BBC_OK;
+  }
+  const bbc_cache_entry *entries = NULL;
+  uint32_t n = 0;
+  bbc_result r = bbc_cache_lookup(c->cursor, t, path->uk[0], path->uk[1], &path->xk, &entries, &n);
+  if (r != BBC_OK) return r;
+  const bbc_cache_entry *found = NULL;
+  for (uint32_t k = 0; k < n && !found; k++)
+    if (entries[k].tuple == (uint32_t)c->tuple_id) found = &entries[k];
+  if (!found) {
+    v->position_violations++;
+    record_failure(v, c->tuple, c->sample, BBC_VALIDATION_POSITION, path, NULL);
+    return BBC_OK;
+  }
+  const double e = path->irradiance * c->scale;
+  if (!(e <= (double)found->bound)) {
+    v->upper_violations++;
+    record_failure(v, c->tuple, c->sample, BBC_VALIDATION_UPPER, path, NULL);
+  }
+  if (!isfinite(found->bound))
+    v->unbounded++;
+  else if (e >= 0 && e < INFINITY)
+    add_ratio(v, e > 0 ? log10(found->bound / e) : INFINITY);
+  return BBC_OK;
+}
+
+/* A beam tuple's true paths: each sampled path lands on every receiver triangle not on
+ * a plane that its last segment meets, and each landing must be listed in its cell with
+ * a bound of at least its irradiance on that triangle. */
+static bbc_result validate_cached_beam(const bbc_cache *cache, bbc_cache_cursor *cursor,
+                                       const bbc_scene *scene, const bbc_tuple *tuple,
+                                       int64_t tuple_id, uint32_t samples, uint64_t seed,
+                                       bbc_validation *acc) {
+  bbc_tuple_geometry tg;
+  bbc_path_geometry pg;
+  bbc_result r = beam_geometries(scene, tuple, &tg, &pg);
+  if (r != BBC_OK) return r;
+  const orientation o = orientation_of(&tg, &pg);
+  bbc_cache_info info;
+  bbc_cache_get_info(cache, &info);
+  float radiance[3];
+  const float *intensity = bbc__cache_light_intensity(scene, tuple->light, radiance);
+  const int area = tg.light_model.kind == BBC_LIGHT_AREA;
+  bbc_validation local;
+  bbc_validation_reset(&local);
+  local.tuples = 1;
+  cached_landing c = {&local, cursor,
+                      tuple,  tuple_id,
+                      0,      fmax(intensity[0], fmax(intensity[1], intensity[2])) * info.params.m};
+  for (uint32_t i = 0; i < samples && r == BBC_OK; i++) {
+    double u1[2];
+    bbc_validation_sample_u1(seed, tuple, i, u1);
+    local.samples++;
+    bbc_path_geometry pgi = pg;
+    if (area) {
+      double ab[2];
+      sample_emitter(seed, tuple, i, ab);
+      pgi.light = bbc__area_point(&pg.light_model, ab[0], ab[1]);
+    }
+    c.sample = i;
+    r = beam_landings(scene, tuple, &pgi, o, u1, check_cached_landing, &c);
+  }
+  if (r != BBC_OK) return r;
+  bbc_validation_merge(acc, &local);
+  return BBC_OK;
+}
+
+/* ---- the bounds of a beam tuple (bbc_bound_beam) against its true paths ---------------- */
+
+/* The kept pieces of a beam, in the order reported. */
+typedef struct beam_leaves {
+  bbc_beam_piece *items;
+  size_t count, capacity;
+  int failed;
+} beam_leaves;
+
+static int collect_beam_leaf(void *user, const bbc_beam_piece *piece) {
+  beam_leaves *l = user;
+  if (piece->status != BBC_PIECE_KEPT) return 0;
+  if (l->count == l->capacity) {
+    const size_t capacity = l->capacity ? 2 * l->capacity : 64;
+    bbc_beam_piece *grown = realloc(l->items, capacity * sizeof *grown);
+    if (!grown) {
+      l->failed = 1;
+      return 1;
+    }
+    l->items = grown;
+    l->capacity = capacity;
+  }
+  l->items[l->count++] = *piece;
+  return 0;
+}
+
+/* A landing and the kept pieces whose u1 boxes hold its u1 (one per slab of the
+ * distance along the ray when the beam split it). */
+typedef struct bound_landing {
+  bbc_validation *acc;
+  const bbc_tuple *tuple;
+  const bbc_beam_piece **pieces;
+  size_t count;
+  uint32_t sample;
+} bound_landing;
+
+/* A landing must lie in the box of one of the pieces, with its irradiance at most that
+ * piece's e_hi. (e_lo bounds the irradiance on the surface normal to the ray from
+ * below, not on the surface it lands on: it is not checked.) */
+static bbc_result check_bound_landing(void *user, uint32_t t, const bbc_specular_path *path) {
+  (void)t;
+  bound_landing *c = user;
+  bbc_validation *v = c->acc;
+  v->admissible++;
+  const double x[3] = {path->xk.x, path->xk.y, path->xk.z};
+  double e_hi = -INFINITY;
+  int inside = 0;
+  for (size_t k = 0; k < c->count; k++) {
+    const bbc_beam_piece *q = c->pieces[k];
+    int in = 1;
+    for (int a = 0; a < 3; a++)
+      if (!(x[a] >= q->box_lo[a] && x[a] <= q->box_hi[a])) in = 0;
+    if (in) inside = 1, e_hi = fmax(e_hi, q->e_hi);
+  }
+  uint32_t kinds = 0;
+  const double e = path->irradiance;
+  if (!inside) {
+    kinds = BBC_VALIDATION_POSITION;
+    v->position_violations++;
+  } else if (!(e <= e_hi)) {
+    kinds = BBC_VALIDATION_UPPER;
+    v->upper_violations++;
+  }
+  if (kinds) record_failure(v, c->tuple, c->sample, kinds, path, NULL);
+  if (!inside) return BBC_OK;
+  if (!isfinite(e_hi))
+    v->unbounded++;
+  else if (e >= 0 && e < INFINITY)
+    add_ratio(v, e > 0 ? log10(e_hi / e) : INFINITY);
+  return BBC_OK;
+}
+
+static bbc_result count_landing(void *user, uint32_t t, const bbc_specular_path *path) {
+  (void)t, (void)path;
+  ((bbc_validation *)user)->admissible++;
+  return BBC_OK;
+}
+
+/* bbc_validate_tuple for a beam tuple: bbc_bound_beam over the box of the receivers not
+ * on a plane; every landing of a sampled true path must lie in the box of the kept
+ * piece holding its u1, with its irradiance on the triangle it lands on in
+ * [e_lo, e_hi]. */
+static bbc_result validate_beam(bbc_bounder *bounder, const bbc_scene *scene,
+                                const bbc_tuple *tuple, const bbc_bound_params *params,
+                                uint32_t samples, uint64_t seed, bbc_validation *acc) {
+  bbc_tuple_geometry tg;
+  bbc_path_geometry pg;
+  bbc_result r = beam_geometries(scene, tuple, &tg, &pg);
+  if (r != BBC_OK) return r;
+  const orientation o = orientation_of(&tg, &pg);
+  const int area = tg.light_model.kind == BBC_LIGHT_AREA;
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (uint32_t m = 0; m < scene->mesh_count; m++) {
+    const bbc_mesh *mesh = &scene->meshes[m];
+    if (mesh->role != BBC_ROLE_RECEIVER || mesh->plane) continue;
+    for (uint32_t v = 0; v < mesh->vertex_count; v++) {
+      const float *p = scene->positions + 3 * (size_t)(mesh->first_vertex + v);
+      for (int a = 0; a < 3; a++) lo[a] = fmin(lo[a], p[a]), hi[a] = fmax(hi[a], p[a]);
+    }
+  }
+  bbc_bound_params defaults;
+  if (!params) {
+    memset(&defaults, 0, sizeof defaults);
+    params = &defaults;
+  }
+  beam_leaves leaves;
+  memset(&leaves, 0, sizeof leaves);
+  r = bbc_bound_beam(bounder, &tg, lo, hi, params, collect_beam_leaf, &leaves, NULL);
+  if (leaves.failed) r = BBC_ERR_OUT_OF_MEMORY;
+  const bbc_beam_piece **held = malloc((leaves.count ? leaves.count : 1) * sizeof *held);
+  if (r == BBC_OK && !held) r = BBC_ERR_OUT_OF_MEMORY;
+  bbc_validation local;
+  bbc_validation_reset(&local);
+  local.tuples = 1;
+  for (uint32_t i = 0; i < samples && r == BBC_OK; i++) {
+    double u1[2], ab[2] = {0, 0};
+    bbc_validation_sample_u1(seed, tuple, i, u1);
+    local.samples++;
+    bbc_path_geometry pgi = pg;
+    if (area) {
+      sample_emitter(seed, tuple, i, ab);
+      pgi.light = bbc__area_point(&pg.light_model, ab[0], ab[1]);
+    }
+    bound_landing c = {&local, tuple, held, 0, i};
+    for (size_t k = 0; k < leaves.count; k++) {
+      const bbc_beam_piece *q = &leaves.items[k];
+      if (u1[0] >= q->u_lo && u1[0] <= q->u_hi && u1[1] >= q->v_lo && u1[1] <= q->v_hi &&
+          (!area || (ab[0] >= q->a_lo && ab[0] <= q->a_hi && ab[1] >= q->b_lo && ab[1] <= q->b_hi)))
+        held[c.count++] = q;
+    }
+    if (c.count) {
+      r = beam_landings(scene, tuple, &pgi, o, u1, check_bound_landing, &c);
+      continue;
+    }
+    /* No kept piece: every landing is a violation. */
+    bbc_validation before = local;
+    r = beam_landings(scene, tuple, &pgi, o, u1, count_landing, &local);
+    const uint64_t landed = local.admissible - before.admissible;
+    if (landed) {
+      local.uncovered += landed;
+      record_failure(&local, tuple, i, BBC_VALIDATION_UNCOVERED, &(bbc_specular_path){0}, NULL);
+    }
+  }
+  free(held);
+  free(leaves.items);
+  if (r != BBC_OK) return r;
+  bbc_validation_merge(acc, &local);
+  return BBC_OK;
+}
+
 bbc_result bbc_validate_tuple(bbc_bounder *bounder, const bbc_scene *scene, const bbc_tuple *tuple,
                               const bbc_bound_params *params, uint32_t samples, uint64_t seed,
                               bbc_validation *acc) {
   if (!bounder || !scene || !tuple || !acc) return BBC_ERR_INVALID_ARGUMENT;
   if (tuple->chain >= BBC_CHAIN_COUNT) return BBC_ERR_INVALID_ARGUMENT;
+  if (bbc_receiver_is_beam(tuple->receiver))
+    return validate_beam(bounder, scene, tuple, params, samples, seed, acc);
   bbc_tuple_geometry tg;
   bbc_path_geometry pg;
   bbc_result r = bbc_tuple_geometry_init(&tg, scene, tuple);
@@ -405,6 +729,8 @@ bbc_result bbc_validate_cached_tuple(const bbc_cache *cache, bbc_cache_cursor *c
                                      bbc_validation *acc) {
   if (!cache || !cursor || !scene || !tuple || !acc) return BBC_ERR_INVALID_ARGUMENT;
   if (tuple->chain >= BBC_CHAIN_COUNT) return BBC_ERR_INVALID_ARGUMENT;
+  if (bbc_receiver_is_beam(tuple->receiver))
+    return validate_cached_beam(cache, cursor, scene, tuple, tuple_id, samples, seed, acc);
   bbc_tuple_geometry tg;
   bbc_path_geometry pg;
   bbc_result r = bbc_tuple_geometry_init(&tg, scene, tuple);

@@ -458,6 +458,7 @@ typedef struct estimate_state {
   bbc__caustics_thread *t;
   bbc_vec3 p, ng;
   uint64_t key; /* this shading point's key for the tuples' random streams */
+  uint32_t triangle; /* the shading point's */
   bbc_vec3 sum;
 } estimate_state;
 
@@ -465,7 +466,11 @@ typedef struct estimate_state {
 static void on_chosen(void *user, uint32_t tuple, double p) {
   estimate_state *s = user;
   uint64_t key = bbc__mix64(s->key ^ bbc__mix64(tuple + 0xA0761D6478BD642Full));
-  bbc_vec3 e = bbc__caustics_tuple(s->c, s->t, &s->c->tuples[tuple], s->p, s->ng, key);
+  /* A beam tuple ends on the triangle of the shading point: the solver measures the
+   * irradiance on that triangle's plane. */
+  bbc_tuple ended = s->c->tuples[tuple];
+  if (bbc_receiver_is_beam(ended.receiver)) ended.receiver = s->triangle;
+  bbc_vec3 e = bbc__caustics_tuple(s->c, s->t, &ended, s->p, s->ng, key);
   s->sum = v3_add(s->sum, v3_scale(e, 1.0 / p));
 }
 
@@ -496,10 +501,12 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
   double t1 = clock_if(timed);
   t->decoding_seconds += TIMING_STRIDE * (t1 - t0);
   t->lookups++;
-  /* U: the cell's tuples that end on this very triangle or on its plane (a cell may
-   * span several receivers' triangles), of the chain types asked for and short enough
-   * for the depth limit. */
-  const uint32_t plane = BBC_RECEIVER_PLANE(c->scene->triangle_mesh[triangle]);
+  /* U: the cell's tuples that end on this very triangle, on its plane or, for a
+   * triangle not on a plane, on a beam (a cell may span several receivers' triangles),
+   * of the chain types asked for and short enough for the depth limit. */
+  const uint32_t mesh = c->scene->triangle_mesh[triangle];
+  const uint32_t plane = BBC_RECEIVER_PLANE(mesh);
+  const uint32_t beam = c->scene->meshes[mesh].plane ? plane : BBC_RECEIVER_BEAM;
   if (n > t->candidate_capacity) {
     uint32_t capacity = t->candidate_capacity ? t->candidate_capacity : 64;
     while (capacity < n) capacity *= 2;
@@ -514,7 +521,7 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
   uint32_t m = 0;
   for (uint32_t i = 0; i < n; i++) {
     const bbc_tuple *tuple = &c->tuples[entries[i].tuple];
-    if ((tuple->receiver == triangle || tuple->receiver == plane) &&
+    if ((tuple->receiver == triangle || tuple->receiver == plane || tuple->receiver == beam) &&
         (c->chains & (1u << tuple->chain)) &&
         bbc_chain_length((bbc_chain)tuple->chain) <= max_vertices &&
         !((traced & (1u << tuple->chain)) && bbc__light_traced_light(c->scene, tuple->light)))
@@ -524,7 +531,7 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
   /* Each chosen tuple is solved as it is drawn: no list, no limit on |S|. The clock is
    * read once per lookup, not per tuple: drawing (one uniform and a bisection per bin)
    * counts as solving. */
-  estimate_state state = {c, t, p, ng, key, v3(0, 0, 0)};
+  estimate_state state = {c, t, p, ng, key, triangle, v3(0, 0, 0)};
   uint32_t drawn = 0;
   if (m > 0 && bbc__sampler_prepare(&t->sampler, t->candidates, m, &c->sampling)) {
     double t2 = clock_if(timed);

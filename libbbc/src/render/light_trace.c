@@ -42,11 +42,14 @@ int bbc__light_traced_light(const bbc_scene *scene, uint32_t light) {
 uint32_t bbc__light_traced_chains(const bbc__caustics *c, const bbc_cache_entry *e, uint32_t n,
                                   uint32_t triangle) {
   if (!c || !c->light_trace || isnan(c->light_trace_bound)) return 0;
-  const uint32_t plane = BBC_RECEIVER_PLANE(c->scene->triangle_mesh[triangle]);
+  const uint32_t mesh = c->scene->triangle_mesh[triangle];
+  const uint32_t plane = BBC_RECEIVER_PLANE(mesh);
+  /* Beam tuples reach every receiver triangle not on a plane (caustics.c). */
+  const uint32_t beam = c->scene->meshes[mesh].plane ? plane : BBC_RECEIVER_BEAM;
   uint32_t mask = 0;
   for (uint32_t i = 0; i < n; i++) {
     const bbc_tuple *t = &c->tuples[e[i].tuple];
-    if ((t->receiver == triangle || t->receiver == plane) &&
+    if ((t->receiver == triangle || t->receiver == plane || t->receiver == beam) &&
         bbc__light_traced_light(c->scene, t->light) && !(e[i].bound < c->light_trace_bound))
       mask |= 1u << t->chain;
   }
