@@ -3,10 +3,9 @@
 # 2,000 triangles) over its floor bent into one wave (bbc-scenegen --floor-bend 0.2, so
 # no plane) cut into 2,000 and 20,000 triangles, precomputed on one thread with
 # --receivers per-triangle and --receivers beam at a grid of --resolution cells
-# (default 128). With the placeholder beam bound (one piece per tuple, the receivers'
-# whole box, irradiance +inf) every beam tuple has an entry in every cell the floor's
-# triangles cover: the cache grows as tuples x cells. The real bound slots in without
-# changing this script.
+# (default 128): time, memory, tuples, entries and cache size of each (docs/receivers.md,
+# "Beam receivers"; bench/results/beam-scale.md has the same comparison at the default
+# grid, for R, T and TT).
 #
 #   sh bench/beam-receivers.sh [--floors "2000 20000"] [--resolution N] [--memory-gb G]
 #                              [--timeout S]
@@ -83,8 +82,7 @@ done
   echo "\`sh bench/beam-receivers.sh --floors \"$floors\" --resolution $resolution\`"
   echo "at $commit; $machine (load average $(cut -d' ' -f1-3 /proc/loadavg)); one thread,"
   echo "\`--chains R\`, the wavy mirror of 2,000 triangles over a floor bent into a wave."
-  echo "CPU-s are user + sys. The beam bound is the placeholder (+inf over the receivers'"
-  echo "box): every beam tuple is in every cell of the floor."
+  echo "CPU-s are user + sys."
   echo
   echo "| floor triangles | receivers | status | CPU-s | peak RSS MB | tuples | entries | cache MB |"
   echo "|---:|---|---|---:|---:|---:|---:|---:|"
