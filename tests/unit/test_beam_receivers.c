@@ -226,22 +226,20 @@ TEST(beam_bound_holds_on_true_paths) {
 
 #include "beam_cells_internal.h"
 
+/* Marks the cells of a piece's rows (bbc__beam_piece_rows) in a per-cell array. */
 typedef struct cell_sink {
   const bbc_grid *grid;
+  const bbc__beam_receivers *b;
   double *cells; /* per global cell index */
 } cell_sink;
 
-static bbc_result sink_cells(void *user, uint32_t receiver, uint32_t x0, uint32_t y0, uint32_t w,
-                             uint32_t h, const double *cells, size_t stride) {
+static int mark_row(void *user, uint32_t k, uint32_t y, uint32_t x0, uint32_t x1,
+                    const uint8_t *mask) {
   cell_sink *s = user;
-  const bbc_receiver *r = &s->grid->receivers[receiver];
-  for (uint32_t y = 0; y < h; y++)
-    for (uint32_t x = 0; x < w; x++) {
-      const double v = cells[y * stride + x];
-      double *c = &s->cells[r->first_cell + (uint64_t)(y0 + y) * r->width + x0 + x];
-      if (v > *c) *c = v;
-    }
-  return BBC_OK;
+  const bbc_receiver *r = &s->grid->receivers[s->b->items[k].receiver];
+  for (uint32_t x = x0; x <= x1; x++)
+    if (!mask || mask[x]) s->cells[r->first_cell + (uint64_t)y * r->width + x] = 1;
+  return 0;
 }
 
 static double unit(uint64_t *state) {
@@ -279,9 +277,10 @@ static uint64_t uncovered(const bbc_scene *s, const bbc_grid *grid, const double
 }
 
 /* Random boxes over the bent floor: every point of a floor triangle inside a piece's box
- * is in a cell that got the piece's bound, with the triangles clipped to the box; the
- * cells are fewer than the triangles' whole footprints (printed: the difference), and a
- * piece with a smaller box than the points' (the control) leaves points uncovered. */
+ * is in a cell the piece reaches (bbc__beam_piece_rows), the triangles clipped to the
+ * box; the cells are fewer than the triangles' whole footprints (printed: the
+ * difference), and a piece with a smaller box than the points' (the control) leaves
+ * points uncovered. */
 TEST(beam_cells_cover_the_box) {
   bbc_scene *s = NULL;
   REQUIRE(bbc_scene_load(&s, BENT(512), NULL) == BBC_OK);
@@ -294,7 +293,8 @@ TEST(beam_cells_cover_the_box) {
   memset(&scratch, 0, sizeof scratch);
   double *cells = calloc(grid->cell_count, sizeof *cells);
   REQUIRE(cells);
-  cell_sink sink = {grid, cells};
+  REQUIRE(bbc__beam_scratch_reserve(&scratch, &b) == BBC_OK);
+  cell_sink sink = {grid, &b, cells};
   uint64_t state = 7, inside = 0, missed = 0, clipped_cells = 0, whole_cells = 0, control = 0;
   for (int k = 0; k < 40; k++) {
     bbc_beam_piece piece;
@@ -308,12 +308,10 @@ TEST(beam_cells_cover_the_box) {
       piece.box_lo[a] = b.lo[a] + (ext - size) * unit(&state);
       piece.box_hi[a] = piece.box_lo[a] + size;
     }
-    const double bound = 1;
     for (int whole = 1; whole >= 0; whole--) {
       memset(cells, 0, grid->cell_count * sizeof *cells);
       b.whole_triangles = whole;
-      REQUIRE(bbc__beam_cells(&b, s, grid, &piece, &bound, 1, &scratch, sink_cells, &sink, NULL) ==
-              BBC_OK);
+      bbc__beam_piece_rows(&b, s, grid, &piece, &scratch, mark_row, &sink);
       uint64_t n = 0;
       for (uint64_t c = 0; c < grid->cell_count; c++) n += cells[c] > 0;
       *(whole ? &whole_cells : &clipped_cells) += n;
@@ -323,8 +321,7 @@ TEST(beam_cells_cover_the_box) {
     bbc_beam_piece half = piece;
     half.box_hi[0] = 0.5 * (piece.box_lo[0] + piece.box_hi[0]);
     memset(cells, 0, grid->cell_count * sizeof *cells);
-    REQUIRE(bbc__beam_cells(&b, s, grid, &half, &bound, 1, &scratch, sink_cells, &sink, NULL) ==
-            BBC_OK);
+    bbc__beam_piece_rows(&b, s, grid, &half, &scratch, mark_row, &sink);
     uint64_t ignored = 0;
     control += uncovered(s, grid, cells, piece.box_lo, piece.box_hi, &ignored);
   }

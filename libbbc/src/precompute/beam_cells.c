@@ -210,7 +210,6 @@ void bbc__beam_receivers_free(bbc__beam_receivers *b) {
 }
 
 void bbc__beam_scratch_free(bbc__beam_scratch *s) {
-  free(s->cells);
   free(s->row_x0);
   free(s->row_x1);
   free(s->stack);
@@ -218,13 +217,6 @@ void bbc__beam_scratch_free(bbc__beam_scratch *s) {
 }
 
 static bbc_result scratch_reserve(bbc__beam_scratch *s, const bbc__beam_receivers *b) {
-  const size_t cells = (size_t)b->max_width * b->max_height;
-  if (s->capacity < cells) {
-    free(s->cells);
-    s->cells = calloc(cells, sizeof *s->cells);
-    s->capacity = s->cells ? cells : 0;
-    if (!s->cells) return BBC_ERR_OUT_OF_MEMORY;
-  }
   if (s->rows < b->max_height) {
     free(s->row_x0);
     free(s->row_x1);
@@ -240,92 +232,6 @@ static bbc_result scratch_reserve(bbc__beam_scratch *s, const bbc__beam_receiver
     if (!s->stack) return BBC_ERR_OUT_OF_MEMORY;
   }
   return BBC_OK;
-}
-
-typedef struct touched {
-  int any;
-  uint32_t x0, y0, x1, y1;
-} touched;
-
-static void touch(touched *t, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) {
-  if (!t->any) {
-    *t = (touched){1, x0, y0, x1, y1};
-    return;
-  }
-  if (x0 < t->x0) t->x0 = x0;
-  if (y0 < t->y0) t->y0 = y0;
-  if (x1 > t->x1) t->x1 = x1;
-  if (y1 > t->y1) t->y1 = y1;
-}
-
-bbc_result bbc__beam_cells(const bbc__beam_receivers *b, const bbc_scene *scene,
-                           const bbc_grid *grid, const bbc_beam_piece *pieces, const double *bound,
-                           size_t n, bbc__beam_scratch *s, bbc__beam_emit_fn emit, void *user,
-                           uint64_t *triangles_found) {
-  if (b->count == 0 || n == 0) return BBC_OK;
-  bbc_result res = scratch_reserve(s, b);
-  for (uint32_t k = 0; k < b->count && res == BBC_OK; k++) {
-    const bbc__beam_receiver *item = &b->items[k];
-    if (item->root == UINT32_MAX || item->mx0 > item->mx1) continue;
-    const bbc_receiver *rc = &grid->receivers[item->receiver];
-    const size_t w = rc->width;
-    touched t = {0, 0, 0, 0, 0};
-    for (size_t i = 0; i < n; i++) {
-      const bbc_beam_piece *p = &pieces[i];
-      const double e = bound[i];
-      if (!boxes_meet(p->box_lo, p->box_hi, item->lo, item->hi)) continue;
-      if (box_holds(p->box_lo, p->box_hi, item->lo, item->hi)) {
-        /* Every triangle of the receiver is reached: its mask. */
-        for (uint32_t y = item->my0; y <= item->my1; y++) {
-          const uint8_t *m = item->mask + y * w;
-          double *row = s->cells + y * w;
-          for (uint32_t x = item->mx0; x <= item->mx1; x++)
-            if (m[x] && e > row[x]) row[x] = e;
-        }
-        touch(&t, item->mx0, item->my0, item->mx1, item->my1);
-        if (triangles_found) *triangles_found += rc->triangle_count;
-        continue;
-      }
-      uint32_t top = 0;
-      s->stack[top++] = item->root;
-      while (top) {
-        const bbc__beam_node *node = &b->nodes[s->stack[--top]];
-        if (!boxes_meet(p->box_lo, p->box_hi, node->lo, node->hi)) continue;
-        if (node->count == 0) {
-          s->stack[top++] = node->right;
-          s->stack[top++] = node->left;
-          continue;
-        }
-        for (uint32_t j = node->first; j < node->first + node->count; j++) {
-          double lo[3], hi[3];
-          triangle_box(scene, b->order[j], lo, hi);
-          if (!boxes_meet(p->box_lo, p->box_hi, lo, hi)) continue;
-          double clipped[8];
-          const double *region = WHOLE;
-          if (!b->whole_triangles && !box_holds(p->box_lo, p->box_hi, lo, hi)) {
-            if (!clipped_region(scene, b->order[j], p->box_lo, p->box_hi, clipped)) continue;
-            region = clipped;
-          }
-          bbc_cell_range c;
-          if (!bbc_grid_splat_polygon(grid, b->order[j], region, NULL, &c, s->row_x0, s->row_x1))
-            continue;
-          if (triangles_found) ++*triangles_found;
-          for (uint32_t y = c.y0; y <= c.y1; y++) {
-            double *row = s->cells + y * w;
-            for (uint32_t x = s->row_x0[y - c.y0]; x <= s->row_x1[y - c.y0]; x++)
-              if (e > row[x]) row[x] = e;
-          }
-          touch(&t, c.x0, c.y0, c.x1, c.y1);
-        }
-      }
-    }
-    if (!t.any) continue;
-    res = emit(user, item->receiver, t.x0, t.y0, t.x1 - t.x0 + 1, t.y1 - t.y0 + 1,
-               s->cells + t.y0 * w + t.x0, w);
-    for (uint32_t y = t.y0; y <= t.y1; y++)
-      memset(s->cells + y * w + t.x0, 0, (t.x1 - t.x0 + 1) * sizeof *s->cells);
-  }
-  return res;
 }
 
 int bbc__beam_piece_rows(const bbc__beam_receivers *b, const bbc_scene *scene, const bbc_grid *grid,

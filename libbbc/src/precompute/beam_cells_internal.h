@@ -45,10 +45,8 @@ typedef struct bbc__beam_receivers {
                                      footprint (for comparisons; 0 by default) */
 } bbc__beam_receivers;
 
-/* Per-thread working memory of bbc__beam_cells. */
+/* Per-thread working memory of the walks below. */
 typedef struct bbc__beam_scratch {
-  double *cells;
-  size_t capacity;
   uint32_t *row_x0, *row_x1, *stack;
   size_t rows, stack_capacity;
 } bbc__beam_scratch;
@@ -60,32 +58,17 @@ bbc_result bbc__beam_receivers_init(bbc__beam_receivers *b, const bbc_scene *sce
 void bbc__beam_receivers_free(bbc__beam_receivers *b);
 void bbc__beam_scratch_free(bbc__beam_scratch *s);
 
-/* Receives a rectangle of a tuple's cells (w x h from cell x0, y0 of receiver, rows
- * `stride` apart, 0 where no entry, else the cell's bound); non-zero return: failure. */
-typedef bbc_result (*bbc__beam_emit_fn)(void *user, uint32_t receiver, uint32_t x0, uint32_t y0,
-                                        uint32_t w, uint32_t h, const double *cells, size_t stride);
-
-/* The cells of a beam tuple's kept pieces, pieces[i] with the cell bound bound[i] (> 0),
- * the largest per cell: one rectangle per receiver reached, in receiver order, to emit.
- * Deterministic: the same pieces give the same rectangles in any order. */
-bbc_result bbc__beam_cells(const bbc__beam_receivers *b, const bbc_scene *scene,
-                           const bbc_grid *grid, const bbc_beam_piece *pieces, const double *bound,
-                           size_t n, bbc__beam_scratch *s, bbc__beam_emit_fn emit, void *user,
-                           uint64_t *triangles_found);
-
 /* The range [*depth_lo, *depth_hi] along `axis` of the receivers' triangles inside the
- * box lo..hi (of each triangle whose box meets it, its box's range clipped to the box),
- * or 0 when no triangle's box meets it. The scratch must be reserved. Exact: every value
- * is a double. */
+ * box lo..hi (of each triangle meeting it, the range of its part in the box, clipped as
+ * for the cells), or 0 when no triangle meets it. The scratch must be reserved. */
 int bbc__beam_depth(const bbc__beam_receivers *b, const bbc_scene *scene, bbc__beam_scratch *s,
                     int axis, const double lo[3], const double hi[3], double *depth_lo,
                     double *depth_hi);
 
-/* Calls fn for each row of cells piece p reaches (the same cells bbc__beam_cells gives
- * it): receiver item k (b->items[k]), row y, columns x0..x1, and when not NULL the
- * receiver's mask row (indexed by column; only columns whose mask is 1 are reached). A
- * cell may be visited more than once (from several triangles). Returns 1 as soon as fn
- * returns non-zero, else 0. The scratch must be reserved (bbc__beam_scratch_reserve). */
+/* Calls fn for each row of cells piece p reaches: receiver item k (b->items[k]), row y, columns
+ * x0..x1, and when not NULL the receiver's mask row (indexed by column; only columns whose mask is
+ * 1 are reached). A cell may be visited more than once (from several triangles). Returns 1 as soon
+ * as fn returns non-zero, else 0. The scratch must be reserved (bbc__beam_scratch_reserve). */
 typedef int (*bbc__beam_row_fn)(void *user, uint32_t k, uint32_t y, uint32_t x0, uint32_t x1,
                                 const uint8_t *mask);
 int bbc__beam_piece_rows(const bbc__beam_receivers *b, const bbc_scene *scene, const bbc_grid *grid,

@@ -865,12 +865,11 @@ static void estimate_costs(const bbc__census *census, const bbc_precompute_optio
   double memory = stored * 2 * tuple + (o->shard_count ? stored * 2 * 8 : 0) + 2 * entry_memory;
   if (!e->list_held) memory += 2 * (double)census->block_peak;
   memory += (double)grid->cell_count * BBC__CIDX_SIZE;
-  /* Beam receivers: their BVHs and masks, and per thread a raster of the largest grid.
+  /* Beam receivers: their BVHs and masks, and per thread a raster of each receiver.
    * A beam tuple may reach every cell of those receivers, so the two batches' cells
    * (codes of 2 bytes over the tuples' rectangles, about their entries) count too. */
   if (beams->count) {
-    memory += (double)beams->bytes +
-              threads * (double)beams->max_width * beams->max_height * sizeof(double);
+    memory += (double)beams->bytes;
     memory += threads * (double)beam_cells_total(beams, grid) * sizeof(double);
     memory += 2.0 * beam_batch_tuples(beams, grid, o) * beam_tuple_bytes(beams, grid);
   }
