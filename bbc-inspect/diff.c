@@ -64,6 +64,7 @@ int cmd_diff(const char *path_a, const char *path_b) {
   DIFF_D("params.alpha_double", a.params.alpha_double, b.params.alpha_double);
   DIFF_D("params.m", a.params.m, b.params.m);
   DIFF_U("params.grid_resolution", a.params.grid_resolution, b.params.grid_resolution);
+  DIFF_U("params.cell_levels", a.params.cell_levels, b.params.cell_levels);
   DIFF_U("params.remainder", a.params.remainder, b.params.remainder);
   DIFF_U("params.area_lights", a.params.area_lights, b.params.area_lights);
   DIFF_U("params.area_double", a.params.area_double, b.params.area_double);

@@ -45,8 +45,7 @@ int cmd_heatmap(cli_args *a, const char *path) {
       for (uint32_t x = 0; x < rc->width; x++) {
         const bbc_cache_entry *e;
         uint32_t n;
-        if (bbc_cache_cell(cur, bbc_grid_cell_index(g, (bbc_cell){r, x, y}), &e, &n) != BBC_OK)
-          exit(1);
+        if (bbc_cache_leaf(cur, (bbc_cell){r, x, y}, &e, &n) != BBC_OK) exit(1);
         double sum = 0;
         for (uint32_t i = 0; i < n; i++) sum += e[i].bound;
         float v = (float)(log10_sum ? log10(sum) : sum);

@@ -34,6 +34,9 @@ int cmd_info(const char *path) {
            p->alpha_area > 0 ? "" : " (the two-bounce alpha: a cache before 1.5)");
   if (p->beam_receivers)
     printf("receivers    beam: receiver triangles not on a plane share one tuple per prefix\n");
+  if (p->cell_levels)
+    printf("cell levels  %u: each grid and coarser ones of up to %u x %u of its cells\n",
+           p->cell_levels, 1u << (p->cell_levels - 1), 1u << (p->cell_levels - 1));
   const bbc_fingerprint *f = &in.fingerprint;
   printf(
       "fingerprint  %016llx (geometry %016llx, materials %016llx, meshes %016llx, "

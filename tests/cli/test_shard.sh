@@ -450,7 +450,7 @@ test_parallel_example() {
 }
 
 # Beam receivers (a bent floor, not a plane): two shards merge to the unsharded cache,
-# which is format 1.7 (info says beam: the control that the option took) and the same
+# which is format 1.8 (info says beam: the control that the option took) and the same
 # on one thread and on two with its entries spilled.
 test_beam_receivers_shard_and_thread_alike() {
   bent="$BBC_TEST_SCENES/bent-wavy-mirror-128.gltf"
@@ -464,7 +464,7 @@ test_beam_receivers_shard_and_thread_alike() {
   expect_status 0 "$INSPECT" merge "$TMP/merged.bbc" "$TMP/s1.bbc" "$TMP/s0.bbc" --no-progress
   cmp "$TMP/full.bbc" "$TMP/merged.bbc" >&2 || fail "merged beam cache differs from the whole one"
   expect_status 0 "$INSPECT" info "$TMP/merged.bbc"
-  grep -q "^format       1.7" "$TMP/out" || fail "not format 1.7: $(cat "$TMP/out")"
+  grep -q "^format       1.8" "$TMP/out" || fail "not format 1.8: $(cat "$TMP/out")"
   grep -q "^receivers    beam" "$TMP/out" || fail "info does not say beam: $(cat "$TMP/out")"
 }
 

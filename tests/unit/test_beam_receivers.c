@@ -106,8 +106,9 @@ TEST(beam_true_paths_are_covered) {
   REQUIRE(fixture_of(&f, BENT(512), 1));
   bbc_cache_info info;
   bbc_cache_get_info(f.cache, &info);
-  CHECK_INT(info.version_minor, 7);
+  CHECK_INT(info.version_minor, 8);
   CHECK_INT(info.params.beam_receivers, 1);
+  CHECK_INT(info.params.cell_levels, 4); /* 64 cells a side: the coarsest cells 8 x 8 */
   const bbc_tuple *tuples = bbc_cache_tuples(f.cache);
   for (uint32_t i = 0; i < info.tuple_count; i++) CHECK(bbc_receiver_is_beam(tuples[i].receiver));
   bbc_validation v;
@@ -135,6 +136,69 @@ TEST(beam_true_paths_are_covered) {
   CHECK(empty.position_violations > 100);
   bbc_cache_close(g.cache);
   free(g.bytes);
+  teardown(&f);
+}
+
+/* A point sees its cell's list and those of the coarser cells holding it, merged: the
+ * oracle takes each level's list (bbc_cache_cell) and keeps per tuple its largest bound. */
+TEST(levels_merge_in_lookups) {
+  fixture f;
+  REQUIRE(fixture_of(&f, BENT(512), 1));
+  const bbc_grid *g = bbc_cache_grid(f.cache);
+  bbc_cache_info info;
+  bbc_cache_get_info(f.cache, &info);
+  REQUIRE(g->levels == 4);
+  bbc_cache_cursor *cursor = NULL, *raw = NULL;
+  REQUIRE(bbc_cache_cursor_create(&cursor, f.cache) == BBC_OK);
+  REQUIRE(bbc_cache_cursor_create(&raw, f.cache) == BBC_OK);
+  float *best = malloc(sizeof *best * info.tuple_count);
+  REQUIRE(best);
+  uint64_t coarse_entries = 0, widened = 0, checked = 0;
+  for (uint64_t c = g->receivers[0].first_coarse_cell; c < g->cell_count; c++) {
+    const bbc_cache_entry *e;
+    uint32_t n;
+    REQUIRE(bbc_cache_cell(raw, c, &e, &n) == BBC_OK);
+    coarse_entries += n;
+  }
+  const bbc_receiver *r = &g->receivers[0];
+  for (uint32_t y = 0; y < r->height; y++)
+    for (uint32_t x = 0; x < r->width; x++) {
+      const bbc_cell cell = {0, x, y};
+      for (uint32_t i = 0; i < info.tuple_count; i++) best[i] = -1;
+      uint32_t expected = 0, own = 0;
+      for (uint32_t k = 0; k < g->levels; k++) {
+        const bbc_cache_entry *e;
+        uint32_t n;
+        REQUIRE(bbc_cache_cell(raw, bbc_grid_level_cell(g, cell, k), &e, &n) == BBC_OK);
+        if (k == 0) own = n;
+        for (uint32_t i = 0; i < n; i++) {
+          if (best[e[i].tuple] < 0) expected++;
+          if (e[i].bound > best[e[i].tuple]) best[e[i].tuple] = e[i].bound;
+        }
+      }
+      const bbc_cache_entry *m;
+      uint32_t n;
+      REQUIRE(bbc_cache_leaf(cursor, cell, &m, &n) == BBC_OK);
+      CHECK_INT(n, expected);
+      for (uint32_t i = 0; i < n; i++) {
+        CHECK(i == 0 || m[i].tuple > m[i - 1].tuple);
+        CHECK(m[i].bound == best[m[i].tuple]);
+      }
+      widened += n > own;
+      checked++;
+    }
+  fprintf(stderr, "%llu coarse entries; %llu of %llu cells see more tuples than their own list\n",
+          (unsigned long long)coarse_entries, (unsigned long long)widened,
+          (unsigned long long)checked);
+  CHECK(coarse_entries > 0); /* spread tuples were recorded at a coarser level */
+  CHECK(widened > 0);
+  const bbc_cache_entry *e;
+  uint32_t n;
+  CHECK_INT(bbc_cache_leaf(cursor, (bbc_cell){0, r->width, 0}, &e, &n),
+            BBC_ERR_INVALID_ARGUMENT);
+  free(best);
+  bbc_cache_cursor_free(raw);
+  bbc_cache_cursor_free(cursor);
   teardown(&f);
 }
 

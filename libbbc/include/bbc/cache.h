@@ -52,6 +52,12 @@ typedef struct bbc_precompute_params {
    * bbc_bound_beam and recorded in the cells of every such triangle the light can reach.
    * 0 (the default): one tuple per such triangle, as every cache before 1.7. */
   uint32_t beam_receivers;
+  /* Levels of cells (format 1.8, PARM bytes 56-59; spec Sec. 6.6): 0 or 1, the grids'
+   * cells alone; L >= 2, the grids and L - 1 coarser levels, where a tuple whose cells
+   * span a large rectangle is recorded. Not a choice of the caller: a writer sets it
+   * from beam_receivers and grid_resolution (bbc__grid_beam_levels: L with 2^(L-1) >=
+   * grid_resolution / 8 for beam receivers, else 0); a reader reports the file's. */
+  uint32_t cell_levels;
 } bbc_precompute_params;
 
 /* The paper's defaults: all chains, level 10, sigma 1e-4, alpha 2 and 10, m 1, 512
@@ -319,9 +325,17 @@ BBC_API void bbc_cache_cursor_free(bbc_cache_cursor *cursor);
 BBC_API bbc_result bbc_cache_cell(bbc_cache_cursor *cursor, uint64_t cell,
                                   const bbc_cache_entry **entries, uint32_t *count);
 
-/* The list of the cell holding the point (b1, b2) of scene triangle `triangle` at
- * position *point (bbc_grid_locate on the cache's grid: the position locates the
- * points of a receiver plane's triangles; NULL gives them an empty list). A triangle
+/* What a point of cell `cell` of a receiver's grid sees: the lists of the cell and of
+ * the cells of every coarser level holding it (spec Sec. 6.6), merged: sorted by tuple
+ * id, a tuple listed at several levels once with its largest bound. With one level it
+ * is bbc_cache_cell's list. *entries stays valid until the next call with the cursor;
+ * errors as bbc_cache_cell's. */
+BBC_API bbc_result bbc_cache_leaf(bbc_cache_cursor *cursor, bbc_cell cell,
+                                  const bbc_cache_entry **entries, uint32_t *count);
+
+/* The list that a point (b1, b2) of scene triangle `triangle` at position *point sees:
+ * bbc_cache_leaf of its cell (bbc_grid_locate on the cache's grid: the position locates
+ * the points of a receiver plane's triangles; NULL gives them an empty list). A triangle
  * that is not a receiver gives an empty list and BBC_OK. */
 BBC_API bbc_result bbc_cache_lookup(bbc_cache_cursor *cursor, uint32_t triangle, double b1,
                                     double b2, const bbc_vec3 *point,

@@ -41,13 +41,19 @@ typedef struct bbc_receiver {
   /* BBC_PARAM_PLANE: the grid coordinates of the mesh's plane_triangle (spec Sec. 6.5),
    * not clamped to the grid; zero otherwise. Not stored: derived from the above. */
   float plane_uv[6];
+  /* Global index of the receiver's first cell of level 1 (cell levels, spec Sec. 6.6);
+   * not stored: derived from the grids and the level count. */
+  uint64_t first_coarse_cell;
 } bbc_receiver;
 
 typedef struct bbc_grid {
   uint32_t resolution; /* cells along the longer side of a grid */
   uint32_t receiver_count;
   const bbc_receiver *receivers; /* in increasing mesh (and triangle) order */
-  uint64_t cell_count;           /* over all receivers */
+  uint64_t cell_count;           /* over all receivers and levels */
+  /* Levels of cells (spec Sec. 6.6): 1, the grids alone, or L >= 2, the grids and L - 1
+   * coarser ones, level k's cells 2^k x 2^k cells of the grid. */
+  uint32_t levels;
   uint64_t uv_triangle_count;    /* triangles of the receivers that are not planes */
   /* 6 floats per triangle of a receiver that is not a plane: the grid coordinates (cell
    * units) of its vertices 0, 1, 2, in [0, width] x [0, height]. Triangle t of receiver
@@ -122,6 +128,26 @@ BBC_API int bbc_grid_splat_polygon(const bbc_grid *grid, uint32_t triangle, cons
 static inline uint64_t bbc_grid_cell_index(const bbc_grid *grid, bbc_cell cell) {
   const bbc_receiver *r = &grid->receivers[cell.receiver];
   return r->first_cell + (uint64_t)cell.y * r->width + cell.x;
+}
+
+/* Level k (0 <= k < grid->levels) of receiver r: its first global cell index, and its
+ * width and height, ceil(width / 2^k) x ceil(height / 2^k) (spec Sec. 6.6). */
+static inline uint64_t bbc_grid_level(const bbc_grid *grid, uint32_t receiver, uint32_t level,
+                                      uint32_t *width, uint32_t *height) {
+  const bbc_receiver *r = &grid->receivers[receiver];
+  uint64_t first = r->first_coarse_cell;
+  for (uint32_t j = 1; j < level; j++)
+    first += (((uint64_t)(r->width - 1) >> j) + 1) * (((uint64_t)(r->height - 1) >> j) + 1);
+  *width = ((r->width - 1) >> level) + 1;
+  *height = ((r->height - 1) >> level) + 1;
+  return level == 0 ? r->first_cell : first;
+}
+
+/* The global index of the cell of level k holding cell `cell` of the grid (level 0). */
+static inline uint64_t bbc_grid_level_cell(const bbc_grid *grid, bbc_cell cell, uint32_t level) {
+  uint32_t w, h;
+  const uint64_t first = bbc_grid_level(grid, cell.receiver, level, &w, &h);
+  return first + (uint64_t)(cell.y >> level) * w + (cell.x >> level);
 }
 
 /* A short name of a parameterisation: "texcoord", "planar", "box" or "unknown". */

@@ -60,6 +60,7 @@
 #define BBC__MAX_INFO 4096u
 #define BBC__MAX_TUPLES 0xFFFFFFFEu
 #define BBC__MAX_LEVEL 64u
+#define BBC__MAX_CELL_LEVELS 17u /* levels of cells: k <= 16, so 65536 cells halve to 1 */
 
 /* Writer defaults (Sec. 7.3). */
 #define BBC__DEFAULT_CHUNK_BYTES (256u * 1024u)

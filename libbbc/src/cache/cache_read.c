@@ -321,12 +321,13 @@ static bbc_result check_params_and_fingerprint(bbc_cache *c) {
   q->area_double = (flags >> 2) & 1u;
   q->beam_receivers = (flags >> 3) & 1u;
   q->alpha_area = bbc__ldf64(p + 48);
+  q->cell_levels = bbc__ld32(p + 56);
   if ((q->chains & ~BBC_CHAIN_MASK_ALL) != 0)
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "reserved chain bits 0x%x not zero (R-FILE-2)",
                 q->chains & ~BBC_CHAIN_MASK_ALL);
-  if ((flags & ~15u) != 0 || !all_zero(p + 56, 8))
+  if ((flags & ~15u) != 0 || !all_zero(p + 60, 4))
     return fail(c, BBC_ERR_CORRUPT, "PARM", at + 44, "reserved bits not zero (R-FILE-2)");
-  if (!bbc__params_valid(q) || (!q->area_lights && q->alpha_area != 0))
+  if (!bbc__params_valid(q) || (!q->area_lights && q->alpha_area != 0) || q->cell_levels == 1)
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "parameter out of its range (R-PAR-1)");
 
   p = c->sec[K_FPRT];
@@ -438,8 +439,9 @@ static bbc_result check_receivers(bbc_cache *c) {
   c->grid.resolution = res;
   c->grid.receiver_count = (uint32_t)count;
   c->grid.receivers = c->receivers;
-  c->grid.cell_count = cells;
   c->grid.uv_triangle_count = uvs;
+  bbc__grid_set_levels(&c->grid, c->receivers, c->params.cell_levels ? c->params.cell_levels : 1);
+  cells = c->grid.cell_count;
 
   /* R-SEC-2: the sizes the verified RCVR implies, then R-UV-1. */
   if (c->sec_size[K_TRUV] != (uint64_t)BBC__TRUV_SIZE * uvs)
@@ -1051,6 +1053,8 @@ struct bbc_cache_cursor {
   uint64_t clock;
   bbc_cache_entry *out;
   uint32_t out_cap;
+  bbc_cache_entry *merged; /* bbc_cache_leaf's merge of the levels' lists */
+  uint32_t merged_cap;
 };
 
 bbc_result bbc_cache_cursor_create(bbc_cache_cursor **out, const bbc_cache *c) {
@@ -1076,6 +1080,7 @@ void bbc_cache_cursor_free(bbc_cache_cursor *cur) {
   if (!cur) return;
   for (int i = 0; i < CURSOR_SLOTS; i++) free(cur->slot[i].planes);
   free(cur->out);
+  free(cur->merged);
   free(cur->slot_of);
   ZSTD_freeDCtx(cur->dctx);
   free(cur);
@@ -1111,13 +1116,21 @@ static bbc_result cursor_chunk(bbc_cache_cursor *cur, const reporter *rp, uint32
   return BBC_OK;
 }
 
-bbc_result bbc_cache_cell(bbc_cache_cursor *cur, uint64_t cell, const bbc_cache_entry **entries,
-                          uint32_t *count) {
-  if (entries) *entries = NULL;
-  if (count) *count = 0;
-  if (!cur || !entries || !count) return BBC_ERR_INVALID_ARGUMENT;
+static int grow(bbc_cache_entry **p, uint32_t *cap, uint64_t n) {
+  if (n <= *cap) return 1;
+  if (n > UINT32_MAX) return 0;
+  bbc_cache_entry *o = realloc(*p, sizeof *o * (size_t)n);
+  if (!o) return 0;
+  *p = o;
+  *cap = (uint32_t)n;
+  return 1;
+}
+
+/* Decodes the list of global cell `cell` into cur->out from index `at` on (growing it);
+ * *count its length. */
+static bbc_result cell_into(bbc_cache_cursor *cur, uint64_t cell, uint32_t at, uint32_t *count) {
+  *count = 0;
   const bbc_cache *c = cur->c;
-  if (cell >= c->grid.cell_count) return BBC_ERR_INVALID_ARGUMENT;
   const uint8_t *e = c->sec[K_CIDX] + BBC__CIDX_SIZE * cell;
   uint32_t k = bbc__ld32(e), first = bbc__ld32(e + 4), n = bbc__ld32(e + 8);
   if (n == 0) return BBC_OK;
@@ -1132,16 +1145,70 @@ bbc_result bbc_cache_cell(bbc_cache_cursor *cur, uint64_t cell, const bbc_cache_
     bbc_result r = cursor_chunk(cur, &rp, k, chunk_entries, &planes);
     if (r != BBC_OK) return r;
   }
-  if (n > cur->out_cap) {
-    bbc_cache_entry *o = realloc(cur->out, sizeof *o * (size_t)n);
-    if (!o) return BBC_ERR_OUT_OF_MEMORY;
-    cur->out = o;
-    cur->out_cap = n;
-  }
+  if (!grow(&cur->out, &cur->out_cap, (uint64_t)at + n)) return BBC_ERR_OUT_OF_MEMORY;
   /* Open checked first + n <= chunk entries (R-CIX-2). */
-  bbc_result r = decode_list(&rp, planes, chunk_entries, first, n, cell, cur->out);
-  if (r != BBC_OK) return r;
+  bbc_result r = decode_list(&rp, planes, chunk_entries, first, n, cell, cur->out + at);
+  if (r == BBC_OK) *count = n;
+  return r;
+}
+
+bbc_result bbc_cache_cell(bbc_cache_cursor *cur, uint64_t cell, const bbc_cache_entry **entries,
+                          uint32_t *count) {
+  if (entries) *entries = NULL;
+  if (count) *count = 0;
+  if (!cur || !entries || !count) return BBC_ERR_INVALID_ARGUMENT;
+  if (cell >= cur->c->grid.cell_count) return BBC_ERR_INVALID_ARGUMENT;
+  uint32_t n;
+  bbc_result r = cell_into(cur, cell, 0, &n);
+  if (r != BBC_OK || n == 0) return r;
   *entries = cur->out;
+  *count = n;
+  return BBC_OK;
+}
+
+bbc_result bbc_cache_leaf(bbc_cache_cursor *cur, bbc_cell cell, const bbc_cache_entry **entries,
+                          uint32_t *count) {
+  if (entries) *entries = NULL;
+  if (count) *count = 0;
+  if (!cur || !entries || !count) return BBC_ERR_INVALID_ARGUMENT;
+  const bbc_grid *g = &cur->c->grid;
+  if (cell.receiver >= g->receiver_count || cell.x >= g->receivers[cell.receiver].width ||
+      cell.y >= g->receivers[cell.receiver].height)
+    return BBC_ERR_INVALID_ARGUMENT;
+  /* Each level's list after the last, strictly increasing in tuple id (Sec. 7.2); then merged. */
+  uint32_t start[BBC__MAX_CELL_LEVELS + 1], lists = 0, total = 0;
+  for (uint32_t k = 0; k < g->levels; k++) {
+    uint32_t n;
+    bbc_result r = cell_into(cur, bbc_grid_level_cell(g, cell, k), total, &n);
+    if (r != BBC_OK) return r;
+    if (n == 0) continue;
+    start[lists++] = total;
+    total += n;
+  }
+  start[lists] = total;
+  if (lists <= 1) {
+    *entries = total ? cur->out : NULL;
+    *count = total;
+    return BBC_OK;
+  }
+  if (!grow(&cur->merged, &cur->merged_cap, total)) return BBC_ERR_OUT_OF_MEMORY;
+  uint32_t at[BBC__MAX_CELL_LEVELS], n = 0;
+  for (uint32_t i = 0; i < lists; i++) at[i] = start[i];
+  for (;;) {
+    uint32_t best = UINT32_MAX;
+    for (uint32_t i = 0; i < lists; i++)
+      if (at[i] < start[i + 1] &&
+          (best == UINT32_MAX || cur->out[at[i]].tuple < cur->out[at[best]].tuple))
+        best = i;
+    if (best == UINT32_MAX) break;
+    const bbc_cache_entry e = cur->out[at[best]++];
+    if (n > 0 && cur->merged[n - 1].tuple == e.tuple) {
+      if (e.bound > cur->merged[n - 1].bound) cur->merged[n - 1].bound = e.bound;
+    } else {
+      cur->merged[n++] = e;
+    }
+  }
+  *entries = cur->merged;
   *count = n;
   return BBC_OK;
 }
@@ -1154,7 +1221,7 @@ bbc_result bbc_cache_lookup(bbc_cache_cursor *cur, uint32_t triangle, double b1,
   if (!cur || !entries || !count) return BBC_ERR_INVALID_ARGUMENT;
   bbc_cell cell;
   if (!bbc_grid_locate(&cur->c->grid, triangle, b1, b2, point, &cell)) return BBC_OK;
-  return bbc_cache_cell(cur, bbc_grid_cell_index(&cur->c->grid, cell), entries, count);
+  return bbc_cache_leaf(cur, cell, entries, count);
 }
 
 /* ------------------------------------------------------------------ validation */

@@ -27,6 +27,7 @@
 #define BBC__MINOR_AREA_ALPHA 5u  /* area lights' own ratio (PARM bytes 48-55) */
 #define BBC__MINOR_PLANE 6u       /* receiver planes (RCVR parameterisation 3) */
 #define BBC__MINOR_BEAM 7u        /* beam receivers (PARM flags bit 3) */
+#define BBC__MINOR_LEVELS 8u      /* levels of cells (PARM bytes 56-59) */
 
 /* XXH64 of a candidate list as TUPL records (the candidates_hash of SHRD). */
 uint64_t bbc__candidates_hash(const bbc_tuple *tuples, size_t count);
@@ -73,15 +74,17 @@ bbc_result bbc__cache_builder_set_info(bbc_cache_builder *b, const void *text, s
 bbc_result bbc__cache_builder_add_codes(bbc_cache_builder *b, uint64_t cell, const uint32_t *tuples,
                                         const uint16_t *codes, uint32_t n);
 
-/* Adds tuple `id`'s codes in rows y0 .. y0 + h - 1 of receiver `receiver`'s cells, keeping
- * the maximum code per tuple: row y0 + k holds spans[2k + 1] codes from column
- * spans[2k], the rows' codes one after the other in `codes`, 0 for no entry. Only the
- * rows y with (y + receiver) % parts == part are added. No lock is taken: concurrent
+/* Adds tuple `id`'s codes in rows y0 .. y0 + h - 1 of receiver `receiver`'s cells of level
+ * `level` (< the grid's levels), keeping the maximum code per tuple: row y0 + k holds
+ * spans[2k + 1] codes from column spans[2k], the rows' codes one after the other in
+ * `codes`, 0 for no entry. Only the rows y with (y + receiver + level) % parts == part
+ * are added. No lock is taken: concurrent
  * callers must pass the same `parts` and distinct `part`s (so they touch distinct rows),
  * and nothing else may use the builder meanwhile. A cell whose tuples come in
  * increasing order stays sorted, and is never sorted again. */
 bbc_result bbc__cache_builder_add_rows(bbc_cache_builder *b, uint32_t id, uint32_t receiver,
-                                       uint32_t y0, uint32_t h, const uint32_t *spans,
+                                       uint32_t level, uint32_t y0, uint32_t h,
+                                       const uint32_t *spans,
                                        const uint16_t *codes, uint32_t part, uint32_t parts);
 
 /* Bounded memory (spill_internal.h): past `bytes` of entry arrays in its cells (0: the

@@ -113,6 +113,11 @@ bbc_result bbc_cache_builder_create(bbc_cache_builder **out, const bbc_scene *sc
   b->params.area_double =
       b->params.area_lights && params->area_double && (params->chains & BBC_CHAIN_MASK_DOUBLE);
   b->params.beam_receivers = params->beam_receivers ? 1 : 0; /* format 1.7, flags bit 3 */
+  /* Levels of cells for beam receivers (format 1.8, spec Sec. 6.6). */
+  const uint32_t levels =
+      b->params.beam_receivers ? bbc__grid_beam_levels(params->grid_resolution) : 1;
+  b->params.cell_levels = levels >= 2 ? levels : 0;
+  bbc__grid_set_levels(b->grid, (bbc_receiver *)b->grid->receivers, levels);
   bbc_fingerprint_compute(scene, &b->params, &b->fingerprint);
   b->scene_counts[0] = scene->vertex_count;
   b->scene_counts[1] = scene->triangle_count;
@@ -432,23 +437,27 @@ bbc_result bbc_cache_builder_splat_cells(bbc_cache_builder *b, uint32_t tuple_id
 }
 
 bbc_result bbc__cache_builder_add_rows(bbc_cache_builder *b, uint32_t id, uint32_t receiver,
-                                       uint32_t y0, uint32_t h, const uint32_t *spans,
-                                       const uint16_t *codes, uint32_t part, uint32_t parts) {
+                                       uint32_t level, uint32_t y0, uint32_t h,
+                                       const uint32_t *spans, const uint16_t *codes,
+                                       uint32_t part, uint32_t parts) {
   if (!b || (h && (!spans || !codes)) || id >= b->tuple_count ||
-      receiver >= b->grid->receiver_count || parts == 0 || part >= parts)
+      receiver >= b->grid->receiver_count || level >= b->grid->levels || parts == 0 ||
+      part >= parts)
     return BBC_ERR_INVALID_ARGUMENT;
-  const bbc_receiver *r = &b->grid->receivers[receiver];
+  uint32_t width, height;
+  const uint64_t first = bbc_grid_level(b->grid, receiver, level, &width, &height);
   if (h == 0) return BBC_OK;
-  if (y0 >= r->height || h > r->height - y0) return BBC_ERR_INVALID_ARGUMENT;
-  /* Rows whose (y + receiver) % parts is `part`: the first is `skip` rows in. */
-  uint32_t skip = (part + parts - (uint32_t)(((uint64_t)y0 + receiver) % parts)) % parts;
+  if (y0 >= height || h > height - y0) return BBC_ERR_INVALID_ARGUMENT;
+  /* Rows whose (y + receiver + level) % parts is `part`: the first is `skip` rows in. */
+  uint32_t skip =
+      (part + parts - (uint32_t)(((uint64_t)y0 + receiver + level) % parts)) % parts;
   const uint16_t *in = codes;
   for (uint32_t k = 0; k < h; k++) {
     const uint32_t x0 = spans[2 * k], n = spans[2 * k + 1];
     if (k == skip) {
       skip += parts;
-      if (n && (x0 >= r->width || n > r->width - x0)) return BBC_ERR_INVALID_ARGUMENT;
-      cell_list *row = b->cells + r->first_cell + (uint64_t)(y0 + k) * r->width + x0;
+      if (n && (x0 >= width || n > width - x0)) return BBC_ERR_INVALID_ARGUMENT;
+      cell_list *row = b->cells + first + (uint64_t)(y0 + k) * width + x0;
       for (uint32_t x = 0; x < n; x++) {
         if (in[x] == 0) continue;
         if (in[x] > BBC__CODE_INF) return BBC_ERR_INVALID_ARGUMENT;
@@ -1083,7 +1092,8 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   int planes = 0;
   for (uint32_t i = 0; i < b->grid->receiver_count; i++)
     planes |= b->grid->receivers[i].parameterisation == BBC_PARAM_PLANE;
-  bbc__st16(header + 10, b->params.beam_receivers ? BBC__MINOR_BEAM
+  bbc__st16(header + 10, b->params.cell_levels    ? BBC__MINOR_LEVELS
+                         : b->params.beam_receivers ? BBC__MINOR_BEAM
                          : planes                 ? BBC__MINOR_PLANE
                          : b->params.area_lights && b->params.alpha_area != 0
                              ? BBC__MINOR_AREA_ALPHA

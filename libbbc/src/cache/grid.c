@@ -280,9 +280,9 @@ bbc_result bbc_grid_create(bbc_grid **out, const bbc_scene *scene, uint32_t reso
   g->resolution = resolution;
   g->receiver_count = count;
   g->receivers = receivers;
-  g->cell_count = first_cell;
   g->uv_triangle_count = uv_count;
   g->triangle_uv = uv;
+  bbc__grid_set_levels(g, receivers, 1);
   *out = g;
   return BBC_OK;
 }
@@ -292,6 +292,26 @@ void bbc_grid_free(bbc_grid *grid) {
   free((void *)grid->receivers);
   free((void *)grid->triangle_uv);
   free(grid);
+}
+
+void bbc__grid_set_levels(bbc_grid *g, bbc_receiver *receivers, uint32_t levels) {
+  uint64_t cells = 0;
+  for (uint32_t i = 0; i < g->receiver_count; i++)
+    cells += (uint64_t)receivers[i].width * receivers[i].height;
+  for (uint32_t i = 0; i < g->receiver_count; i++) {
+    receivers[i].first_coarse_cell = cells;
+    for (uint32_t k = 1; k < levels; k++)
+      cells += (((uint64_t)(receivers[i].width - 1) >> k) + 1) *
+               (((uint64_t)(receivers[i].height - 1) >> k) + 1);
+  }
+  g->levels = levels;
+  g->cell_count = cells;
+}
+
+uint32_t bbc__grid_beam_levels(uint32_t resolution) {
+  uint32_t levels = 1;
+  while (((uint64_t)8 << (levels - 1)) < resolution) levels++;
+  return levels;
 }
 
 void bbc__grid_plane_coords(bbc_receiver *r) {

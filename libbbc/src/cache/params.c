@@ -28,7 +28,7 @@ int bbc__params_valid(const bbc_precompute_params *p) {
          p->area_double <= 1 &&
          (!p->area_double || (p->area_lights && (p->chains & BBC_CHAIN_MASK_DOUBLE))) &&
          (p->alpha_area == 0 || (isfinite(p->alpha_area) && p->alpha_area >= 1)) &&
-         p->beam_receivers <= 1;
+         p->beam_receivers <= 1 && p->cell_levels <= BBC__MAX_CELL_LEVELS;
 }
 
 double bbc__params_alpha_area(const bbc_precompute_params *p) {
@@ -49,4 +49,5 @@ void bbc__params_encode(const bbc_precompute_params *p, uint8_t out[BBC__PARM_SI
   /* Without area lights the field is 0, so that the parameters' hash does not depend on
    * a value nothing used. */
   bbc__stf64(out + 48, p->area_lights ? p->alpha_area : 0.0);
+  bbc__st32(out + 56, p->cell_levels >= 2 ? p->cell_levels : 0);
 }

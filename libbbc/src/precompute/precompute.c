@@ -278,7 +278,7 @@ typedef struct raster {
 /* A rectangle of a tuple's cells in one receiver: h rows from row y0, its codes and
  * spans from these indices of its arena on. */
 typedef struct cell_segment {
-  uint32_t receiver, y0, h;
+  uint32_t receiver, level, y0, h;
   size_t codes, spans;
 } cell_segment;
 
@@ -325,7 +325,7 @@ static int arena_reserve(void **p, size_t *cap, size_t need, size_t size) {
  * `scaled`. */
 static double cell_bound(double e_hi, double power);
 static bbc_result arena_add(cell_arena *a, int arena, tuple_cells *out, uint32_t receiver,
-                            uint32_t x0, uint32_t y0, uint32_t w, uint32_t h, const double *cells,
+                            uint32_t level, uint32_t x0, uint32_t y0, uint32_t w, uint32_t h, const double *cells,
                             size_t stride, int scaled, double power) {
   if (!arena_reserve((void **)&a->codes, &a->codes_cap, a->codes_used + (size_t)w * h,
                      sizeof *a->codes) ||
@@ -338,7 +338,7 @@ static bbc_result arena_add(cell_arena *a, int arena, tuple_cells *out, uint32_t
   if (out->segments == 0) out->segment = a->segments_used;
   cell_segment *seg = &a->segments[a->segments_used];
   seg->codes = a->codes_used, seg->spans = a->spans_used;
-  seg->receiver = receiver, seg->y0 = y0, seg->h = h;
+  seg->receiver = receiver, seg->level = level, seg->y0 = y0, seg->h = h;
   uint64_t entries = 0;
   uint16_t *codes = a->codes + a->codes_used;
   uint32_t *spans = a->spans + a->spans_used;
@@ -404,7 +404,7 @@ static bbc_result tuple_cells_from_coverage(cell_arena *a, int arena, tuple_cell
   out->segments = 0;
   out->entries = 0;
   if (!c->touched) return BBC_OK;
-  return arena_add(a, arena, out, c->receiver, c->tx0, c->ty0, c->tx1 - c->tx0 + 1,
+  return arena_add(a, arena, out, c->receiver, 0, c->tx0, c->ty0, c->tx1 - c->tx0 + 1,
                    c->ty1 - c->ty0 + 1,
                    c->cells + (size_t)(c->ty0 - c->y0) * c->w + (c->tx0 - c->x0), c->w, 1, power);
 }
@@ -455,7 +455,7 @@ static bbc_result tuple_cells_from_pieces(cell_arena *a, int arena, tuple_cells 
         if (e > row[x]) row[x] = e;
     }
   }
-  return arena_add(a, arena, out, all.receiver, all.x0, all.y0, (uint32_t)w, (uint32_t)h, r->cells,
+  return arena_add(a, arena, out, all.receiver, 0, all.x0, all.y0, (uint32_t)w, (uint32_t)h, r->cells,
                    w, 0, 0.0);
 }
 
@@ -491,7 +491,7 @@ static int record_part(bbc_cache_builder *builder, const batch *b, uint32_t part
     const cell_arena *a = &b->arenas[t->arena];
     for (uint32_t k = 0; k < t->segments && status == 0; k++) {
       const cell_segment *s = &a->segments[t->segment + k];
-      if (bbc__cache_builder_add_rows(builder, b->ids[i], s->receiver, s->y0, s->h,
+      if (bbc__cache_builder_add_rows(builder, b->ids[i], s->receiver, s->level, s->y0, s->h,
                                       a->spans + s->spans, a->codes + s->codes, part,
                                       parts) != BBC_OK)
         status = -1;
@@ -516,6 +516,8 @@ typedef struct beam_plane {
 typedef struct beam_cover {
   beam_plane *planes; /* per beam receiver (bbc__beam_receivers.items) */
   uint32_t count;
+  double *coarse; /* a rectangle of a coarser level (beam_plane_record) */
+  size_t coarse_cap;
 } beam_cover;
 
 /* What bounding a tuple needs: the scene, the parameters and per thread its bounder,
@@ -658,6 +660,39 @@ static int keep_beam_piece(void *user, const bbc_beam_piece *piece) {
   return 0;
 }
 
+/* A beam tuple's cells of one receiver are recorded at the finest level of cells (spec
+ * Sec. 6.6) whose rectangle around them has at most BEAM_LEVEL_CELLS cells, each coarse
+ * cell with the largest bound of its cells: a caustic spread over much of a receiver (a
+ * convex mirror's) costs about that many entries, not one per cell it reaches. */
+#define BEAM_LEVEL_CELLS 256
+
+static bbc_result beam_plane_record(const bbc_grid *grid, uint32_t receiver, const beam_plane *pl,
+                                    beam_cover *cover, cell_arena *a, int id, tuple_cells *c,
+                                    double power) {
+  const size_t w = grid->receivers[receiver].width;
+  uint32_t k = 0;
+  while (k + 1 < grid->levels && ((uint64_t)(pl->tx1 >> k) - (pl->tx0 >> k) + 1) *
+                                         ((uint64_t)(pl->ty1 >> k) - (pl->ty0 >> k) + 1) >
+                                     BEAM_LEVEL_CELLS)
+    k++;
+  if (k == 0)
+    return arena_add(a, id, c, receiver, 0, pl->tx0, pl->ty0, pl->tx1 - pl->tx0 + 1,
+                     pl->ty1 - pl->ty0 + 1, pl->cells + pl->ty0 * w + pl->tx0, w, 1, power);
+  const uint32_t x0 = pl->tx0 >> k, y0 = pl->ty0 >> k;
+  const uint32_t cw = (pl->tx1 >> k) - x0 + 1, ch = (pl->ty1 >> k) - y0 + 1;
+  if (!arena_reserve((void **)&cover->coarse, &cover->coarse_cap, (size_t)cw * ch,
+                     sizeof *cover->coarse))
+    return BBC_ERR_OUT_OF_MEMORY;
+  memset(cover->coarse, 0, (size_t)cw * ch * sizeof *cover->coarse);
+  for (uint32_t y = pl->ty0; y <= pl->ty1; y++) {
+    const double *row = pl->cells + y * w;
+    double *out = cover->coarse + (size_t)((y >> k) - y0) * cw;
+    for (uint32_t x = pl->tx0; x <= pl->tx1; x++)
+      if (row[x] > out[(x >> k) - x0]) out[(x >> k) - x0] = row[x];
+  }
+  return arena_add(a, id, c, receiver, k, x0, y0, cw, ch, cover->coarse, cw, 1, power);
+}
+
 /* Bounds beam tuple t (receiver BBC_RECEIVER_BEAM) on thread `id`: its kept pieces'
  * bounds go to the cells of every receiver triangle not on a plane that their boxes
  * meet, the largest per cell, one segment per receiver reached. 0 on failure. */
@@ -695,9 +730,7 @@ static int bound_beam_one(const bound_context *x, int id, const bbc_tuple *t, ce
     if (!pl->touched) continue;
     const uint32_t receiver = x->beams->items[k].receiver;
     const size_t w = x->grid->receivers[receiver].width;
-    if (ok && c->stored &&
-        arena_add(a, id, c, receiver, pl->tx0, pl->ty0, pl->tx1 - pl->tx0 + 1,
-                  pl->ty1 - pl->ty0 + 1, pl->cells + pl->ty0 * w + pl->tx0, w, 1, power) != BBC_OK)
+    if (ok && c->stored && beam_plane_record(x->grid, receiver, pl, cover, a, id, c, power) != BBC_OK)
       ok = 0;
     for (uint32_t y = pl->ty0; y <= pl->ty1; y++)
       memset(pl->cells + y * w + pl->tx0, 0, ((size_t)pl->tx1 - pl->tx0 + 1) * sizeof *pl->cells);
@@ -806,15 +839,20 @@ static double beam_cells_total(const bbc__beam_receivers *beams, const bbc_grid 
 }
 
 /* The most a beam tuple's cells take in a batch's arena: a code per cell of each
- * receiver's mask rectangle, a span per row and a segment per receiver. */
+ * receiver's mask rectangle, a span per row and a segment per receiver; with levels of
+ * cells at most BEAM_LEVEL_CELLS codes and rows (beam_plane_record). */
 static double beam_tuple_bytes(const bbc__beam_receivers *beams, const bbc_grid *grid) {
-  (void)grid;
   double bytes = 0;
   for (uint32_t k = 0; k < beams->count; k++) {
     const bbc__beam_receiver *item = &beams->items[k];
     if (item->mx0 > item->mx1) continue;
-    const double w = (double)item->mx1 - item->mx0 + 1, h = (double)item->my1 - item->my0 + 1;
-    bytes += w * h * sizeof(uint16_t) + h * 2 * sizeof(uint32_t) + sizeof(cell_segment);
+    double cells = ((double)item->mx1 - item->mx0 + 1) * ((double)item->my1 - item->my0 + 1);
+    double rows = (double)item->my1 - item->my0 + 1;
+    if (grid->levels > 1) {
+      cells = fmin(cells, BEAM_LEVEL_CELLS);
+      rows = fmin(rows, BEAM_LEVEL_CELLS);
+    }
+    bytes += cells * sizeof(uint16_t) + rows * 2 * sizeof(uint32_t) + sizeof(cell_segment);
   }
   return bytes;
 }
@@ -1178,6 +1216,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   for (int i = 0; beam_covers && i < threads; i++) {
     for (uint32_t k = 0; k < beam_covers[i].count; k++) free(beam_covers[i].planes[k].cells);
     free(beam_covers[i].planes);
+    free(beam_covers[i].coarse);
   }
   free(beam_covers);
   free(beam_pieces);
