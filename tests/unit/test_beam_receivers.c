@@ -194,8 +194,7 @@ TEST(levels_merge_in_lookups) {
   CHECK(widened > 0);
   const bbc_cache_entry *e;
   uint32_t n;
-  CHECK_INT(bbc_cache_leaf(cursor, (bbc_cell){0, r->width, 0}, &e, &n),
-            BBC_ERR_INVALID_ARGUMENT);
+  CHECK_INT(bbc_cache_leaf(cursor, (bbc_cell){0, r->width, 0}, &e, &n), BBC_ERR_INVALID_ARGUMENT);
   free(best);
   bbc_cache_cursor_free(raw);
   bbc_cache_cursor_free(cursor);

@@ -84,8 +84,8 @@ bbc_result bbc__cache_builder_add_codes(bbc_cache_builder *b, uint64_t cell, con
  * increasing order stays sorted, and is never sorted again. */
 bbc_result bbc__cache_builder_add_rows(bbc_cache_builder *b, uint32_t id, uint32_t receiver,
                                        uint32_t level, uint32_t y0, uint32_t h,
-                                       const uint32_t *spans,
-                                       const uint16_t *codes, uint32_t part, uint32_t parts);
+                                       const uint32_t *spans, const uint16_t *codes, uint32_t part,
+                                       uint32_t parts);
 
 /* Bounded memory (spill_internal.h): past `bytes` of entry arrays in its cells (0: the
  * default), bbc__cache_builder_spill_if_full writes the builder's lists to its spill

@@ -438,8 +438,8 @@ bbc_result bbc_cache_builder_splat_cells(bbc_cache_builder *b, uint32_t tuple_id
 
 bbc_result bbc__cache_builder_add_rows(bbc_cache_builder *b, uint32_t id, uint32_t receiver,
                                        uint32_t level, uint32_t y0, uint32_t h,
-                                       const uint32_t *spans, const uint16_t *codes,
-                                       uint32_t part, uint32_t parts) {
+                                       const uint32_t *spans, const uint16_t *codes, uint32_t part,
+                                       uint32_t parts) {
   if (!b || (h && (!spans || !codes)) || id >= b->tuple_count ||
       receiver >= b->grid->receiver_count || level >= b->grid->levels || parts == 0 ||
       part >= parts)
@@ -449,8 +449,7 @@ bbc_result bbc__cache_builder_add_rows(bbc_cache_builder *b, uint32_t id, uint32
   if (h == 0) return BBC_OK;
   if (y0 >= height || h > height - y0) return BBC_ERR_INVALID_ARGUMENT;
   /* Rows whose (y + receiver + level) % parts is `part`: the first is `skip` rows in. */
-  uint32_t skip =
-      (part + parts - (uint32_t)(((uint64_t)y0 + receiver + level) % parts)) % parts;
+  uint32_t skip = (part + parts - (uint32_t)(((uint64_t)y0 + receiver + level) % parts)) % parts;
   const uint16_t *in = codes;
   for (uint32_t k = 0; k < h; k++) {
     const uint32_t x0 = spans[2 * k], n = spans[2 * k + 1];
@@ -1092,9 +1091,9 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   int planes = 0;
   for (uint32_t i = 0; i < b->grid->receiver_count; i++)
     planes |= b->grid->receivers[i].parameterisation == BBC_PARAM_PLANE;
-  bbc__st16(header + 10, b->params.cell_levels    ? BBC__MINOR_LEVELS
+  bbc__st16(header + 10, b->params.cell_levels      ? BBC__MINOR_LEVELS
                          : b->params.beam_receivers ? BBC__MINOR_BEAM
-                         : planes                 ? BBC__MINOR_PLANE
+                         : planes                   ? BBC__MINOR_PLANE
                          : b->params.area_lights && b->params.alpha_area != 0
                              ? BBC__MINOR_AREA_ALPHA
                          : b->params.area_double ? BBC__MINOR_AREA_DOUBLE

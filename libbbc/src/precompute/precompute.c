@@ -325,8 +325,8 @@ static int arena_reserve(void **p, size_t *cap, size_t need, size_t size) {
  * `scaled`. */
 static double cell_bound(double e_hi, double power);
 static bbc_result arena_add(cell_arena *a, int arena, tuple_cells *out, uint32_t receiver,
-                            uint32_t level, uint32_t x0, uint32_t y0, uint32_t w, uint32_t h, const double *cells,
-                            size_t stride, int scaled, double power) {
+                            uint32_t level, uint32_t x0, uint32_t y0, uint32_t w, uint32_t h,
+                            const double *cells, size_t stride, int scaled, double power) {
   if (!arena_reserve((void **)&a->codes, &a->codes_cap, a->codes_used + (size_t)w * h,
                      sizeof *a->codes) ||
       !arena_reserve((void **)&a->spans, &a->spans_cap, a->spans_used + 2 * (size_t)h,
@@ -455,8 +455,8 @@ static bbc_result tuple_cells_from_pieces(cell_arena *a, int arena, tuple_cells 
         if (e > row[x]) row[x] = e;
     }
   }
-  return arena_add(a, arena, out, all.receiver, 0, all.x0, all.y0, (uint32_t)w, (uint32_t)h, r->cells,
-                   w, 0, 0.0);
+  return arena_add(a, arena, out, all.receiver, 0, all.x0, all.y0, (uint32_t)w, (uint32_t)h,
+                   r->cells, w, 0, 0.0);
 }
 
 /* A batch of tuples: bounded, then given ids and recorded while the next batch is
@@ -660,36 +660,87 @@ static int keep_beam_piece(void *user, const bbc_beam_piece *piece) {
   return 0;
 }
 
-/* A beam tuple's cells of one receiver are recorded at the finest level of cells (spec
- * Sec. 6.6) whose rectangle around them has at most BEAM_LEVEL_CELLS cells, each coarse
- * cell with the largest bound of its cells: a caustic spread over much of a receiver (a
- * convex mirror's) costs about that many entries, not one per cell it reaches. */
-#define BEAM_LEVEL_CELLS 256
+/* A beam tuple's cells of one receiver are recorded at the coarsest level of cells (spec
+ * Sec. 6.6) at which they keep their shape: each coarse cell takes the largest bound of
+ * its cells, so the bounds summed over the grid's cells grow with the level, and the
+ * level is the last before that sum exceeds BEAM_LEVEL_GROWTH times the cells' own. The
+ * renderer samples tuples in proportion to their bounds, so that sum is what its work
+ * follows. A caustic spread smoothly over much of a receiver (a convex mirror's) then
+ * costs a few entries, not one per cell it reaches; one with folds or a focus keeps
+ * fine cells. Unbounded cells (+inf) stay at the grid's level: they send their points'
+ * chain type to light tracing (docs/light-tracing.md), which must not spread. */
+#define BEAM_LEVEL_GROWTH 1.25
+
+/* The finite bounds of the rectangle of pl at level k into cover->coarse (w x h, from x0,
+ * y0); returns their sum over the grid's cells (a coarse cell counts once per cell of
+ * the grid it holds), or -1 when out of memory. */
+static double beam_plane_coarsen(const bbc_receiver *rc, const beam_plane *pl, beam_cover *cover,
+                                 uint32_t k, uint32_t *x0, uint32_t *y0, uint32_t *w, uint32_t *h) {
+  *x0 = pl->tx0 >> k, *y0 = pl->ty0 >> k;
+  *w = (pl->tx1 >> k) - *x0 + 1, *h = (pl->ty1 >> k) - *y0 + 1;
+  if (!arena_reserve((void **)&cover->coarse, &cover->coarse_cap, (size_t)*w * *h,
+                     sizeof *cover->coarse))
+    return -1;
+  memset(cover->coarse, 0, (size_t)*w * *h * sizeof *cover->coarse);
+  for (uint32_t y = pl->ty0; y <= pl->ty1; y++) {
+    const double *row = pl->cells + (size_t)y * rc->width;
+    double *out = cover->coarse + (size_t)((y >> k) - *y0) * *w;
+    for (uint32_t x = pl->tx0; x <= pl->tx1; x++)
+      if (row[x] > out[(x >> k) - *x0] && row[x] < INFINITY) out[(x >> k) - *x0] = row[x];
+  }
+  double sum = 0;
+  const uint32_t side = 1u << k;
+  for (uint32_t y = 0; y < *h; y++) {
+    const uint32_t gy = (*y0 + y) << k, ny = rc->height - gy < side ? rc->height - gy : side;
+    for (uint32_t x = 0; x < *w; x++) {
+      const uint32_t gx = (*x0 + x) << k, nx = rc->width - gx < side ? rc->width - gx : side;
+      sum += cover->coarse[(size_t)y * *w + x] * nx * ny;
+    }
+  }
+  return sum;
+}
 
 static bbc_result beam_plane_record(const bbc_grid *grid, uint32_t receiver, const beam_plane *pl,
                                     beam_cover *cover, cell_arena *a, int id, tuple_cells *c,
                                     double power) {
-  const size_t w = grid->receivers[receiver].width;
-  uint32_t k = 0;
-  while (k + 1 < grid->levels && ((uint64_t)(pl->tx1 >> k) - (pl->tx0 >> k) + 1) *
-                                         ((uint64_t)(pl->ty1 >> k) - (pl->ty0 >> k) + 1) >
-                                     BEAM_LEVEL_CELLS)
-    k++;
-  if (k == 0)
+  const bbc_receiver *rc = &grid->receivers[receiver];
+  const size_t w = rc->width;
+  uint32_t x0, y0, cw, ch, k = 0;
+  if (grid->levels > 1) {
+    double own = 0;
+    int unbounded = 0;
+    for (uint32_t y = pl->ty0; y <= pl->ty1; y++)
+      for (uint32_t x = pl->tx0; x <= pl->tx1; x++) {
+        const double v = pl->cells[y * w + x];
+        if (v < INFINITY) own += v;
+        unbounded |= v == INFINITY;
+      }
+    if (unbounded) {
+      /* The unbounded cells alone at level 0. */
+      const uint32_t rw = pl->tx1 - pl->tx0 + 1, rh = pl->ty1 - pl->ty0 + 1;
+      if (!arena_reserve((void **)&cover->coarse, &cover->coarse_cap, (size_t)rw * rh,
+                         sizeof *cover->coarse))
+        return BBC_ERR_OUT_OF_MEMORY;
+      for (uint32_t y = 0; y < rh; y++)
+        for (uint32_t x = 0; x < rw; x++) {
+          const double v = pl->cells[(pl->ty0 + y) * w + pl->tx0 + x];
+          cover->coarse[(size_t)y * rw + x] = v == INFINITY ? v : 0;
+        }
+      bbc_result r =
+          arena_add(a, id, c, receiver, 0, pl->tx0, pl->ty0, rw, rh, cover->coarse, rw, 1, power);
+      if (r != BBC_OK || own == 0) return r;
+    }
+    while (k + 1 < grid->levels) {
+      const double sum = beam_plane_coarsen(rc, pl, cover, k + 1, &x0, &y0, &cw, &ch);
+      if (sum < 0) return BBC_ERR_OUT_OF_MEMORY;
+      if (!(sum <= BEAM_LEVEL_GROWTH * own)) break;
+      k++;
+    }
+  }
+  if (k == 0 && !(grid->levels > 1))
     return arena_add(a, id, c, receiver, 0, pl->tx0, pl->ty0, pl->tx1 - pl->tx0 + 1,
                      pl->ty1 - pl->ty0 + 1, pl->cells + pl->ty0 * w + pl->tx0, w, 1, power);
-  const uint32_t x0 = pl->tx0 >> k, y0 = pl->ty0 >> k;
-  const uint32_t cw = (pl->tx1 >> k) - x0 + 1, ch = (pl->ty1 >> k) - y0 + 1;
-  if (!arena_reserve((void **)&cover->coarse, &cover->coarse_cap, (size_t)cw * ch,
-                     sizeof *cover->coarse))
-    return BBC_ERR_OUT_OF_MEMORY;
-  memset(cover->coarse, 0, (size_t)cw * ch * sizeof *cover->coarse);
-  for (uint32_t y = pl->ty0; y <= pl->ty1; y++) {
-    const double *row = pl->cells + y * w;
-    double *out = cover->coarse + (size_t)((y >> k) - y0) * cw;
-    for (uint32_t x = pl->tx0; x <= pl->tx1; x++)
-      if (row[x] > out[(x >> k) - x0]) out[(x >> k) - x0] = row[x];
-  }
+  if (beam_plane_coarsen(rc, pl, cover, k, &x0, &y0, &cw, &ch) < 0) return BBC_ERR_OUT_OF_MEMORY;
   return arena_add(a, id, c, receiver, k, x0, y0, cw, ch, cover->coarse, cw, 1, power);
 }
 
@@ -730,7 +781,8 @@ static int bound_beam_one(const bound_context *x, int id, const bbc_tuple *t, ce
     if (!pl->touched) continue;
     const uint32_t receiver = x->beams->items[k].receiver;
     const size_t w = x->grid->receivers[receiver].width;
-    if (ok && c->stored && beam_plane_record(x->grid, receiver, pl, cover, a, id, c, power) != BBC_OK)
+    if (ok && c->stored &&
+        beam_plane_record(x->grid, receiver, pl, cover, a, id, c, power) != BBC_OK)
       ok = 0;
     for (uint32_t y = pl->ty0; y <= pl->ty1; y++)
       memset(pl->cells + y * w + pl->tx0, 0, ((size_t)pl->tx1 - pl->tx0 + 1) * sizeof *pl->cells);
@@ -839,19 +891,15 @@ static double beam_cells_total(const bbc__beam_receivers *beams, const bbc_grid 
 }
 
 /* The most a beam tuple's cells take in a batch's arena: a code per cell of each
- * receiver's mask rectangle, a span per row and a segment per receiver; with levels of
- * cells at most BEAM_LEVEL_CELLS codes and rows (beam_plane_record). */
+ * receiver's mask rectangle, a span per row and a segment per receiver. */
 static double beam_tuple_bytes(const bbc__beam_receivers *beams, const bbc_grid *grid) {
+  (void)grid;
   double bytes = 0;
   for (uint32_t k = 0; k < beams->count; k++) {
     const bbc__beam_receiver *item = &beams->items[k];
     if (item->mx0 > item->mx1) continue;
-    double cells = ((double)item->mx1 - item->mx0 + 1) * ((double)item->my1 - item->my0 + 1);
-    double rows = (double)item->my1 - item->my0 + 1;
-    if (grid->levels > 1) {
-      cells = fmin(cells, BEAM_LEVEL_CELLS);
-      rows = fmin(rows, BEAM_LEVEL_CELLS);
-    }
+    const double cells = ((double)item->mx1 - item->mx0 + 1) * ((double)item->my1 - item->my0 + 1);
+    const double rows = (double)item->my1 - item->my0 + 1;
     bytes += cells * sizeof(uint16_t) + rows * 2 * sizeof(uint32_t) + sizeof(cell_segment);
   }
   return bytes;
