@@ -68,11 +68,12 @@ static const char help[] =
     "                        the cache instead of path tracing (docs/lights.md)\n"
     "  --area-double         with --area-lights, their double-scattering chain types of\n"
     "                        --chains (RR, RT, TR, TT) too: far costlier to bound\n"
-    "  --receivers MODE      per-triangle (default) or beam: whether receiver triangles\n"
-    "                        not on a plane end one tuple each, or one beam tuple per\n"
-    "                        specular prefix stands for all of them (docs/receivers.md):\n"
-    "                        beam costs the same on a finely cut curved receiver as on\n"
-    "                        a coarse one\n"
+    "  --receivers MODE      auto (default), per-triangle or beam: whether receiver\n"
+    "                        triangles not on a plane end one tuple each, or one beam\n"
+    "                        tuple per specular prefix stands for all of them\n"
+    "                        (docs/receivers.md): beam costs the same on a finely cut\n"
+    "                        curved receiver as on a coarse one; auto takes beam when\n"
+    "                        such receivers hold 1000 triangles or more\n"
     "  --no-remainder        drop the remainder variables of refraction: faster, but the\n"
     "                        bounds are no longer conservative (the paper's Fig. 18)\n"
     "  --jacobian FORM       determinant (default) or quotient: the form of the\n"
@@ -405,7 +406,7 @@ int main(int argc, char **argv) {
   memset(&options, 0, sizeof options);
   bbc_precompute_params_default(&options.params);
   int progress = -1, stats = 0, allow_empty = 0, no_geometry = 0, alpha_area_given = 0;
-  int dry_run = 0, ignore_estimate = 0;
+  int dry_run = 0, ignore_estimate = 0, receivers_auto = 1;
   double memory_mb = 0; /* --memory; 0: the default */
   bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
 
@@ -454,12 +455,13 @@ int main(int argc, char **argv) {
     } else if (cli_flag(&a, "--area-double")) {
       options.params.area_double = 1;
     } else if (cli_option(&a, "--receivers", &value)) {
+      receivers_auto = strcmp(value, "auto") == 0;
       if (strcmp(value, "per-triangle") == 0)
         options.params.beam_receivers = 0;
       else if (strcmp(value, "beam") == 0)
         options.params.beam_receivers = 1;
-      else
-        cli_usage_error(usage, "--receivers: '%s' is neither per-triangle nor beam", value);
+      else if (!receivers_auto)
+        cli_usage_error(usage, "--receivers: '%s' is not auto, per-triangle or beam", value);
     } else if (cli_option(&a, "--jacobian", &value)) {
       if (strcmp(value, "determinant") == 0)
         options.jacobian = BBC_JACOBIAN_DETERMINANT;
@@ -525,6 +527,15 @@ int main(int argc, char **argv) {
   bbc_scene *scene = NULL;
   if (bbc_scene_load(&scene, scene_path, &scene_options) != BBC_OK) return 1;
   run.phase = NULL;
+  if (receivers_auto) {
+    uint64_t curved = 0;
+    options.params.beam_receivers = bbc_beam_receivers_auto(scene, &curved);
+    if (options.params.beam_receivers)
+      fprintf(stderr,
+              "bbc-precompute: receivers: beam (%llu receiver triangles not on a plane; "
+              "--receivers per-triangle gives each its own tuples)\n",
+              (unsigned long long)curved);
+  }
   if (bbc_cache_check_resources(scene, &options.params, dry_run ? NULL : output,
                                 (uint64_t)(memory.mb * 1048576.0), on_error, &run) != BBC_OK) {
     bbc_scene_free(scene);

@@ -21,11 +21,34 @@ test_degenerate_receiver_cache_is_valid() {
   expect_status 0 "$BBC_BIN/bbc-inspect/bbc-inspect" validate "$TMP/d.bbc"
 }
 
+# --receivers auto (the default) takes beam receivers when the receivers that are not
+# planes hold 1000 triangles or more: a bent floor of about 1,200 triangles gets beams,
+# one of 512 and the same large floor with --receivers per-triangle do not.
+test_receivers_auto_follows_the_curved_triangles() {
+  expect_status 0 "$BBC_BIN/scenes/bbc-scenegen" wavy-mirror --size 200 --floor-size 1200 \
+    --floor-bend 0.2 -o "$TMP/big.gltf"
+  small="$BBC_TEST_SCENES/bent-wavy-mirror-512.gltf"
+  run() { expect_status 0 "$PRECOMPUTE" "$@" --chains R --max-level 3 --resolution 32 \
+    --no-progress; }
+  receivers() { expect_status 0 "$BBC_BIN/bbc-inspect/bbc-inspect" info "$1"
+    grep -c "^receivers    beam" "$TMP/out"; }
+  run "$TMP/big.gltf" -o "$TMP/big.bbc"
+  grep -q "receivers: beam (1[0-9][0-9][0-9] receiver triangles not on a plane" "$TMP/err" ||
+    fail "auto did not say it took beams: $(cat "$TMP/err")"
+  [ "$(receivers "$TMP/big.bbc")" = 1 ] || fail "the large bent floor has no beam tuples"
+  run "$small" -o "$TMP/small.bbc"
+  grep -q "receivers: beam" "$TMP/err" && fail "auto took beams for 512 triangles"
+  [ "$(receivers "$TMP/small.bbc")" = 0 ] || fail "the 512-triangle floor has beam tuples"
+  run "$TMP/big.gltf" -o "$TMP/pt.bbc" --receivers per-triangle
+  [ "$(receivers "$TMP/pt.bbc")" = 0 ] || fail "--receivers per-triangle gave beams"
+}
+
 test_help_documents_every_flag() {
   expect_status 0 "$PRECOMPUTE" --help
   for flag in --output --stats --json --chains --max-level --sigma --alpha --alpha2 --alpha-area --m --resolution \
               --no-remainder --jacobian --threads --memory --entry-memory --progress --no-progress \
-              --version --help --allow-empty --light-units --dry-run --ignore-estimate; do
+              --version --help --allow-empty --light-units --dry-run --ignore-estimate \
+              --receivers; do
     grep -q -- "$flag" "$TMP/out" || fail "--help does not mention $flag"
   done
 }

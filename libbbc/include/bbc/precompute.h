@@ -102,6 +102,17 @@ typedef struct bbc_precompute_stats {
   bbc_precompute_estimate estimate; /* as estimate_fn was given it */
 } bbc_precompute_stats;
 
+/* The receivers a cache of this scene should have (bbc-precompute --receivers auto):
+ * 1, beam receivers (bbc_precompute_params.beam_receivers), when the receiver meshes
+ * that are not receiver planes hold at least BBC_BEAM_RECEIVER_TRIANGLES triangles in
+ * all; else 0, a tuple per receiver triangle. Measured on a wavy mirror over a bent
+ * floor (docs/receivers.md): per-triangle tuples cost less to precompute below about a
+ * thousand floor triangles, beams far less above (2,000: 2x; 20,000: 13x), and the
+ * beams' render was better at equal CPU there. *triangles (may be NULL) receives that
+ * count. */
+#define BBC_BEAM_RECEIVER_TRIANGLES 1000u
+BBC_API uint32_t bbc_beam_receivers_auto(const bbc_scene *scene, uint64_t *triangles);
+
 /* Precomputes the scene's bounds into a new cache builder (*out, free with
  * bbc_cache_builder_free), ready to be written. The chain types of params.chains are
  * computed, each specular vertex reflecting on mirrors and refracting through

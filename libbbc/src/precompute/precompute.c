@@ -972,6 +972,15 @@ static void estimate_costs(const bbc__census *census, const bbc_precompute_optio
                              expected * e->entries_per_tuple * 1.7);
 }
 
+uint32_t bbc_beam_receivers_auto(const bbc_scene *scene, uint64_t *triangles) {
+  uint64_t n = 0;
+  for (uint32_t m = 0; scene && m < scene->mesh_count; m++)
+    if (scene->meshes[m].role == BBC_ROLE_RECEIVER && !scene->meshes[m].plane)
+      n += scene->meshes[m].triangle_count;
+  if (triangles) *triangles = n;
+  return n >= BBC_BEAM_RECEIVER_TRIANGLES;
+}
+
 bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
                           const bbc_precompute_options *options, bbc_precompute_stats *stats) {
   *out = NULL;
