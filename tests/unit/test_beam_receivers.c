@@ -57,7 +57,8 @@ TEST(beam_tuples_do_not_multiply_with_the_floor) {
 
 /* A cache of the scene at `path` (R, level 6, a 64 x 64 grid) with beam or per-triangle
  * receivers on `threads` threads: its bytes (malloc'd) and their size. */
-static int precompute_bytes(const char *path, int beam, int threads, void **bytes, size_t *size) {
+static int precompute_levels(const char *path, int beam, int threads, uint32_t levels,
+                             void **bytes, size_t *size) {
   bbc_scene *s = NULL;
   if (bbc_scene_load(&s, path, NULL) != BBC_OK) return 0;
   bbc_precompute_options o;
@@ -67,6 +68,7 @@ static int precompute_bytes(const char *path, int beam, int threads, void **byte
   o.params.max_level = 6;
   o.params.grid_resolution = 64;
   o.params.beam_receivers = (uint32_t)beam;
+  o.params.cell_levels = levels;
   o.threads = threads;
   bbc_cache_builder *b = NULL;
   int ok = bbc_precompute(&b, s, &o, NULL) == BBC_OK &&
@@ -74,6 +76,10 @@ static int precompute_bytes(const char *path, int beam, int threads, void **byte
   bbc_cache_builder_free(b);
   bbc_scene_free(s);
   return ok;
+}
+
+static int precompute_bytes(const char *path, int beam, int threads, void **bytes, size_t *size) {
+  return precompute_levels(path, beam, threads, 0, bytes, size);
 }
 
 static int fixture_of(fixture *f, const char *path, int beam) {
@@ -199,6 +205,75 @@ TEST(levels_merge_in_lookups) {
   bbc_cache_cursor_free(raw);
   bbc_cache_cursor_free(cursor);
   teardown(&f);
+}
+
+/* Levels change where a bound is recorded, never below what the grid's cells held: the
+ * same precompute on one level (the oracle) and on the writer's levels store the same
+ * tuples, and at every cell each tuple's merged bound is at least its one-level bound,
+ * and unbounded exactly where that was (an unbounded cell sends its chain type to light
+ * tracing, which levels must not spread). */
+TEST(levels_keep_every_bound_and_the_unbounded_cells) {
+  void *one = NULL, *many = NULL;
+  size_t n1 = 0, n2 = 0;
+  REQUIRE(precompute_levels(BENT(512), 1, 0, 1, &one, &n1));
+  REQUIRE(precompute_levels(BENT(512), 1, 0, 0, &many, &n2));
+  bbc_cache *c1 = NULL, *c2 = NULL;
+  REQUIRE(bbc_cache_open_memory(&c1, one, n1, NULL) == BBC_OK);
+  REQUIRE(bbc_cache_open_memory(&c2, many, n2, NULL) == BBC_OK);
+  bbc_cache_info i1, i2;
+  bbc_cache_get_info(c1, &i1);
+  bbc_cache_get_info(c2, &i2);
+  CHECK_INT(i1.params.cell_levels, 0);
+  CHECK_INT(i1.version_minor, 7);
+  CHECK_INT(i2.params.cell_levels, 4);
+  REQUIRE(i1.tuple_count == i2.tuple_count);
+  CHECK(memcmp(bbc_cache_tuples(c1), bbc_cache_tuples(c2),
+               sizeof(bbc_tuple) * i1.tuple_count) == 0);
+  CHECK(i2.entry_count < i1.entry_count);
+  bbc_cache_cursor *k1 = NULL, *k2 = NULL;
+  REQUIRE(bbc_cache_cursor_create(&k1, c1) == BBC_OK);
+  REQUIRE(bbc_cache_cursor_create(&k2, c2) == BBC_OK);
+  float *seen = malloc(sizeof *seen * i1.tuple_count);
+  REQUIRE(seen);
+  const bbc_grid *g = bbc_cache_grid(c1);
+  uint64_t entries = 0, unbounded = 0, raised = 0, bad = 0;
+  for (uint32_t r = 0; r < g->receiver_count; r++)
+    for (uint32_t y = 0; y < g->receivers[r].height; y++)
+      for (uint32_t x = 0; x < g->receivers[r].width; x++) {
+        const bbc_cache_entry *a, *b;
+        uint32_t na, nb;
+        REQUIRE(bbc_cache_leaf(k1, (bbc_cell){r, x, y}, &a, &na) == BBC_OK);
+        for (uint32_t i = 0; i < i1.tuple_count; i++) seen[i] = 0;
+        for (uint32_t i = 0; i < na; i++) seen[a[i].tuple] = a[i].bound;
+        REQUIRE(bbc_cache_leaf(k2, (bbc_cell){r, x, y}, &b, &nb) == BBC_OK);
+        uint32_t matched = 0;
+        for (uint32_t i = 0; i < nb; i++) {
+          const float was = seen[b[i].tuple];
+          if (was > 0) matched++;
+          if (b[i].bound < was || (isinf(b[i].bound) != isinf(was) && was > 0) ||
+              (isinf(b[i].bound) && was == 0))
+            bad++;
+          raised += b[i].bound > was;
+        }
+        if (matched != na) bad += na - matched; /* a one-level entry lost */
+        entries += na;
+        for (uint32_t i = 0; i < na; i++) unbounded += isinf(a[i].bound);
+      }
+  fprintf(stderr,
+          "%llu entries on one level, %llu with levels; %llu cell entries unbounded; %llu "
+          "raised or added; %llu wrong\n",
+          (unsigned long long)i1.entry_count, (unsigned long long)i2.entry_count,
+          (unsigned long long)unbounded, (unsigned long long)raised, (unsigned long long)bad);
+  CHECK(unbounded > 0); /* the floor has unbounded cells, so the rule is exercised */
+  CHECK(raised > 0);
+  CHECK_INT(bad, 0);
+  free(seen);
+  bbc_cache_cursor_free(k1);
+  bbc_cache_cursor_free(k2);
+  bbc_cache_close(c1);
+  bbc_cache_close(c2);
+  free(one);
+  free(many);
 }
 
 /* The caustic rendered through beam tuples, every tuple of a cell solved (enumerated),

@@ -52,11 +52,11 @@ typedef struct bbc_precompute_params {
    * bbc_bound_beam and recorded in the cells of every such triangle the light can reach.
    * 0 (the default): one tuple per such triangle, as every cache before 1.7. */
   uint32_t beam_receivers;
-  /* Levels of cells (format 1.8, PARM bytes 56-59; spec Sec. 6.6): 0 or 1, the grids'
-   * cells alone; L >= 2, the grids and L - 1 coarser levels, where a tuple whose cells
-   * span a large rectangle is recorded. Not a choice of the caller: a writer sets it
-   * from beam_receivers and grid_resolution (bbc__grid_beam_levels: L with 2^(L-1) >=
-   * grid_resolution / 8 for beam receivers, else 0); a reader reports the file's. */
+  /* Levels of cells (format 1.8, PARM bytes 56-59; spec Sec. 6.6): in a file 0, the
+   * grids' cells alone, or L >= 2, the grids and L - 1 coarser levels, where a beam
+   * tuple whose bounds are smooth over many cells is recorded. Given to a writer: 0 (the
+   * default) lets it choose, L with 2^(L-1) >= grid_resolution / 8 for beam receivers,
+   * else one level; 1 asks for one level; 2..17 for that many. */
   uint32_t cell_levels;
 } bbc_precompute_params;
 

@@ -518,6 +518,8 @@ typedef struct beam_cover {
   uint32_t count;
   double *coarse; /* a rectangle of a coarser level (beam_plane_record) */
   size_t coarse_cap;
+  uint8_t *full; /* the levels' unbounded blocks (beam_plane_record_unbounded) */
+  size_t full_cap;
 } beam_cover;
 
 /* What bounding a tuple needs: the scene, the parameters and per thread its bounder,
@@ -667,8 +669,8 @@ static int keep_beam_piece(void *user, const bbc_beam_piece *piece) {
  * renderer samples tuples in proportion to their bounds, so that sum is what its work
  * follows. A caustic spread smoothly over much of a receiver (a convex mirror's) then
  * costs a few entries, not one per cell it reaches; one with folds or a focus keeps
- * fine cells. Unbounded cells (+inf) stay at the grid's level: they send their points'
- * chain type to light tracing (docs/light-tracing.md), which must not spread. */
+ * fine cells. Unbounded cells (+inf) are never merged with bounded ones: they send their
+ * points' chain type to light tracing (docs/light-tracing.md), which must not spread. */
 #define BEAM_LEVEL_GROWTH 1.25
 
 /* The finite bounds of the rectangle of pl at level k into cover->coarse (w x h, from x0,
@@ -700,6 +702,74 @@ static double beam_plane_coarsen(const bbc_receiver *rc, const beam_plane *pl, b
   return sum;
 }
 
+/* The unbounded cells of pl as the union of the largest aligned blocks of cells, of any
+ * level, whose cells are all unbounded (a quadtree): a tuple unbounded over a whole
+ * receiver then costs a few entries, and no cell that was bounded becomes unbounded. */
+static bbc_result beam_plane_record_unbounded(const bbc_grid *grid, uint32_t receiver,
+                                              const beam_plane *pl, beam_cover *cover,
+                                              cell_arena *a, int id, tuple_cells *c,
+                                              double power) {
+  const bbc_receiver *rc = &grid->receivers[receiver];
+  const uint32_t levels = grid->levels;
+  /* full[k]: per cell of the rectangle at level k, 1 when all its cells are unbounded. */
+  size_t at[BBC__MAX_CELL_LEVELS + 1], total = 0;
+  for (uint32_t k = 0; k < levels; k++) {
+    at[k] = total;
+    total += (size_t)((pl->tx1 >> k) - (pl->tx0 >> k) + 1) * ((pl->ty1 >> k) - (pl->ty0 >> k) + 1);
+  }
+  if (!arena_reserve((void **)&cover->full, &cover->full_cap, total, 1)) return BBC_ERR_OUT_OF_MEMORY;
+  for (uint32_t k = 0; k < levels; k++) {
+    const uint32_t x0 = pl->tx0 >> k, y0 = pl->ty0 >> k, x1 = pl->tx1 >> k, y1 = pl->ty1 >> k;
+    const uint32_t w = x1 - x0 + 1;
+    uint8_t *full = cover->full + at[k];
+    for (uint32_t y = y0; y <= y1; y++)
+      for (uint32_t x = x0; x <= x1; x++) {
+        uint8_t f = 1;
+        if (k == 0) {
+          f = pl->cells[(size_t)y * rc->width + x] == INFINITY;
+        } else {
+          /* Its children of level k - 1 inside the grid, each inside the rectangle and
+           * full (one outside holds no cell of the rectangle, so none unbounded). */
+          const uint32_t gw = ((rc->width - 1) >> (k - 1)) + 1, gh = ((rc->height - 1) >> (k - 1)) + 1;
+          const uint32_t px0 = pl->tx0 >> (k - 1), py0 = pl->ty0 >> (k - 1);
+          const uint32_t px1 = pl->tx1 >> (k - 1), py1 = pl->ty1 >> (k - 1);
+          for (uint32_t j = 0; j < 2 && f; j++)
+            for (uint32_t i = 0; i < 2 && f; i++) {
+              const uint32_t cx = 2 * x + i, cy = 2 * y + j;
+              if (cx >= gw || cy >= gh) continue;
+              f = cx >= px0 && cx <= px1 && cy >= py0 && cy <= py1 &&
+                  cover->full[at[k - 1] + (size_t)(cy - py0) * (px1 - px0 + 1) + (cx - px0)];
+            }
+        }
+        full[(size_t)(y - y0) * w + (x - x0)] = f;
+      }
+  }
+  /* From the coarsest level down: a full cell whose parent is not full. */
+  for (uint32_t k = levels; k-- > 0;) {
+    const uint32_t x0 = pl->tx0 >> k, y0 = pl->ty0 >> k, x1 = pl->tx1 >> k, y1 = pl->ty1 >> k;
+    const uint32_t w = x1 - x0 + 1, h = y1 - y0 + 1;
+    if (!arena_reserve((void **)&cover->coarse, &cover->coarse_cap, (size_t)w * h,
+                       sizeof *cover->coarse))
+      return BBC_ERR_OUT_OF_MEMORY;
+    int any = 0;
+    for (uint32_t y = y0; y <= y1; y++)
+      for (uint32_t x = x0; x <= x1; x++) {
+        int f = cover->full[at[k] + (size_t)(y - y0) * w + (x - x0)];
+        if (f && k + 1 < levels) {
+          const uint32_t qx0 = pl->tx0 >> (k + 1), qy0 = pl->ty0 >> (k + 1);
+          const uint32_t qw = (pl->tx1 >> (k + 1)) - qx0 + 1;
+          f = !cover->full[at[k + 1] + (size_t)((y >> 1) - qy0) * qw + ((x >> 1) - qx0)];
+        }
+        cover->coarse[(size_t)(y - y0) * w + (x - x0)] = f ? INFINITY : 0;
+        any |= f;
+      }
+    if (!any) continue;
+    bbc_result r = arena_add(a, id, c, receiver, k, x0, y0, w, h, cover->coarse, w, 1, power);
+    if (r != BBC_OK) return r;
+  }
+  return BBC_OK;
+}
+
 static bbc_result beam_plane_record(const bbc_grid *grid, uint32_t receiver, const beam_plane *pl,
                                     beam_cover *cover, cell_arena *a, int id, tuple_cells *c,
                                     double power) {
@@ -716,18 +786,7 @@ static bbc_result beam_plane_record(const bbc_grid *grid, uint32_t receiver, con
         unbounded |= v == INFINITY;
       }
     if (unbounded) {
-      /* The unbounded cells alone at level 0. */
-      const uint32_t rw = pl->tx1 - pl->tx0 + 1, rh = pl->ty1 - pl->ty0 + 1;
-      if (!arena_reserve((void **)&cover->coarse, &cover->coarse_cap, (size_t)rw * rh,
-                         sizeof *cover->coarse))
-        return BBC_ERR_OUT_OF_MEMORY;
-      for (uint32_t y = 0; y < rh; y++)
-        for (uint32_t x = 0; x < rw; x++) {
-          const double v = pl->cells[(pl->ty0 + y) * w + pl->tx0 + x];
-          cover->coarse[(size_t)y * rw + x] = v == INFINITY ? v : 0;
-        }
-      bbc_result r =
-          arena_add(a, id, c, receiver, 0, pl->tx0, pl->ty0, rw, rh, cover->coarse, rw, 1, power);
+      bbc_result r = beam_plane_record_unbounded(grid, receiver, pl, cover, a, id, c, power);
       if (r != BBC_OK || own == 0) return r;
     }
     while (k + 1 < grid->levels) {
@@ -1274,6 +1333,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     for (uint32_t k = 0; k < beam_covers[i].count; k++) free(beam_covers[i].planes[k].cells);
     free(beam_covers[i].planes);
     free(beam_covers[i].coarse);
+    free(beam_covers[i].full);
   }
   free(beam_covers);
   free(beam_pieces);
