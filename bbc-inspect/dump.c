@@ -43,8 +43,9 @@ int cmd_dump(cli_args *a, const char *path) {
   if (bbc_cache_cursor_create(&cur, c) != BBC_OK) cli_fail("out of memory");
   const bbc_cache_entry *e;
   uint32_t n;
-  uint64_t index = bbc_grid_cell_index(g, (bbc_cell){r, (uint32_t)x, (uint32_t)y});
-  if (bbc_cache_cell(cur, index, &e, &n) != BBC_OK) exit(1); /* the callback printed it */
+  /* What a point of the cell sees: with levels, the coarser cells' lists too. */
+  if (bbc_cache_leaf(cur, (bbc_cell){r, (uint32_t)x, (uint32_t)y}, &e, &n) != BBC_OK)
+    exit(1); /* the callback printed it */
   const bbc_tuple *t = bbc_cache_tuples(c);
   printf("# receiver %u, cell %lld,%lld: %u entries\n", r, x, y, n);
   printf("# tuple chain light T1 T2 receiver bound\n");
