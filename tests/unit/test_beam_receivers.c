@@ -57,8 +57,8 @@ TEST(beam_tuples_do_not_multiply_with_the_floor) {
 
 /* A cache of the scene at `path` (R, level 6, a 64 x 64 grid) with beam or per-triangle
  * receivers on `threads` threads: its bytes (malloc'd) and their size. */
-static int precompute_levels(const char *path, int beam, int threads, uint32_t levels,
-                             void **bytes, size_t *size) {
+static int precompute_levels(const char *path, int beam, int threads, uint32_t levels, void **bytes,
+                             size_t *size) {
   bbc_scene *s = NULL;
   if (bbc_scene_load(&s, path, NULL) != BBC_OK) return 0;
   bbc_precompute_options o;
@@ -227,8 +227,8 @@ TEST(levels_keep_every_bound_and_the_unbounded_cells) {
   CHECK_INT(i1.version_minor, 7);
   CHECK_INT(i2.params.cell_levels, 4);
   REQUIRE(i1.tuple_count == i2.tuple_count);
-  CHECK(memcmp(bbc_cache_tuples(c1), bbc_cache_tuples(c2),
-               sizeof(bbc_tuple) * i1.tuple_count) == 0);
+  CHECK(memcmp(bbc_cache_tuples(c1), bbc_cache_tuples(c2), sizeof(bbc_tuple) * i1.tuple_count) ==
+        0);
   CHECK(i2.entry_count < i1.entry_count);
   bbc_cache_cursor *k1 = NULL, *k2 = NULL;
   REQUIRE(bbc_cache_cursor_create(&k1, c1) == BBC_OK);

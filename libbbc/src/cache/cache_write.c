@@ -114,9 +114,10 @@ bbc_result bbc_cache_builder_create(bbc_cache_builder **out, const bbc_scene *sc
       b->params.area_lights && params->area_double && (params->chains & BBC_CHAIN_MASK_DOUBLE);
   b->params.beam_receivers = params->beam_receivers ? 1 : 0; /* format 1.7, flags bit 3 */
   /* Levels of cells for beam receivers (format 1.8, spec Sec. 6.6). */
-  const uint32_t levels = params->cell_levels        ? params->cell_levels
-                          : b->params.beam_receivers ? bbc__grid_beam_levels(params->grid_resolution)
-                                                     : 1;
+  const uint32_t levels = params->cell_levels ? params->cell_levels
+                          : b->params.beam_receivers
+                              ? bbc__grid_beam_levels(params->grid_resolution)
+                              : 1;
   b->params.cell_levels = levels >= 2 ? levels : 0;
   bbc__grid_set_levels(b->grid, (bbc_receiver *)b->grid->receivers, levels);
   bbc_fingerprint_compute(scene, &b->params, &b->fingerprint);

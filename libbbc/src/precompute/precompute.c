@@ -707,8 +707,7 @@ static double beam_plane_coarsen(const bbc_receiver *rc, const beam_plane *pl, b
  * receiver then costs a few entries, and no cell that was bounded becomes unbounded. */
 static bbc_result beam_plane_record_unbounded(const bbc_grid *grid, uint32_t receiver,
                                               const beam_plane *pl, beam_cover *cover,
-                                              cell_arena *a, int id, tuple_cells *c,
-                                              double power) {
+                                              cell_arena *a, int id, tuple_cells *c, double power) {
   const bbc_receiver *rc = &grid->receivers[receiver];
   const uint32_t levels = grid->levels;
   /* full[k]: per cell of the rectangle at level k, 1 when all its cells are unbounded. */
@@ -717,7 +716,8 @@ static bbc_result beam_plane_record_unbounded(const bbc_grid *grid, uint32_t rec
     at[k] = total;
     total += (size_t)((pl->tx1 >> k) - (pl->tx0 >> k) + 1) * ((pl->ty1 >> k) - (pl->ty0 >> k) + 1);
   }
-  if (!arena_reserve((void **)&cover->full, &cover->full_cap, total, 1)) return BBC_ERR_OUT_OF_MEMORY;
+  if (!arena_reserve((void **)&cover->full, &cover->full_cap, total, 1))
+    return BBC_ERR_OUT_OF_MEMORY;
   for (uint32_t k = 0; k < levels; k++) {
     const uint32_t x0 = pl->tx0 >> k, y0 = pl->ty0 >> k, x1 = pl->tx1 >> k, y1 = pl->ty1 >> k;
     const uint32_t w = x1 - x0 + 1;
@@ -730,7 +730,8 @@ static bbc_result beam_plane_record_unbounded(const bbc_grid *grid, uint32_t rec
         } else {
           /* Its children of level k - 1 inside the grid, each inside the rectangle and
            * full (one outside holds no cell of the rectangle, so none unbounded). */
-          const uint32_t gw = ((rc->width - 1) >> (k - 1)) + 1, gh = ((rc->height - 1) >> (k - 1)) + 1;
+          const uint32_t gw = ((rc->width - 1) >> (k - 1)) + 1,
+                         gh = ((rc->height - 1) >> (k - 1)) + 1;
           const uint32_t px0 = pl->tx0 >> (k - 1), py0 = pl->ty0 >> (k - 1);
           const uint32_t px1 = pl->tx1 >> (k - 1), py1 = pl->ty1 >> (k - 1);
           for (uint32_t j = 0; j < 2 && f; j++)
