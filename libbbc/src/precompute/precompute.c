@@ -776,30 +776,28 @@ static bbc_result beam_plane_record(const bbc_grid *grid, uint32_t receiver, con
                                     double power) {
   const bbc_receiver *rc = &grid->receivers[receiver];
   const size_t w = rc->width;
-  uint32_t x0, y0, cw, ch, k = 0;
-  if (grid->levels > 1) {
-    double own = 0;
-    int unbounded = 0;
-    for (uint32_t y = pl->ty0; y <= pl->ty1; y++)
-      for (uint32_t x = pl->tx0; x <= pl->tx1; x++) {
-        const double v = pl->cells[y * w + x];
-        if (v < INFINITY) own += v;
-        unbounded |= v == INFINITY;
-      }
-    if (unbounded) {
-      bbc_result r = beam_plane_record_unbounded(grid, receiver, pl, cover, a, id, c, power);
-      if (r != BBC_OK || own == 0) return r;
-    }
-    while (k + 1 < grid->levels) {
-      const double sum = beam_plane_coarsen(rc, pl, cover, k + 1, &x0, &y0, &cw, &ch);
-      if (sum < 0) return BBC_ERR_OUT_OF_MEMORY;
-      if (!(sum <= BEAM_LEVEL_GROWTH * own)) break;
-      k++;
-    }
-  }
-  if (k == 0 && !(grid->levels > 1))
+  if (grid->levels == 1)
     return arena_add(a, id, c, receiver, 0, pl->tx0, pl->ty0, pl->tx1 - pl->tx0 + 1,
                      pl->ty1 - pl->ty0 + 1, pl->cells + pl->ty0 * w + pl->tx0, w, 1, power);
+  double own = 0;
+  int unbounded = 0;
+  for (uint32_t y = pl->ty0; y <= pl->ty1; y++)
+    for (uint32_t x = pl->tx0; x <= pl->tx1; x++) {
+      const double v = pl->cells[y * w + x];
+      if (v < INFINITY) own += v;
+      unbounded |= v == INFINITY;
+    }
+  if (unbounded) {
+    bbc_result r = beam_plane_record_unbounded(grid, receiver, pl, cover, a, id, c, power);
+    if (r != BBC_OK || own == 0) return r;
+  }
+  uint32_t x0, y0, cw, ch, k = 0;
+  while (k + 1 < grid->levels) {
+    const double sum = beam_plane_coarsen(rc, pl, cover, k + 1, &x0, &y0, &cw, &ch);
+    if (sum < 0) return BBC_ERR_OUT_OF_MEMORY;
+    if (!(sum <= BEAM_LEVEL_GROWTH * own)) break;
+    k++;
+  }
   if (beam_plane_coarsen(rc, pl, cover, k, &x0, &y0, &cw, &ch) < 0) return BBC_ERR_OUT_OF_MEMORY;
   return arena_add(a, id, c, receiver, k, x0, y0, cw, ch, cover->coarse, cw, 1, power);
 }
@@ -951,16 +949,18 @@ static double beam_cells_total(const bbc__beam_receivers *beams, const bbc_grid 
 }
 
 /* The most a beam tuple's cells take in a batch's arena: a code per cell of each
- * receiver's mask rectangle, a span per row and a segment per receiver. */
+ * receiver's mask rectangle, a span per row and a segment per receiver; with levels of
+ * cells, the unbounded cells' rectangles of every level too (at most 4/3 of the grid's)
+ * besides the bounded cells' one. */
 static double beam_tuple_bytes(const bbc__beam_receivers *beams, const bbc_grid *grid) {
-  (void)grid;
+  const double levels = grid->levels > 1 ? 1 + 4.0 / 3.0 : 1;
   double bytes = 0;
   for (uint32_t k = 0; k < beams->count; k++) {
     const bbc__beam_receiver *item = &beams->items[k];
     if (item->mx0 > item->mx1) continue;
-    const double cells = ((double)item->mx1 - item->mx0 + 1) * ((double)item->my1 - item->my0 + 1);
-    const double rows = (double)item->my1 - item->my0 + 1;
-    bytes += cells * sizeof(uint16_t) + rows * 2 * sizeof(uint32_t) + sizeof(cell_segment);
+    const double w = (double)item->mx1 - item->mx0 + 1, h = (double)item->my1 - item->my0 + 1;
+    bytes += levels * (w * h * sizeof(uint16_t) + h * 2 * sizeof(uint32_t) +
+                       grid->levels * sizeof(cell_segment));
   }
   return bytes;
 }
