@@ -722,6 +722,11 @@ static bbc_result beam_plane_record_unbounded(const bbc_grid *grid, uint32_t rec
     const uint32_t x0 = pl->tx0 >> k, y0 = pl->ty0 >> k, x1 = pl->tx1 >> k, y1 = pl->ty1 >> k;
     const uint32_t w = x1 - x0 + 1;
     uint8_t *full = cover->full + at[k];
+    /* Level k - 1: the grid's size and the rectangle there. */
+    const uint32_t q = k ? k - 1 : 0;
+    const uint32_t gw = ((rc->width - 1) >> q) + 1, gh = ((rc->height - 1) >> q) + 1;
+    const uint32_t px0 = pl->tx0 >> q, py0 = pl->ty0 >> q, px1 = pl->tx1 >> q,
+                   py1 = pl->ty1 >> q;
     for (uint32_t y = y0; y <= y1; y++)
       for (uint32_t x = x0; x <= x1; x++) {
         uint8_t f = 1;
@@ -730,10 +735,6 @@ static bbc_result beam_plane_record_unbounded(const bbc_grid *grid, uint32_t rec
         } else {
           /* Its children of level k - 1 inside the grid, each inside the rectangle and
            * full (one outside holds no cell of the rectangle, so none unbounded). */
-          const uint32_t gw = ((rc->width - 1) >> (k - 1)) + 1,
-                         gh = ((rc->height - 1) >> (k - 1)) + 1;
-          const uint32_t px0 = pl->tx0 >> (k - 1), py0 = pl->ty0 >> (k - 1);
-          const uint32_t px1 = pl->tx1 >> (k - 1), py1 = pl->ty1 >> (k - 1);
           for (uint32_t j = 0; j < 2 && f; j++)
             for (uint32_t i = 0; i < 2 && f; i++) {
               const uint32_t cx = 2 * x + i, cy = 2 * y + j;
