@@ -119,3 +119,6 @@ done
 for n in 128 512; do
   scene wavy-mirror --size 200 --floor-size $n --floor-bend 0.2 -o "$out/bent-wavy-mirror-$n.gltf"
 done
+# A glass ball resting on that floor, whose wave rises into the ball beside the point it
+# rests on (light refracted into the ball lands on the floor inside it).
+scene glass-sphere --size 80 --floor-size 512 --floor-bend 0.2 -o "$out/bent-glass-sphere-512.gltf"

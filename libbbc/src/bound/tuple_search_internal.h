@@ -44,4 +44,11 @@ size_t bbc__tuple_search_peak_bytes(const bbc__tuple_search *s);
 
 void bbc__tuple_search_free(bbc__tuple_search *s); /* NULL is allowed */
 
+/* Narrows lo..hi to where the light of tuple t can land after its last specular vertex:
+ * when the search's medium rule finds it inside a closed mesh (bbc__media_enclosure), it
+ * lands inside that mesh, so inside the mesh's bounding box (every segment to a point
+ * outside would cross the mesh, a specular vertex more than the chain has). Returns 0
+ * when nothing of lo..hi is left. Exact on the float data. */
+int bbc__tuple_landing_box(const bbc_scene *scene, const bbc_tuple *t, double lo[3], double hi[3]);
+
 #endif

@@ -597,6 +597,59 @@ static void scratch_free(search_scratch *s) {
   free(s->stack);
 }
 
+/* What encloses the light beyond T1 (`first` its scattering, 1: refraction, met from
+ * `side`): a light's own medium bounds nothing where media are found per triangle (its
+ * mesh may be any of the medium's). */
+static uint32_t first_enclosure(const bbc_scene *scene, const bbc_point_light *light, uint32_t t1,
+                                int first, int side) {
+  return first == 1 ? bbc__media_enclosure(scene, t1, side) : scene->media ? 0 : light->medium;
+}
+
+/* What encloses the light after T2 (`second` its scattering, `sides` as
+ * second_refraction_possible says): a reflection keeps `enclosure`, a refraction decides
+ * it from the side T2 is met from (of both, when they agree). */
+static uint32_t second_enclosure(const bbc_scene *scene, uint32_t enclosure, uint32_t t2,
+                                 int second, int sides) {
+  if (second != 1) return enclosure;
+  const uint32_t a = bbc__media_enclosure(scene, t2, 1), b = bbc__media_enclosure(scene, t2, -1);
+  return sides == 1 ? a : sides == 2 ? b : a == b ? a : 0;
+}
+
+int bbc__tuple_landing_box(const bbc_scene *scene, const bbc_tuple *t, double lo[3], double hi[3]) {
+  const uint32_t t1 = t->specular[0];
+  const int first = scattering_of(scene, t1);
+  if (first < 0) return 1;
+  const bbc_point_light light = bbc__cache_light_point(scene, t->light);
+  const bbc_vec3 p0 = v3_load(scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t1]);
+  const int side = bbc__media_side(scene, t1, bbc__light_source(light.position, &light.model, p0));
+  uint32_t medium = light.medium;
+  if (first == 1 && !bbc__media_refract(scene, light.medium, t1, side, &medium)) return 1;
+  uint32_t enclosure = first_enclosure(scene, &light, t1, first, side);
+  if (bbc_chain_length((bbc_chain)t->chain) == 2) {
+    const uint32_t t2 = t->specular[1];
+    const int second = scattering_of(scene, t2);
+    if (second < 0) return 1;
+    const int sides = second == 1 ? second_refraction_possible(scene, medium, t1, t2) : 0;
+    enclosure = second_enclosure(scene, enclosure, t2, second, sides);
+  }
+  if (enclosure == 0 || !scene->meshes[enclosure - 1].closed) return 1;
+  /* Inside the closed mesh the light lands only inside it (medium_reaches). */
+  const bbc_mesh *mesh = &scene->meshes[enclosure - 1];
+  double box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
+  for (uint32_t k = mesh->first_triangle; k < mesh->first_triangle + mesh->triangle_count; k++) {
+    double tlo[3], thi[3];
+    triangle_bounds(scene, k, tlo, thi);
+    for (int a = 0; a < 3; a++)
+      box[a] = fmin(box[a], tlo[a]), box[3 + a] = fmax(box[3 + a], thi[a]);
+  }
+  int meets = 1;
+  for (int a = 0; a < 3; a++) {
+    lo[a] = fmax(lo[a], box[a]), hi[a] = fmin(hi[a], box[3 + a]);
+    meets &= lo[a] <= hi[a];
+  }
+  return meets;
+}
+
 /* The tuples of the second triangles of a prefix (s->found2[0, s->n2) with their reach),
  * from the place *at on, as prefix_tuples says. `tuple` is the prefix's single
  * scattering tuple, `first` its scattering at T1 (1: refraction), medium the one
@@ -623,14 +676,7 @@ static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, int bea
     if (result != BBC_OK) return result;
     bbc_ivec3 x2, d2;
     if (!second_beam(&g2, &s->reach[t2], &x2, &d2)) continue;
-    /* What encloses the light after T2: a reflection keeps it, a refraction decides it
-     * from the side T2 is met from (of both, when they agree). */
-    uint32_t last = enclosure;
-    if (second == 1) {
-      const uint32_t a = bbc__media_enclosure(scene, t2, 1),
-                     b = bbc__media_enclosure(scene, t2, -1);
-      last = sides == 1 ? a : sides == 2 ? b : a == b ? a : 0;
-    }
+    const uint32_t last = second_enclosure(scene, enclosure, t2, second, sides);
     uint32_t n = bvh_beam(receivers, scene, &x2, &d2, s->stack, s->found);
     if (beam_receivers) n = beam_items(receivers, scene, last, s->found, n);
     for (uint32_t i = start; i < n; i++) {
@@ -670,11 +716,7 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int bea
   const bbc_vec3 source = bbc__light_source(light->position, &light->model, p0);
   const int side = bbc__media_side(scene, t, source);
   if (first == 1 && !bbc__media_refract(scene, light->medium, t, side, &medium)) return BBC_OK;
-  /* What encloses the light beyond T1: a light's own medium bounds nothing where media
-   * are found per triangle (its mesh may be any of the medium's). */
-  const uint32_t enclosure = first == 1     ? bbc__media_enclosure(scene, t, side)
-                             : scene->media ? 0
-                                            : light->medium;
+  const uint32_t enclosure = first_enclosure(scene, light, t, first, side);
   /* A spot whose cone misses T1's bounding sphere lights none of it. */
   if (!spot_may_light(light, scene, t)) return BBC_OK;
   const bbc_chain single = first ? BBC_CHAIN_T : BBC_CHAIN_R;

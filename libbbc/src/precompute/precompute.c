@@ -829,9 +829,13 @@ static int bound_beam_one(const bound_context *x, int id, const bbc_tuple *t, ce
   prm.beam_need = beam_need;
   prm.beam_depth = beam_depth;
   prm.need_user = &sink;
-  int ok = bbc_bound_beam(x->bounders[id], &g, x->beams->lo, x->beams->hi, &prm, keep_beam_piece,
-                          &sink, stats) == BBC_OK &&
-           !list->failed;
+  /* The box where its light can land: inside a closed mesh, that mesh's. */
+  double lo[3], hi[3];
+  for (int k = 0; k < 3; k++) lo[k] = x->beams->lo[k], hi[k] = x->beams->hi[k];
+  if (!bbc__tuple_landing_box(x->scene, t, lo, hi)) return 1; /* it reaches no receiver */
+  int ok =
+      bbc_bound_beam(x->bounders[id], &g, lo, hi, &prm, keep_beam_piece, &sink, stats) == BBC_OK &&
+      !list->failed;
   c->stored = ok && list->count > 0;
   const double power = tuple_power(x->scene, x->params, t);
   beam_cover *cover = &x->beam_covers[id];

@@ -11,6 +11,7 @@
 #include "bbc/texture.h"
 #include "rng_internal.h"
 #include "light_internal.h"
+#include "tuple_search_internal.h"
 #include "vec_internal.h"
 
 /* ---- the leaves of one tuple and a grid to find the one holding u1 ------------------ */
@@ -374,6 +375,10 @@ static bbc_result beam_landings(const bbc_scene *scene, const bbc_tuple *tuple,
     if (probe.flags & BBC_PATH_BACKWARD && pgi->length == 1) dir = v3_scale(dir, -1);
     filter = v3_dot(dir, dir) > 0 && !(probe.flags & BBC_PATH_BACKWARD && pgi->length == 2);
   }
+  /* Where the light can land: a landing outside that box crosses the closed mesh the
+   * light is in, so it is no path of the chain (the search's medium rule). */
+  double lo[3] = {-INFINITY, -INFINITY, -INFINITY}, hi[3] = {INFINITY, INFINITY, INFINITY};
+  bbc__tuple_landing_box(scene, tuple, lo, hi);
   bbc_tuple ended = *tuple;
   for (uint32_t m = 0; m < scene->mesh_count; m++) {
     const bbc_mesh *mesh = &scene->meshes[m];
@@ -385,6 +390,10 @@ static bbc_result beam_landings(const bbc_scene *scene, const bbc_tuple *tuple,
       if (!bbc_receiver_triangle(scene, t, pgt.receiver)) continue;
       bbc_specular_path path;
       if (!admissible_path(scene, &ended, &pgt, o, u1, &path)) continue;
+      const double x[3] = {path.xk.x, path.xk.y, path.xk.z};
+      int outside = 0;
+      for (int a = 0; a < 3; a++) outside |= !(x[a] >= lo[a] && x[a] <= hi[a]);
+      if (outside) continue;
       bbc_result r = fn(user, t, &path);
       if (r != BBC_OK) return r;
     }
@@ -565,9 +574,9 @@ static bbc_result count_landing(void *user, uint32_t t, const bbc_specular_path 
 }
 
 /* bbc_validate_tuple for a beam tuple: bbc_bound_beam over the box of the receivers not
- * on a plane; every landing of a sampled true path must lie in the box of the kept
- * piece holding its u1, with its irradiance on the triangle it lands on in
- * [e_lo, e_hi]. */
+ * on a plane (narrowed to where its light can land, bbc__tuple_landing_box); every landing of a
+ * sampled true path must lie in the box of the kept piece holding its u1, with its irradiance on
+ * the triangle it lands on in [e_lo, e_hi]. */
 static bbc_result validate_beam(bbc_bounder *bounder, const bbc_scene *scene,
                                 const bbc_tuple *tuple, const bbc_bound_params *params,
                                 uint32_t samples, uint64_t seed, bbc_validation *acc) {
@@ -593,7 +602,9 @@ static bbc_result validate_beam(bbc_bounder *bounder, const bbc_scene *scene,
   }
   beam_leaves leaves;
   memset(&leaves, 0, sizeof leaves);
-  r = bbc_bound_beam(bounder, &tg, lo, hi, params, collect_beam_leaf, &leaves, NULL);
+  /* Narrowed as bbc_precompute narrows it (nothing left: no piece, and no landing). */
+  if (bbc__tuple_landing_box(scene, tuple, lo, hi))
+    r = bbc_bound_beam(bounder, &tg, lo, hi, params, collect_beam_leaf, &leaves, NULL);
   if (leaves.failed) r = BBC_ERR_OUT_OF_MEMORY;
   const bbc_beam_piece **held = malloc((leaves.count ? leaves.count : 1) * sizeof *held);
   if (r == BBC_OK && !held) r = BBC_ERR_OUT_OF_MEMORY;
