@@ -234,37 +234,6 @@ TEST(light_tracing_region_matches_whole_image) {
   teardown(&f);
 }
 
-/* The default photons per sample: one per pixel where the camera sees the floor under
- * the slab (some of its cells light-traced), a sixteenth where it looks away (the pilot's photons land on no pixel), for
- * any thread count; the image looking away is black either way. */
-TEST(photons_follow_the_pilot) {
-  fixture f;
-  REQUIRE(setup(&f, 1, 1));
-  bbc_render_options o = caustic_options(1, split_cell_bound(&f), 0, 0);
-  bbc_render_stats seen, away, away1;
-  bbc_image *a = fixture_render(&f, o, FILM, FILM, &seen);
-  bbc_camera turned = f.scene->camera;
-  turned.w = (bbc_vec3){-turned.w.x, -turned.w.y, -turned.w.z};
-  turned.u = (bbc_vec3){-turned.u.x, -turned.u.y, -turned.u.z};
-  o.camera = &turned;
-  bbc_image *b = fixture_render(&f, o, FILM, FILM, &away);
-  o.threads = 1;
-  bbc_image *c = fixture_render(&f, o, FILM, FILM, &away1);
-  REQUIRE(a && b && c);
-  CHECK_INT(seen.photons, (uint64_t)FILM * FILM * o.spp);
-  CHECK(seen.photon_splats > 0);
-  CHECK_INT(away.photons, (uint64_t)FILM * FILM / 16 * o.spp);
-  CHECK_INT(away1.photons, away.photons);
-  CHECK_INT(away.photon_splats, 0);
-  double sum = 0;
-  for (size_t i = 0; i < 3 * FILM * FILM; i++) sum += b->rgb[i];
-  CHECK(sum == 0);
-  bbc_image_free(a);
-  bbc_image_free(b);
-  bbc_image_free(c);
-  teardown(&f);
-}
-
 /* Two slabs: every light path to the floor has four or more specular vertices, which no
  * cache holds. Without light tracing the floor is black; with it (default cells), exact. */
 TEST(light_tracing_renders_four_vertex_chains) {

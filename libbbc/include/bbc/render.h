@@ -124,11 +124,9 @@ typedef struct bbc_render_options {
   uint32_t photons_per_spp; /* photons traced per sample; 0 = the image's pixel
                                count (one per pixel per sample; the same for a region,
                                so that its pixels stay those of the whole image), a
-                               sixteenth of it where photons are all but wasted: when
-                               no caster is a dielectric and no cell is light-traced
-                               (only chains of 3+ mirrors remain), or when a pilot of
-                               16,384 photons (discarded) lands fewer than 4 on the
-                               image */
+                               sixteenth of it
+                               when no caster is a dielectric and no cell is
+                               light-traced (only chains of 3+ mirrors remain) */
 } bbc_render_options;
 
 typedef struct bbc_render_stats {

@@ -582,7 +582,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     splat_count = calloc(PHOTON_BATCHES, sizeof *splat_count);
     if (!photons_per_spp)
       photons_per_spp =
-          bbc__light_tracer_default_photons(&tracer, thread_state, threads, pixels);
+          bbc__light_tracer_default_photons(&tracer, thread_state[0].cursor, pixels);
   }
   if (!sum || lt_ok != BBC_OK || (light_trace && (!traced || !splats || !splat_count))) {
     free(sum);

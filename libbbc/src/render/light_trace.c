@@ -25,8 +25,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include <omp.h>
-
 #include "bbc/bsdf.h"
 #include "light_internal.h"
 #include "media_internal.h"
@@ -143,46 +141,14 @@ bbc_result bbc__light_tracer_init(bbc__light_tracer *lt, const bbc_scene *scene,
   return BBC_OK;
 }
 
-/* The pilot: PILOT_PHOTONS photons of indices PILOT_FIRST + k, which no sample's photons
- * reach, in batches of PILOT_BATCH. */
-#define PILOT_PHOTONS 16384
-#define PILOT_BATCH 1024
-#define PILOT_FIRST (1ull << 62)
-/* Fewer than one landing in PILOT_SPARSE photons: photons are all but wasted. */
-#define PILOT_SPARSE 4096
-
-/* How many of the pilot's photons land on a pixel of the whole image (whatever the
- * region, so that a region's pixels stay those of the whole image). The count is a sum of
- * 0s and 1s, the same for any thread count. */
-static uint64_t pilot_landings(const bbc__light_tracer *lt, bbc__caustics_thread *ct,
-                               int threads) {
-  bbc__light_tracer whole = *lt;
-  whole.region[0] = whole.region[1] = 0;
-  whole.region[2] = lt->width, whole.region[3] = lt->height;
-  uint64_t landed = 0;
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(+ : landed)
-  for (int b = 0; b < PILOT_PHOTONS / PILOT_BATCH; b++) {
-    bbc__caustics_thread *t = &ct[omp_get_thread_num()];
-    uint64_t rays = 0;
-    for (uint64_t i = 0; i < PILOT_BATCH; i++) {
-      bbc__splat splat;
-      landed += (uint64_t)bbc__light_trace_photon(&whole, t, PILOT_FIRST + b * PILOT_BATCH + i,
-                                                  &splat, &rays);
-    }
-  }
-  return landed;
-}
-
-uint64_t bbc__light_tracer_default_photons(const bbc__light_tracer *lt, bbc__caustics_thread *ct,
-                                           int threads, uint64_t pixels) {
+uint64_t bbc__light_tracer_default_photons(const bbc__light_tracer *lt, bbc_cache_cursor *cursor,
+                                           uint64_t pixels) {
   const bbc_scene *scene = lt->scene;
   const bbc__caustics *c = lt->caustics;
-  const uint64_t few = pixels / 16 ? pixels / 16 : 1;
   for (uint32_t mi = 0; mi < scene->mesh_count; mi++)
     if (scene->meshes[mi].role == BBC_ROLE_CASTER &&
         scene->materials[scene->meshes[mi].material].type == BBC_MATERIAL_DIELECTRIC)
-      return pilot_landings(lt, ct, threads) * PILOT_SPARSE < PILOT_PHOTONS ? few : pixels;
-  bbc_cache_cursor *cursor = ct[0].cursor;
+      return pixels;
   if (c && c->light_trace && !isnan(c->light_trace_bound)) {
     bbc_cache_info info;
     bbc_cache_get_info(c->cache, &info);
@@ -196,7 +162,7 @@ uint64_t bbc__light_tracer_default_photons(const bbc__light_tracer *lt, bbc__cau
           return pixels;
     }
   }
-  return few;
+  return pixels / 16 ? pixels / 16 : 1;
 }
 
 void bbc__light_tracer_free(bbc__light_tracer *lt) {

@@ -57,17 +57,13 @@ bbc_result bbc__light_tracer_init(bbc__light_tracer *lt, const bbc_scene *scene,
                                   uint32_t chains, uint64_t seed);
 void bbc__light_tracer_free(bbc__light_tracer *lt);
 
-/* The default number of photons per sample for an image of `pixels` pixels: `pixels`
- * (one per pixel per sample), but a sixteenth of it where photons are all but wasted.
- * With a dielectric caster, that is decided by a pilot of 16,384 photons of their own
- * indices (discarded): fewer than 4 landing on a pixel of the whole image (the camera
- * sees no caustic directly, or only through glass or water). Without one, light tracing
- * can only meet chains of three or more mirrors, and it is decided without a pilot:
- * when no cell of the cache is light-traced (read with ct[0]'s cursor, every cell once).
- * A function of the scene, the cache and the camera, the same for any thread count and
- * region. ct: the render's per-thread states, `threads` of them. */
-uint64_t bbc__light_tracer_default_photons(const bbc__light_tracer *lt, bbc__caustics_thread *ct,
-                                           int threads, uint64_t pixels);
+/* The default number of photons per sample for an image of `pixels` rendered pixels:
+ * `pixels` (one per pixel per sample), but a sixteenth of it when light tracing can only
+ * meet chains of three or more mirrors: no caster is a dielectric (so no Fresnel
+ * reflections, no chains through glass) and no cell of the cache is light-traced (read
+ * with cursor, every cell once). A function of the scene and the cache alone. */
+uint64_t bbc__light_tracer_default_photons(const bbc__light_tracer *lt, bbc_cache_cursor *cursor,
+                                           uint64_t pixels);
 
 /* Traces photon `index` (its random numbers a function of the seed and index alone).
  * Returns 1 and its contribution to one pixel's radiance in *out, the estimate of the
