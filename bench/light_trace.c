@@ -20,9 +20,11 @@
  * front normal (the side its vertex normals point to, the only side it emits to,
  * docs/lights.md): the density of (y, direction) is 1 / (A Omega(y)). They follow exactly the
  * chain types of LIST (R reflects on a mirror, weighted by its base colour; T refracts
- * through a dielectric, weighted by 1 - Fresnel unless --no-fresnel), then land on a
- * Lambertian receiver. A landing point x that the camera sees directly adds
- * flux * albedo / pi * |d(pixel) / dA(x)| to its pixel: that is the pixel's mean radiance
+ * through a dielectric, weighted by 1 - Fresnel unless --no-fresnel and tinted by its
+ * base colour up to 1; base colours with their textures), then land on a
+ * receiver. A landing point x that the camera sees directly adds
+ * flux * f * |d(pixel) / dA(x)| to its pixel (f the receiver's BSDF, albedo / pi when
+ * Lambertian): that is the pixel's mean radiance
  * (a box filter) of the caustic, the quantity `bbc-render --only caustics --max-depth
  * 2 + chain length` estimates. The same admissibility rules as bbc's caustic estimator
  * apply: a refraction's shading normal must agree with its geometric side, a reflection's
@@ -40,8 +42,10 @@
  * flux L cos(w, -D) A Omega / N, L = E / (pi sin^2 h) the disk's radiance.
  *
  * Deterministic: photons are split into batches with their own random streams, summed
- * into 64 lanes in a fixed order, whatever the thread count. Untextured Lambertian
- * receivers; point, spot and directional lights in air and area lights. */
+ * into 64 lanes in a fixed order, whatever the thread count. Receivers Lambertian or
+ * glossy, textured or not: their BSDF at the landing point is bbc's (bbc_bsdf_at,
+ * bbc_bsdf_eval), the one thing this shares with the renderer. Point, spot and
+ * directional lights in air and area lights. */
 #define _POSIX_C_SOURCE 200809L /* strtok_r */
 #include <math.h>
 #include <omp.h>
@@ -114,14 +118,21 @@ static void normals(const bbc_scene *s, uint32_t t, double u, double v, bbc_vec3
   *ns = unit(add(scale(n0, 1 - u - v), add(scale(n1, u), scale(n2, v))));
 }
 
+/* The tint of light refracted at a hit: the base colour there (its texture's too), at
+ * most 1 (glTF's KHR_materials_transmission). */
+static void tint(const bbc_scene *s, const bbc_hit *h, double w[3]) {
+  bbc_scene_base_color(s, h->triangle, h->u, h->v, w);
+  for (int k = 0; k < 3; k++) w[k] = w[k] < 1 ? w[k] : 1;
+}
+
 /* The photon lands on receiver triangle t at x, coming along d from the last specular
  * vertex, with flux[3]: adds its pixel's share to lane. */
-static void land(const tracer *tr, uint32_t t, bbc_vec3 x, bbc_vec3 d, const double flux[3],
+static void land(const tracer *tr, const bbc_hit *h, bbc_vec3 x, bbc_vec3 d, const double flux[3],
                  double *lane) {
   const bbc_scene *s = tr->scene;
-  const bbc_material *m = bbc_scene_triangle_material(s, t);
+  const uint32_t t = h->triangle;
   bbc_vec3 ng, ns;
-  normals(s, t, 0, 0, &ng, &ns);
+  normals(s, t, h->u, h->v, &ng, &ns);
   const bbc_camera *c = tr->camera;
   bbc_vec3 to_x = sub(x, c->position);
   /* The light must arrive on the side the camera sees. */
@@ -142,9 +153,19 @@ static void land(const tracer *tr, uint32_t t, bbc_vec3 x, bbc_vec3 d, const dou
   double cos_x = fabs(dot(to_x, ng)) / r, cos_c = z / r;
   double pixels_per_film = tr->height / (2 * tr->tan_half);
   double jacobian = cos_x / (r2 * cos_c * cos_c * cos_c) * pixels_per_film * pixels_per_film;
+  /* The receiver's BSDF (bbc's, the one thing this shares with the renderer): Lambertian
+   * base / pi, or the glossy lobe with the shading normal turned to the camera's side. */
+  bbc_bsdf bsdf;
+  bbc_bsdf_at(s, t, h->u, h->v, &bsdf);
+  double f[3];
+  if (bsdf.glossy) {
+    const bbc_vec3 n = dot(to_x, ng) < 0 ? ns : scale(ns, -1);
+    bbc_bsdf_eval(&bsdf, n, scale(to_x, -1 / r), scale(d, -1), f);
+  } else {
+    for (int k = 0; k < 3; k++) f[k] = bsdf.base[k] / PI;
+  }
   size_t pixel = (size_t)(uint32_t)py * tr->width + (uint32_t)px;
-  for (int k = 0; k < 3; k++)
-    lane[3 * pixel + k] += flux[k] * m->base_color[k] / PI * jacobian;
+  for (int k = 0; k < 3; k++) lane[3 * pixel + k] += flux[k] * f[k] * jacobian;
 }
 
 /* Chain types R, T, RR, RT, TR, TT are the values 0..5 (bbc/tuple.h); letter i of
@@ -179,7 +200,7 @@ static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d,
   if (mesh->role == BBC_ROLE_RECEIVER && m->type == BBC_MATERIAL_DIFFUSE) {
     if (made == 0) return;
     int chain = made == 1 ? letters : 2 + letters;
-    if (tr->chains & (1u << chain)) land(tr, t, x, d, flux, lane);
+    if (tr->chains & (1u << chain)) land(tr, &hit, x, d, flux, lane);
     return;
   }
   if (made == 2 || mesh->role != BBC_ROLE_CASTER ||
@@ -208,7 +229,8 @@ static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d,
     bbc_vec3 n = dn < 0 ? ns : scale(ns, -1); /* against d */
     next = unit(add(scale(d, eta), scale(n, eta * cos_i - cos_t)));
     double f = tr->no_fresnel ? 0 : fresnel(cos_i, eta);
-    for (int k = 0; k < 3; k++) weight[k] = 1 - f;
+    tint(s, &hit, weight);
+    for (int k = 0; k < 3; k++) weight[k] *= 1 - f;
   } else {
     /* Reflection on a two-sided mirror: its normals turned to the light's side, which the
      * shading normal must then face. */
@@ -219,7 +241,7 @@ static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d,
     }
     if (!(dn < 0)) return;
     next = sub(d, scale(ns, 2 * dn));
-    for (int k = 0; k < 3; k++) weight[k] = m->base_color[k];
+    bbc_scene_base_color(s, t, hit.u, hit.v, weight);
   }
   double f2[3] = {flux[0] * weight[0], flux[1] * weight[1], flux[2] * weight[2]};
   /* Off the surface to the side the photon leaves to, beyond the rounding of x (a float
@@ -265,7 +287,7 @@ static void follow_any(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec
     const bbc_material *m = &s->materials[mesh->material];
     bbc_vec3 x = add(origin, scale(d, hit.t));
     if (mesh->role == BBC_ROLE_RECEIVER && m->type == BBC_MATERIAL_DIFFUSE) {
-      if (made > 0) land(tr, t, x, d, flux, lane);
+      if (made > 0) land(tr, &hit, x, d, flux, lane);
       return;
     }
     if (mesh->role != BBC_ROLE_CASTER ||
@@ -296,7 +318,9 @@ static void follow_any(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec
       } else {
         double cos_t = sqrt(1 - sin2_t);
         next = unit(add(scale(d, eta), scale(n, eta * cos_i - cos_t)));
-        for (int k = 0; k < 3; k++) flux[k] *= m->base_color[k];
+        double w[3];
+        tint(s, &hit, w);
+        for (int k = 0; k < 3; k++) flux[k] *= w[k];
         parity = after;
       }
     } else {
@@ -308,7 +332,9 @@ static void follow_any(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec
       }
       if (!(dn < 0)) return;
       next = sub(d, scale(ns, 2 * dn));
-      for (int k = 0; k < 3; k++) flux[k] *= m->base_color[k];
+      double w[3];
+      bbc_scene_base_color(s, t, hit.u, hit.v, w);
+      for (int k = 0; k < 3; k++) flux[k] *= w[k];
     }
     made++;
     origin = add(x, scale(ng, dot(next, ng) > 0 ? off : -off));
@@ -387,15 +413,11 @@ int main(int argc, char **argv) {
     fprintf(stderr, "light_trace: cannot load %s\n", scene_path);
     return 1;
   }
-  /* The casters' bounding sphere; the receivers must be untextured Lambertian. */
+  /* The casters' bounding sphere. */
   bbc_vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY};
   for (uint32_t mi = 0; mi < scene->mesh_count; mi++) {
     const bbc_mesh *mesh = &scene->meshes[mi];
     const bbc_material *m = &scene->materials[mesh->material];
-    if (mesh->role == BBC_ROLE_RECEIVER && (m->glossy || m->base_color_texture)) {
-      fprintf(stderr, "light_trace: receiver %s is glossy or textured: not supported\n", mesh->name);
-      return 1;
-    }
     if (any_chain && m->type == BBC_MATERIAL_DIELECTRIC &&
         (m->absorption[0] > 0 || m->absorption[1] > 0 || m->absorption[2] > 0)) {
       fprintf(stderr, "light_trace: --any-chain: %s absorbs: not supported\n", mesh->name);

@@ -10,7 +10,8 @@
 # looking down at the vase with KHR_materials_volume.
 #
 #   sh bench/real-assets.sh [--runs "R T TT all"] [--probe-runs "TT"] [--memory-gb G]
-#                           [--timeout S] [--spp N] [--dry-run] [SHARED_SCENES_DIR]
+#                           [--timeout S] [--spp N] [--reference PHOTONS] [--ref-spp N]
+#                           [--dry-run] [SHARED_SCENES_DIR]
 #
 # SHARED_SCENES_DIR is the folder holding real/; by default $BBC_SHARED_DIR/scenes
 # (BBC_SHARED_DIR: the folder holding scenes/), else ../shared/scenes beside the
@@ -35,7 +36,16 @@
 # what the curved receivers cost. Each cache that is
 # written is rendered at 320x240 with --spp (default 4), --threads 2, under the same
 # limits, with a PNG preview beside it in bench/work/real-assets/. CPU-s are user + sys
-# of the whole process (/usr/bin/time). Writes bench/results/real-assets.md.
+# of the whole process (/usr/bin/time). With --reference PHOTONS (default 0: none), each
+# run of a chain list (not "all") whose cache was written is also compared with an
+# independent light-traced reference where the caustic is seen directly: `bench/light_trace
+# SCENE --chains LIST --width 320 --photons PHOTONS --seed 1` against `bbc-render --only
+# caustics --chains LIST --max-depth 2 + its longest chain --spp --ref-spp (default 64)`,
+# by bench/image_error with eps = (the reference's lit mean / 10)^2 (the relMSE of
+# bench/compare.sh, whose caustics are of order 1, scaled to the scene's radiance), and
+# the ratio of the images' means; a second reference of PHOTONS / 4 photons (seed 2)
+# against the first gives the reference's own noise (about 5 times the first's alone).
+# Writes bench/results/real-assets.md.
 set -eu
 root=$(cd "$(dirname "$0")/.." && pwd)
 runs="R T TT all"
@@ -43,9 +53,11 @@ probe_runs="TT"
 memory_gb=8
 timeout=600
 spp=4
+photons=0
+ref_spp=64
 dry_run=0
 scenes=""
-usage="usage: sh bench/real-assets.sh [--runs \"R T TT all\"] [--probe-runs \"TT\"] [--memory-gb G] [--timeout S] [--spp N] [--dry-run] [SHARED_SCENES_DIR]"
+usage="usage: sh bench/real-assets.sh [--runs \"R T TT all\"] [--probe-runs \"TT\"] [--memory-gb G] [--timeout S] [--spp N] [--reference PHOTONS] [--ref-spp N] [--dry-run] [SHARED_SCENES_DIR]"
 while [ $# -gt 0 ]; do
   case $1 in
     --runs) runs=$2; shift 2 ;;
@@ -53,6 +65,8 @@ while [ $# -gt 0 ]; do
     --memory-gb) memory_gb=$2; shift 2 ;;
     --timeout) timeout=$2; shift 2 ;;
     --spp) spp=$2; shift 2 ;;
+    --reference) photons=$(awk -v p="$2" 'BEGIN { printf "%.0f", p }'); shift 2 ;;
+    --ref-spp) ref_spp=$2; shift 2 ;;
     --dry-run) dry_run=1; shift ;;
     -h|--help) sed -n '2,/^set -eu/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "$usage" >&2; exit 2 ;;
@@ -74,6 +88,8 @@ command -v /usr/bin/time > /dev/null || { echo "$tool: /usr/bin/time is missing"
 build_release "$root"
 pre=$root/build/bbc-precompute/bbc-precompute
 ren=$root/build/bbc-render/bbc-render
+lt=$root/build/bench/light_trace
+err=$root/build/bench/image_error
 mkdir -p "$work" "$out"
 commit=$(git -C "$root" rev-parse --short HEAD 2> /dev/null || echo unknown)
 changed=$(git -C "$root" status --porcelain --untracked-files=no -- . ':(exclude)bench' 2> /dev/null |
@@ -158,6 +174,36 @@ finding() {
     sed -n 's/^finding tuples \[[#.]*\] *\([0-9]*%\) *\([^ ]*\) elapsed.*  \([0-9]*\/[0-9]*\) light-triangle prefixes.*/\1, \3 light-triangle prefixes searched after \2/p'
 }
 
+# compare_reference SCENE NAME CHAINS: the caustic of NAME's cache against light-traced
+# references (--reference); prints "relMSE R, mean ratio A (lit-mean Q); reference ...".
+compare_reference() {
+  sc=$1 nm=$2 ch=$3
+  case ,$ch, in *,[RT][RT],*) depth=4 ;; *) depth=3 ;; esac
+  r1=$work/$nm-ref-$photons-1.exr r2=$work/$nm-ref-$photons-2.exr
+  echo "$tool: $nm: light-traced references, $photons and $((photons / 4)) photons" >&2
+  for k in 1 2; do
+    f=$r1 n=$photons
+    [ "$k" = 1 ] || f=$r2 n=$((photons / 4))
+    [ -f "$f" ] || limited "$work/$nm.ref$k.time" "$work/$nm.ref$k.log" "$lt" "$sc" --chains "$ch" \
+      --width 320 --photons "$n" --seed "$k" --threads 2 -o "$f" > /dev/null
+  done
+  [ -f "$r1" ] && [ -f "$r2" ] || { echo "reference failed"; return; }
+  ref_cpu=$(times_of "$work/$nm.ref1.time" | cut -d' ' -f1)
+  echo "$tool: $nm: caustic render, $ref_spp spp" >&2
+  cstatus=$(limited "$work/$nm.caustic.time" "$work/$nm.caustic.log" "$ren" "$sc" \
+    --cache "$work/$nm.bbc" -o "$work/$nm-caustic.exr" --only caustics --chains "$ch" \
+    --max-depth "$depth" --width 320 --spp "$ref_spp" --threads 2 --no-progress)
+  [ "$cstatus" = ok ] || { echo "caustic render: $cstatus"; return; }
+  eps=$("$err" "$r1" "$r1" | awk '{ printf "%.6g", ($6 / 10) ^ 2 }')
+  # shellcheck disable=SC2046 # split into fields on purpose
+  set -- $("$err" "$work/$nm-caustic.exr" "$r1" --eps "$eps")
+  mine="relMSE $2, mean ratio $8 (lit-mean $4)"
+  # shellcheck disable=SC2046
+  set -- $("$err" "$r2" "$r1" --eps "$eps")
+  echo "$mine; $(times_of "$work/$nm.caustic.time" | cut -d' ' -f1) CPU-s at $ref_spp spp;" \
+    "reference $photons photons, $ref_cpu CPU-s (the second against it: relMSE $2, mean ratio $8)"
+}
+
 rows=$work/rows
 notes=$work/notes
 : > "$rows"
@@ -183,7 +229,7 @@ for asset in $assets; do
     # shellcheck disable=SC2046 # split into fields on purpose
     set -- $(times_of "$work/$name.time")
     cpu=$1 wall=$2 rss=$3
-    candidates=- tuples=- mb=- render=- note=
+    candidates=- tuples=- mb=- render=- note= reference=-
     e=$(estimate "$work/$name.log")
     if [ "$dry_run" = 1 ] && [ "$status" = ok ] && [ -n "$e" ]; then
       status="estimate"
@@ -224,6 +270,7 @@ for asset in $assets; do
       else
         render="$rstatus"
       fi
+      [ "$photons" = 0 ] || [ "$run" = all ] || reference=$(compare_reference "$scene" "$name" "$run")
     else
       p=$(progress "$work/$name.log")
       f=$(finding "$work/$name.log")
@@ -246,7 +293,7 @@ for asset in $assets; do
         cut -c1-300)
       [ -z "$m" ] || note="$note; last messages: $m"
     fi
-    echo "$asset|$label|$status|$cpu|$wall|$rss|$candidates|$tuples|$mb|$render" >> "$rows"
+    echo "$asset|$label|$status|$cpu|$wall|$rss|$candidates|$tuples|$mb|$render|$reference" >> "$rows"
     echo "- $asset, $label: $status; $note" >> "$notes"
   done
 done
@@ -271,7 +318,7 @@ fi
 {
   echo "# bbc on public sample assets"
   echo
-  echo "\`sh bench/real-assets.sh --runs \"$runs\" --probe-runs \"$probe_runs\" --memory-gb $memory_gb --timeout $timeout --spp $spp$what\`"
+  echo "\`sh bench/real-assets.sh --runs \"$runs\" --probe-runs \"$probe_runs\" --memory-gb $memory_gb --timeout $timeout --spp $spp --reference $photons --ref-spp $ref_spp$what\`"
   echo "at $commit; $machine (load average $load_start at the start, $(cut -d' ' -f1-3 /proc/loadavg) at the end)."
   echo "The Khronos sample assets in \`$scenes/real\` (unchanged; see its README.md), lit as"
   echo "that README says by \`bench/real-assets-scenes.py\` (new .gltf files in bench/work/real-assets/"
@@ -291,9 +338,9 @@ fi
     echo "\"estimate\" is such a run that finished, and the cache MB are the estimate's."
   fi
   echo
-  echo "| asset | chains | status | CPU-s | wall s | peak RSS MB | candidate tuples | stored tuples | cache MB | render |"
-  echo "|---|---|---|---:|---:|---:|---:|---:|---:|---|"
-  awk -F'|' '{ printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", $1, $2, $3, $4, $5, $6, $7, $8, $9, $10 }' "$rows"
+  echo "| asset | chains | status | CPU-s | wall s | peak RSS MB | candidate tuples | stored tuples | cache MB | render | caustic vs light-traced reference |"
+  echo "|---|---|---|---:|---:|---:|---:|---:|---:|---|---|"
+  awk -F'|' '{ printf "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", $1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11 }' "$rows"
   echo
   echo "Per run (from each precompute's --json statistics, or, for a run that did not finish,"
   echo "its progress bar and last messages):"
