@@ -3,7 +3,10 @@
  * solvers.
  *
  *   light_trace SCENE.gltf --chains LIST --width W --photons N [--seed K] [--threads T]
- *               [--no-fresnel] [--any-chain K] -o OUT.exr
+ *               [--no-fresnel] [--any-chain K] [--punctual-only] -o OUT.exr
+ *
+ * --punctual-only: the point, spot and directional lights alone, no emissive triangle
+ * (the caustic of a cache precomputed without --area-lights, bench/real-assets.sh).
  *
  * --any-chain K (for hollow glass and liquids in glass, bench/transport.sh): instead of
  * the chain types of LIST, every path of one to K specular vertices, dielectrics
@@ -367,7 +370,7 @@ int main(int argc, char **argv) {
   long width = 0, threads = 0;
   double photons = 0;
   uint64_t seed = 0;
-  int no_fresnel = 0, any_chain = 0;
+  int no_fresnel = 0, any_chain = 0, punctual_only = 0;
   for (int i = 1; i < argc; i++) {
     const char *a = argv[i];
     if (!strcmp(a, "--chains") && i + 1 < argc) chain_list = argv[++i];
@@ -376,6 +379,7 @@ int main(int argc, char **argv) {
     else if (!strcmp(a, "--seed") && i + 1 < argc) seed = strtoull(argv[++i], NULL, 10);
     else if (!strcmp(a, "--threads") && i + 1 < argc) threads = atol(argv[++i]);
     else if (!strcmp(a, "--no-fresnel")) no_fresnel = 1;
+    else if (!strcmp(a, "--punctual-only")) punctual_only = 1;
     else if (!strcmp(a, "--any-chain") && i + 1 < argc) any_chain = atoi(argv[++i]);
     else if (!strcmp(a, "-o") && i + 1 < argc) out = argv[++i];
     else if (a[0] != '-' && !scene_path) scene_path = a;
@@ -385,7 +389,8 @@ int main(int argc, char **argv) {
   if (!scene_path || !out || !chain_list || any_chain < 0 || width < 1 || width > 16384 || !(photons >= 1) ||
       threads < 0) {
     fprintf(stderr, "usage: light_trace SCENE.gltf --chains LIST --width W --photons N "
-                    "[--seed K] [--threads T] [--no-fresnel] [--any-chain K] -o OUT.exr\n");
+                    "[--seed K] [--threads T] [--no-fresnel] [--any-chain K] [--punctual-only] "
+                    "-o OUT.exr\n");
     return 1;
   }
   uint32_t chains = 0;
@@ -465,7 +470,8 @@ int main(int argc, char **argv) {
   }
   /* Lights 0 .. point_light_count - 1 are the punctual ones, then one per emitter
    * triangle (the cache's numbering); each has its own random streams. */
-  const uint32_t light_count = scene->point_light_count + scene->emitter_count;
+  const uint32_t light_count =
+      scene->point_light_count + (punctual_only ? 0 : scene->emitter_count);
   for (uint32_t l = 0; l < light_count; l++) {
     const int area = l >= scene->point_light_count;
     const bbc_point_light *light = area ? NULL : &scene->point_lights[l];

@@ -39,7 +39,8 @@
 # of the whole process (/usr/bin/time). With --reference PHOTONS (default 0: none), each
 # run of a chain list (not "all") whose cache was written is also compared with an
 # independent light-traced reference where the caustic is seen directly: `bench/light_trace
-# SCENE --chains LIST --width 320 --photons PHOTONS --seed 1` against `bbc-render --only
+# SCENE --chains LIST --width 320 --photons PHOTONS --seed 1 --punctual-only` (the lamp
+# alone: the caches hold no emissive triangle's tuples) against `bbc-render --only
 # caustics --chains LIST --max-depth 2 + its longest chain --spp --ref-spp (default 64)`,
 # by bench/image_error with eps = (the reference's lit mean / 10)^2 (the relMSE of
 # bench/compare.sh, whose caustics are of order 1, scaled to the scene's radiance), and
@@ -185,7 +186,7 @@ compare_reference() {
     f=$r1 n=$photons
     [ "$k" = 1 ] || f=$r2 n=$((photons / 4))
     [ -f "$f" ] || limited "$work/$nm.ref$k.time" "$work/$nm.ref$k.log" "$lt" "$sc" --chains "$ch" \
-      --width 320 --photons "$n" --seed "$k" --threads 2 -o "$f" > /dev/null
+      --width 320 --photons "$n" --seed "$k" --threads 2 --punctual-only -o "$f" > /dev/null
   done
   [ -f "$r1" ] && [ -f "$r2" ] || { echo "reference failed"; return; }
   ref_cpu=$(times_of "$work/$nm.ref1.time" | cut -d' ' -f1)
