@@ -14,6 +14,7 @@
 #include "bbc/bounds.h"
 #include "harness.h"
 #include "media_internal.h"
+#include "tuple_search_internal.h"
 #include "vec_internal.h"
 
 static bbc_vec3 vertex(const bbc_scene *s, uint32_t t, int k) {
@@ -471,5 +472,41 @@ TEST(hollow_sphere_open_pieces) {
   const bbc_mesh *o2 = &s->meshes[outer + 1];
   CHECK(!bbc__media_refract(s, glass, o2->first_triangle, -1, &after));
   bbc_accel_free(accel);
+  bbc_scene_free(s);
+}
+
+/* A closed glass with cut-outs encloses nothing: light refracted into it leaves through
+ * its holes, so neither the search's medium rule nor a beam's landing box may keep it
+ * inside the mesh's box. The glass ball on the bent floor encloses what enters it; the
+ * same ball with a MASK material whose alpha is below the cutoff does not (the landing
+ * box of a T tuple into it then stays the whole box given). */
+TEST(cut_out_glass_encloses_nothing) {
+  bbc_scene *s = NULL;
+  REQUIRE(bbc_scene_load(&s, TEST_SCENE("bent-glass-sphere-512.gltf"), NULL) == BBC_OK);
+  uint32_t ball = UINT32_MAX;
+  for (uint32_t m = 0; m < s->mesh_count; m++)
+    if (s->meshes[m].role == BBC_ROLE_CASTER) ball = m;
+  REQUIRE(ball != UINT32_MAX);
+  CHECK_INT(s->meshes[ball].closed, 1);
+  /* A triangle the light meets from its front (outside). */
+  uint32_t t1 = s->meshes[ball].first_triangle;
+  while (bbc__media_side(s, t1, s->point_lights[0].position) <= 0) t1++;
+  REQUIRE(t1 < s->meshes[ball].first_triangle + s->meshes[ball].triangle_count);
+  const bbc_tuple t = {0, BBC_CHAIN_T, {t1, BBC_NO_TRIANGLE}, BBC_RECEIVER_BEAM};
+  const int side = 1;
+  double lo[3] = {-1e3, -1e3, -1e3}, hi[3] = {1e3, 1e3, 1e3};
+  CHECK_INT(bbc__media_enclosure(s, t1, side), ball + 1);
+  CHECK(bbc__tuple_landing_box(s, &t, lo, hi));
+  CHECK(hi[1] - lo[1] <= 2.001); /* the ball's box: radius 1 */
+  bbc_material *m = &s->materials[s->meshes[ball].material];
+  CHECK_INT(bbc_material_partial(s, m), 0);
+  m->alpha_mode = BBC_ALPHA_MASK;
+  m->alpha = 0.25f;
+  m->alpha_cutoff = 0.5f;
+  CHECK_INT(bbc_material_partial(s, m), 1);
+  CHECK_INT(bbc__media_enclosure(s, t1, side), 0);
+  double lo2[3] = {-1e3, -1e3, -1e3}, hi2[3] = {1e3, 1e3, 1e3};
+  CHECK(bbc__tuple_landing_box(s, &t, lo2, hi2));
+  CHECK(lo2[1] == -1e3 && hi2[1] == 1e3);
   bbc_scene_free(s);
 }

@@ -64,6 +64,12 @@ BBC_API double bbc_scene_alpha(const bbc_scene *scene, uint32_t triangle, double
 BBC_API double bbc_scene_coverage(const bbc_scene *scene, uint32_t triangle, double b1,
                                   double b2);
 
+/* Whether bbc_scene_coverage can be below 1 somewhere on a triangle of material m: a MASK
+ * or BLEND material with a texture alpha channel, or whose factor alone makes it so. A
+ * closed mesh of such a material does not enclose what is inside it: light leaves
+ * through its cut-outs. */
+BBC_API int bbc_material_partial(const bbc_scene *scene, const bbc_material *m);
+
 #ifdef __cplusplus
 }
 #endif

@@ -27,14 +27,6 @@ struct bbc_accel {
   unsigned char *partial; /* per material: 1 when its coverage can be below 1 */
 };
 
-/* Whether material m can be less than fully there somewhere: a MASK or BLEND material
- * with an alpha channel, or whose factor alone makes it so. */
-static int partial_material(const bbc_scene *scene, const bbc_material *m) {
-  if (m->alpha_mode == BBC_ALPHA_OPAQUE) return 0;
-  if (m->base_color_texture && scene->textures[m->base_color_texture - 1].alpha) return 1;
-  return m->alpha_mode == BBC_ALPHA_MASK ? !(m->alpha >= m->alpha_cutoff) : !(m->alpha >= 1.0f);
-}
-
 static uint32_t float_bits(float x) {
   uint32_t u;
   memcpy(&u, &x, sizeof u);
@@ -98,7 +90,7 @@ bbc_result bbc_accel_create(bbc_accel **out, const bbc_scene *scene, bbc_message
   }
   int any_partial = 0;
   for (uint32_t i = 0; i < scene->material_count; i++)
-    any_partial |= accel->partial[i] = (unsigned char)partial_material(scene, &scene->materials[i]);
+    any_partial |= accel->partial[i] = (unsigned char)bbc_material_partial(scene, &scene->materials[i]);
   device_errors errors = {error_fn, user};
   accel->device = rtcNewDevice(NULL);
   if (!accel->device) {

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "bbc/accel.h"
+#include "bbc/texture.h"
 #include "media_internal.h"
 #include "vec_internal.h"
 
@@ -485,6 +486,7 @@ int bbc__media_interface(const bbc_scene *scene, uint32_t medium, uint32_t t, in
 uint32_t bbc__media_enclosure(const bbc_scene *scene, uint32_t t, int side) {
   const uint32_t mesh = scene->triangle_mesh[t];
   const bbc_mesh *m = &scene->meshes[mesh];
-  if (!m->closed || side == 0) return 0;
+  if (!m->closed || side == 0 || bbc_material_partial(scene, &scene->materials[m->material]))
+    return 0;
   return (side > 0) != (m->cavity != 0) ? mesh + 1 : 0;
 }

@@ -46,8 +46,9 @@ int bbc__media_refract(const bbc_scene *scene, uint32_t medium, uint32_t t, int 
 uint32_t bbc__media_at(const bbc_scene *scene, bbc_vec3 x);
 
 /* Where light refracted at dielectric triangle t, met from `side`, is enclosed: m + 1
- * when t's mesh m is closed and the light goes into the volume it encloses (through the
- * front of a solid, through the back of a cavity's wall), else 0. Such light reaches
+ * when t's mesh m is closed, has no cut-outs (bbc_material_partial: light leaves through
+ * them) and the light goes into the volume it encloses (through the front of a solid,
+ * through the back of a cavity's wall), else 0. Such light reaches
  * only what may lie inside that volume (the tuple search's receivers, whose boxes must
  * meet the mesh's) before it meets another specular surface. */
 uint32_t bbc__media_enclosure(const bbc_scene *scene, uint32_t t, int side);

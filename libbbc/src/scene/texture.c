@@ -134,3 +134,9 @@ double bbc_scene_coverage(const bbc_scene *scene, uint32_t triangle, double b1, 
   if (m->alpha_mode == BBC_ALPHA_MASK) return a >= m->alpha_cutoff ? 1.0 : 0.0;
   return a >= 1.0 ? 1.0 : a > 0.0 ? a : 0.0; /* NaN reads as 0 */
 }
+
+int bbc_material_partial(const bbc_scene *scene, const bbc_material *m) {
+  if (m->alpha_mode == BBC_ALPHA_OPAQUE) return 0;
+  if (m->base_color_texture && scene->textures[m->base_color_texture - 1].alpha) return 1;
+  return m->alpha_mode == BBC_ALPHA_MASK ? !(m->alpha >= m->alpha_cutoff) : !(m->alpha >= 1.0f);
+}
