@@ -196,6 +196,10 @@ compare_reference() {
     --max-depth "$depth" --width 320 --spp "$ref_spp" --threads 2 --no-progress)
   [ "$cstatus" = ok ] || { echo "caustic render: $cstatus"; return; }
   eps=$("$err" "$r1" "$r1" | awk '{ printf "%.6g", ($6 / 10) ^ 2 }')
+  if [ "$(awk -v e="$eps" 'BEGIN { print (e > 0) }')" = 0 ]; then
+    echo "the reference is black: no caustic of these chains is seen directly"
+    return
+  fi
   # shellcheck disable=SC2046 # split into fields on purpose
   set -- $("$err" "$work/$nm-caustic.exr" "$r1" --eps "$eps")
   mine="relMSE $2, mean ratio $8 (lit-mean $4)"
