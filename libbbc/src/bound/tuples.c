@@ -17,6 +17,7 @@
 
 #include "bbc/interval.h"
 #include "bbc/bounds.h"
+#include "bbc/texture.h"
 #include "chain_internal.h"
 #include "light_internal.h"
 #include "media_internal.h"
@@ -372,6 +373,14 @@ static uint32_t bvh_beam(const bvh *b, const bbc_scene *scene, const bbc_ivec3 *
   return n;
 }
 
+/* Whether `medium` (0 nothing, m + 1 inside mesh m) holds the light it encloses: m is
+ * closed and has no cut-outs (bbc_material_partial), through which light would leave. */
+static int encloses(const bbc_scene *scene, uint32_t medium) {
+  if (medium == 0) return 0;
+  const bbc_mesh *m = &scene->meshes[medium - 1];
+  return m->closed && !bbc_material_partial(scene, &scene->materials[m->material]);
+}
+
 /* Whether light enclosed by `medium` (0 nothing, m + 1 inside the volume closed mesh m
  * encloses, bbc__media_enclosure) after the last specular vertex can reach receiver item
  * r. Inside a closed mesh it reaches only what may lie inside: a receiver whose box
@@ -379,7 +388,7 @@ static uint32_t bvh_beam(const bvh *b, const bbc_scene *scene, const bbc_ivec3 *
  * specular vertex more than the chain has (the medium rule, media_internal.h). Exact on
  * the float data. */
 static int medium_reaches(const bvh *b, const bbc_scene *scene, uint32_t medium, uint32_t r) {
-  if (medium == 0 || !scene->meshes[medium - 1].closed) return 1;
+  if (!encloses(scene, medium)) return 1;
   double lo[3], hi[3];
   item_bounds(b, scene, r, lo, hi);
   const double *box = b->mesh_box[medium - 1];
@@ -632,7 +641,7 @@ int bbc__tuple_landing_box(const bbc_scene *scene, const bbc_tuple *t, double lo
     const int sides = second == 1 ? second_refraction_possible(scene, medium, t1, t2) : 0;
     enclosure = second_enclosure(scene, enclosure, t2, second, sides);
   }
-  if (enclosure == 0 || !scene->meshes[enclosure - 1].closed) return 1;
+  if (!encloses(scene, enclosure)) return 1;
   /* Inside the closed mesh the light lands only inside it (medium_reaches). */
   const bbc_mesh *mesh = &scene->meshes[enclosure - 1];
   double box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
