@@ -31,6 +31,13 @@ static int box_holds(const double alo[3], const double ahi[3], const double blo[
   return 1;
 }
 
+/* The box of the triangle at position j of the BVH's order (b->boxes, exact: the
+ * triangles' float coordinates). */
+static void order_box(const bbc__beam_receivers *b, uint32_t j, double lo[3], double hi[3]) {
+  const float *x = b->boxes + 6 * (size_t)j;
+  for (int a = 0; a < 3; a++) lo[a] = x[a], hi[a] = x[3 + a];
+}
+
 /* Midpoint split on the node's longest axis, as the tuple search's BVH. */
 static uint32_t node_build(bbc__beam_receivers *b, const bbc_scene *scene, uint32_t first,
                            uint32_t count) {
@@ -144,9 +151,10 @@ bbc_result bbc__beam_receivers_init(bbc__beam_receivers *b, const bbc_scene *sce
   b->items = calloc(b->count, sizeof *b->items);
   b->order = malloc((triangles ? triangles : 1) * sizeof *b->order);
   b->nodes = malloc(2 * (size_t)(triangles ? triangles : 1) * sizeof *b->nodes);
-  if (!b->items || !b->order || !b->nodes) return BBC_ERR_OUT_OF_MEMORY;
+  b->boxes = malloc(6 * (size_t)(triangles ? triangles : 1) * sizeof *b->boxes);
+  if (!b->items || !b->order || !b->nodes || !b->boxes) return BBC_ERR_OUT_OF_MEMORY;
   b->bytes = b->count * sizeof *b->items + triangles * sizeof *b->order +
-             2 * (size_t)triangles * sizeof *b->nodes;
+             2 * (size_t)triangles * sizeof *b->nodes + 6 * (size_t)triangles * sizeof *b->boxes;
   uint32_t *x0 = NULL, *x1 = NULL;
   uint32_t k = 0, at = 0;
   bbc_result res = BBC_OK;
@@ -164,6 +172,12 @@ bbc_result bbc__beam_receivers_init(bbc__beam_receivers *b, const bbc_scene *sce
       continue;
     }
     item->root = node_build(b, scene, at, rc->triangle_count);
+    for (uint32_t j = at; j < at + rc->triangle_count; j++) {
+      double lo[3], hi[3];
+      triangle_box(scene, b->order[j], lo, hi);
+      for (int a = 0; a < 3; a++)
+        b->boxes[6 * (size_t)j + a] = (float)lo[a], b->boxes[6 * (size_t)j + 3 + a] = (float)hi[a];
+    }
     at += rc->triangle_count;
     for (int a = 0; a < 3; a++) {
       item->lo[a] = b->nodes[item->root].lo[a], item->hi[a] = b->nodes[item->root].hi[a];
@@ -206,6 +220,7 @@ void bbc__beam_receivers_free(bbc__beam_receivers *b) {
   free(b->items);
   free(b->nodes);
   free(b->order);
+  free(b->boxes);
   memset(b, 0, sizeof *b);
 }
 
@@ -259,7 +274,7 @@ int bbc__beam_piece_rows(const bbc__beam_receivers *b, const bbc_scene *scene, c
       }
       for (uint32_t j = node->first; j < node->first + node->count; j++) {
         double lo[3], hi[3];
-        triangle_box(scene, b->order[j], lo, hi);
+        order_box(b, j, lo, hi);
         if (!boxes_meet(p->box_lo, p->box_hi, lo, hi)) continue;
         double clipped[8];
         const double *region = WHOLE;
@@ -297,7 +312,13 @@ int bbc__beam_depth(const bbc__beam_receivers *b, const bbc_scene *scene, bbc__b
       const bbc__beam_node *node = &b->nodes[s->stack[--top]];
       if (!boxes_meet(lo, hi, node->lo, node->hi)) continue;
       /* Nothing under the node can widen the range found. */
-      if (node->lo[axis] >= dlo && node->hi[axis] <= dhi) continue;
+      if (fmax(node->lo[axis], lo[axis]) >= dlo && fmin(node->hi[axis], hi[axis]) <= dhi) continue;
+      if (box_holds(lo, hi, node->lo, node->hi)) {
+        /* Inside the box: the node's range on the axis is its vertices', all inside. */
+        dlo = fmin(dlo, node->lo[axis]), dhi = fmax(dhi, node->hi[axis]);
+        if (dlo <= lo[axis] && dhi >= hi[axis]) top = 0;
+        continue;
+      }
       if (node->count == 0) {
         s->stack[top++] = node->right;
         s->stack[top++] = node->left;
@@ -305,9 +326,10 @@ int bbc__beam_depth(const bbc__beam_receivers *b, const bbc_scene *scene, bbc__b
       }
       for (uint32_t j = node->first; j < node->first + node->count; j++) {
         double tlo[3], thi[3];
-        triangle_box(scene, b->order[j], tlo, thi);
+        order_box(b, j, tlo, thi);
         if (!boxes_meet(lo, hi, tlo, thi)) continue;
         double t_lo = fmax(tlo[axis], lo[axis]), t_hi = fmin(thi[axis], hi[axis]);
+        if (t_lo >= dlo && t_hi <= dhi) continue; /* its part cannot widen the range */
         double region[8];
         if (!box_holds(lo, hi, tlo, thi)) {
           /* The part in the box: its barycentrics' range maps to the axis affinely. */

@@ -39,6 +39,7 @@ typedef struct bbc__beam_receivers {
   bbc__beam_node *nodes;
   uint32_t node_count;
   uint32_t *order;
+  float *boxes; /* per position of `order`, its triangle's box: lo[3], hi[3] */
   uint32_t max_width, max_height; /* the largest grid of these receivers */
   size_t bytes;                   /* what this holds */
   int whole_triangles;            /* 1: no clipping, every triangle met gives its whole

@@ -516,8 +516,8 @@ typedef struct beam_plane {
 typedef struct beam_cover {
   beam_plane *planes; /* per beam receiver (bbc__beam_receivers.items) */
   uint32_t count;
-  double *coarse; /* a rectangle of a coarser level (beam_plane_record) */
-  size_t coarse_cap;
+  double *coarse, *coarse2; /* rectangles of two levels (beam_plane_record) */
+  size_t coarse_cap, coarse2_cap;
   uint8_t *full; /* the levels' unbounded blocks (beam_plane_record_unbounded) */
   size_t full_cap;
 } beam_cover;
@@ -673,33 +673,43 @@ static int keep_beam_piece(void *user, const bbc_beam_piece *piece) {
  * points' chain type to light tracing (docs/light-tracing.md), which must not spread. */
 #define BEAM_LEVEL_GROWTH 1.25
 
-/* The finite bounds of the rectangle of pl at level k into cover->coarse (w x h, from x0,
- * y0); returns their sum over the grid's cells (a coarse cell counts once per cell of
- * the grid it holds), or -1 when out of memory. */
-static double beam_plane_coarsen(const bbc_receiver *rc, const beam_plane *pl, beam_cover *cover,
-                                 uint32_t k, uint32_t *x0, uint32_t *y0, uint32_t *w, uint32_t *h) {
-  *x0 = pl->tx0 >> k, *y0 = pl->ty0 >> k;
-  *w = (pl->tx1 >> k) - *x0 + 1, *h = (pl->ty1 >> k) - *y0 + 1;
-  if (!arena_reserve((void **)&cover->coarse, &cover->coarse_cap, (size_t)*w * *h,
-                     sizeof *cover->coarse))
-    return -1;
-  memset(cover->coarse, 0, (size_t)*w * *h * sizeof *cover->coarse);
-  for (uint32_t y = pl->ty0; y <= pl->ty1; y++) {
-    const double *row = pl->cells + (size_t)y * rc->width;
-    double *out = cover->coarse + (size_t)((y >> k) - *y0) * *w;
-    for (uint32_t x = pl->tx0; x <= pl->tx1; x++)
-      if (row[x] > out[(x >> k) - *x0] && row[x] < INFINITY) out[(x >> k) - *x0] = row[x];
-  }
+/* A rectangle of bounds at level k of a receiver's cells: w x h coarse cells from (x0, y0). */
+typedef struct beam_level {
+  double *v;
+  uint32_t k, x0, y0, w, h;
+} beam_level;
+
+/* The sum of l's bounds over the grid's cells (a coarse cell counts once per cell of the
+ * grid it holds). */
+static double beam_level_sum(const bbc_receiver *rc, const beam_level *l) {
   double sum = 0;
-  const uint32_t side = 1u << k;
-  for (uint32_t y = 0; y < *h; y++) {
-    const uint32_t gy = (*y0 + y) << k, ny = rc->height - gy < side ? rc->height - gy : side;
-    for (uint32_t x = 0; x < *w; x++) {
-      const uint32_t gx = (*x0 + x) << k, nx = rc->width - gx < side ? rc->width - gx : side;
-      sum += cover->coarse[(size_t)y * *w + x] * nx * ny;
+  const uint32_t side = 1u << l->k;
+  for (uint32_t y = 0; y < l->h; y++) {
+    const uint32_t gy = (l->y0 + y) << l->k, ny = rc->height - gy < side ? rc->height - gy : side;
+    for (uint32_t x = 0; x < l->w; x++) {
+      const uint32_t gx = (l->x0 + x) << l->k, nx = rc->width - gx < side ? rc->width - gx : side;
+      sum += l->v[(size_t)y * l->w + x] * nx * ny;
     }
   }
   return sum;
+}
+
+/* out, at level in->k + 1: each cell the largest of the (up to four) cells of `in` it
+ * holds, which is the largest of its cells of the grid. */
+static void beam_level_up(const beam_level *in, beam_level *out) {
+  out->k = in->k + 1;
+  out->x0 = in->x0 >> 1, out->y0 = in->y0 >> 1;
+  out->w = ((in->x0 + in->w - 1) >> 1) - out->x0 + 1;
+  out->h = ((in->y0 + in->h - 1) >> 1) - out->y0 + 1;
+  memset(out->v, 0, (size_t)out->w * out->h * sizeof *out->v);
+  for (uint32_t y = 0; y < in->h; y++) {
+    const double *row = in->v + (size_t)y * in->w;
+    double *o = out->v + (size_t)(((in->y0 + y) >> 1) - out->y0) * out->w;
+    for (uint32_t x = 0; x < in->w; x++) {
+      double *c = o + (((in->x0 + x) >> 1) - out->x0);
+      if (row[x] > *c) *c = row[x];
+    }
+  }
 }
 
 /* The unbounded cells of pl as the union of the largest aligned blocks of cells, of any
@@ -792,15 +802,26 @@ static bbc_result beam_plane_record(const bbc_grid *grid, uint32_t receiver, con
     bbc_result r = beam_plane_record_unbounded(grid, receiver, pl, cover, a, id, c, power);
     if (r != BBC_OK || own == 0) return r;
   }
-  uint32_t x0, y0, cw, ch, k = 0;
-  while (k + 1 < grid->levels) {
-    const double sum = beam_plane_coarsen(rc, pl, cover, k + 1, &x0, &y0, &cw, &ch);
-    if (sum < 0) return BBC_ERR_OUT_OF_MEMORY;
-    if (!(sum <= BEAM_LEVEL_GROWTH * own)) break;
-    k++;
+  /* The finite bounds at level 0, then each level from the one below, kept while their
+   * sum grows by at most BEAM_LEVEL_GROWTH. */
+  const size_t n = ((size_t)pl->tx1 - pl->tx0 + 1) * ((size_t)pl->ty1 - pl->ty0 + 1);
+  if (!arena_reserve((void **)&cover->coarse, &cover->coarse_cap, n, sizeof *cover->coarse) ||
+      !arena_reserve((void **)&cover->coarse2, &cover->coarse2_cap, n, sizeof *cover->coarse2))
+    return BBC_ERR_OUT_OF_MEMORY;
+  beam_level cur = {cover->coarse, 0, pl->tx0, pl->ty0, pl->tx1 - pl->tx0 + 1, pl->ty1 - pl->ty0 + 1};
+  beam_level up = {cover->coarse2, 0, 0, 0, 0, 0};
+  for (uint32_t y = 0; y < cur.h; y++) {
+    const double *row = pl->cells + (size_t)(cur.y0 + y) * w + cur.x0;
+    for (uint32_t x = 0; x < cur.w; x++)
+      cur.v[(size_t)y * cur.w + x] = row[x] < INFINITY ? row[x] : 0;
   }
-  if (beam_plane_coarsen(rc, pl, cover, k, &x0, &y0, &cw, &ch) < 0) return BBC_ERR_OUT_OF_MEMORY;
-  return arena_add(a, id, c, receiver, k, x0, y0, cw, ch, cover->coarse, cw, 1, power);
+  while (cur.k + 1 < grid->levels) {
+    beam_level_up(&cur, &up);
+    if (!(beam_level_sum(rc, &up) <= BEAM_LEVEL_GROWTH * own)) break;
+    const beam_level t = cur;
+    cur = up, up = t;
+  }
+  return arena_add(a, id, c, receiver, cur.k, cur.x0, cur.y0, cur.w, cur.h, cur.v, cur.w, 1, power);
 }
 
 /* Bounds beam tuple t (receiver BBC_RECEIVER_BEAM) on thread `id`: its kept pieces'
@@ -1339,6 +1360,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
     for (uint32_t k = 0; k < beam_covers[i].count; k++) free(beam_covers[i].planes[k].cells);
     free(beam_covers[i].planes);
     free(beam_covers[i].coarse);
+    free(beam_covers[i].coarse2);
     free(beam_covers[i].full);
   }
   free(beam_covers);
