@@ -868,6 +868,27 @@ static BBC__KERNEL void muln(const double *a, const double *b, double *dst, doub
       MULN_CASE(0, 1, 3, 3, 0, 1, 3, 3);
       MULN_CASE(0, 1, 3, 3, 0, 0, 3, 3);
       MULN_CASE(0, 0, 3, 3, 0, 1, 3, 3);
+      /* Beams (bound/beam.c): the same products with the slab's axis l. Single
+       * refraction, */
+      MULN_CASE(1, 1, 6, 6, 2, 1, 10, 10);
+      MULN_CASE(1, 0, 5, 5, 2, 2, 11, 11);
+      MULN_CASE(0, 0, 2, 2, 3, 2, 16, 16);
+      MULN_CASE(1, 0, 5, 4, 1, 1, 5, 6);
+      MULN_CASE(1, 0, 4, 5, 1, 1, 6, 5);
+      MULN_CASE(1, 0, 6, 6, 0, 1, 0, 0);
+      MULN_CASE(0, 1, 1, 1, 1, 0, 5, 5);
+      /* single reflection, */
+      MULN_CASE(0, 1, 4, 4, 0, 1, 6, 6);
+      MULN_CASE(0, 0, 2, 2, 0, 2, 10, 10);
+      MULN_CASE(0, 0, 3, 3, 0, 2, 7, 7);
+      MULN_CASE(0, 1, 4, 3, 0, 1, 3, 4);
+      MULN_CASE(0, 1, 3, 4, 0, 1, 4, 3);
+      /* two refractions. */
+      MULN_CASE(0, 1, 6, 6, 0, 1, 12, 12);
+      MULN_CASE(0, 0, 6, 6, 0, 2, 12, 12);
+      MULN_CASE(0, 0, 6, 6, 0, 1, 6, 6);
+      MULN_CASE(0, 1, 6, 6, 0, 1, 6, 6);
+      MULN_CASE(0, 0, 2, 2, 0, 2, 18, 18);
       default:
         break;
     }
