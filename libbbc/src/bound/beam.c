@@ -179,6 +179,17 @@ static bbc_interval last_vertex_range(const bbc_tuple_geometry *g, int a, const 
 
 typedef enum outcome { OUT_DISCARD, OUT_PARTIAL, OUT_FULL } outcome;
 
+/* Whether a receiver lies in the part of the piece's box (its parent's) within its slab:
+ * the test examine makes once the slab is narrowed further, made before the forms, so
+ * that the half of a slab holding no receiver costs none. */
+static int slab_reaches(const beam_ctx *c, const bbc_beam_piece *piece) {
+  const int a = piece->axis;
+  double lo[3], hi[3], depth_lo, depth_hi;
+  for (int i = 0; i < 3; i++) lo[i] = piece->box_lo[i], hi[i] = piece->box_hi[i];
+  lo[a] = fmax(lo[a], piece->lambda_lo), hi[a] = fmin(hi[a], piece->lambda_hi);
+  return lo[a] <= hi[a] && c->prm.beam_depth(c->prm.need_user, a, lo, hi, &depth_lo, &depth_hi);
+}
+
 /* The piece's checks (Supp. Sec. 4.1's, without a receiver triangle), its axis when it
  * has none yet, its box, and with irradiance its bound. *cos_lo receives the lower bound
  * of |cos| between the ray and the axis. */
@@ -212,6 +223,7 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int *irradiance, b
   const double box[4] = {piece->u_lo, piece->u_hi, piece->v_lo, piece->v_hi};
   if (box[0] + box[2] >= 1.0) return BBC_OK;
   if (bbc__light_falloff_over_box(g->light, &g->light_model, g->p, box).hi <= 0) return BBC_OK;
+  if (piece->axis >= 0 && c->prm.beam_depth && !slab_reaches(c, piece)) return BBC_OK;
   bbc_space space;
   int s_axis, t_axis;
   memset(&space, 0, sizeof space);
