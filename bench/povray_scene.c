@@ -6,7 +6,11 @@
  *       scene, to match bbc's exact direct image;
  *   povray_scene SCENE.gltf --width W --height H --photons N --radius R -o OUT.pov
  *       the caustic alone, by photon mapping: N photons shot at the casters, gathered
- *       within the fixed radius R; the receivers get no direct light.
+ *       within the fixed radius R; the receivers get no direct light;
+ *   ... --any-chain K
+ *       the same, with photons also reflected at dielectrics (Fresnel and total internal
+ *       reflection) and followed through up to K specular surfaces, as bench/light_trace
+ *       --any-chain K counts them (bench/transport.sh).
  *
  * Camera: POV-Ray's perspective camera traces direction + (x/W - 0.5) right +
  * (0.5 - y/H) up for film position (x, y); the vectors are taken from bbc_camera_ray, so
@@ -36,7 +40,8 @@
  * caustic (bench/light_trace, bbc-render --only caustics --max-depth 2 + chain length).
  * POV-Ray's photon rays skip no_image objects, so the glass cannot simply be hidden from
  * the camera. Nested media follow POV-Ray's rule (the innermost interior entered), not
- * bbc's. */
+ * bbc's; so the inner wall of a hollow glass (a cavity, bbc_mesh.cavity) gets an interior
+ * of air (ior 1, no absorption): entering it leaves the glass, as in bbc. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -53,8 +58,8 @@ static int fail(const char *msg) {
 }
 
 static const char *USAGE =
-    "usage: povray_scene SCENE.gltf --width W --height H (--direct | --photons N --radius R) "
-    "-o OUT.pov";
+    "usage: povray_scene SCENE.gltf --width W --height H (--direct | --photons N --radius R "
+    "[--any-chain K]) -o OUT.pov";
 
 /* A point of the film plane at distance 1 along the view direction dir0. */
 static bbc_vec3 on_film(bbc_vec3 d, bbc_vec3 dir0) {
@@ -92,19 +97,21 @@ int main(int argc, char **argv) {
   const char *scene_path = NULL, *out = NULL;
   long width = 0, height = 0, photons = 0;
   double radius = 0;
-  int direct = 0;
+  int direct = 0, any_chain = 0;
   for (int i = 1; i < argc; i++) {
     if (!strcmp(argv[i], "--width") && i + 1 < argc) width = atol(argv[++i]);
     else if (!strcmp(argv[i], "--height") && i + 1 < argc) height = atol(argv[++i]);
     else if (!strcmp(argv[i], "--photons") && i + 1 < argc) photons = atol(argv[++i]);
     else if (!strcmp(argv[i], "--radius") && i + 1 < argc) radius = atof(argv[++i]);
     else if (!strcmp(argv[i], "--direct")) direct = 1;
+    else if (!strcmp(argv[i], "--any-chain") && i + 1 < argc) any_chain = atoi(argv[++i]);
     else if (!strcmp(argv[i], "-o") && i + 1 < argc) out = argv[++i];
     else if (argv[i][0] != '-' && !scene_path) scene_path = argv[i];
     else return fail(USAGE);
   }
   if (!scene_path || !out || width <= 0 || height <= 0 || width > 100000 || height > 100000 ||
-      direct == (photons > 0) || (!direct && !(radius > 0)))
+      direct == (photons > 0) || (!direct && !(radius > 0)) || any_chain < 0 || any_chain > 60 ||
+      (direct && any_chain))
     return fail(USAGE);
   bbc_scene *scene = NULL;
   if (bbc_scene_load(&scene, scene_path, NULL) != BBC_OK) return fail("cannot load the scene");
@@ -124,8 +131,8 @@ int main(int argc, char **argv) {
     /* A fixed gather radius: gather at most 10^6 photons (never reached), never fewer
      * than 0, so the radius is never shrunk nor expanded. */
     fprintf(f, "  photons {\n    count %ld\n    radius %.9g, 1\n    gather 0, 1000000\n"
-               "    expand_thresholds 0, 0\n    autostop 0\n    max_trace_level 10\n"
-               "    adc_bailout 0\n  }\n", photons, radius);
+               "    expand_thresholds 0, 0\n    autostop 0\n    max_trace_level %d\n"
+               "    adc_bailout 0\n  }\n", photons, radius, any_chain ? any_chain : 10);
   fprintf(f, "}\n");
 
   /* The camera: rays through the film centre and the middles of its right and top edges
@@ -191,15 +198,17 @@ int main(int argc, char **argv) {
                  "    finish { ambient 0 emission 0 diffuse 0 specular 0 phong 0\n"
                  "             reflection { 0, 1 fresnel on } conserve_energy }\n  }\n"
                  "  interior { ior %.9g",
-              tint[0], tint[1], tint[2], mat->ior);
+              tint[0], tint[1], tint[2], mesh->cavity ? 1.0 : mat->ior);
       double amax = 0;
-      for (int k = 0; k < 3; k++) amax = mat->absorption[k] > amax ? mat->absorption[k] : amax;
+      for (int k = 0; k < 3 && !mesh->cavity; k++)
+        amax = mat->absorption[k] > amax ? mat->absorption[k] : amax;
       if (amax > 0)
         /* exp(-(1 - c) d / D) with D = 1 / amax and c = 1 - absorption D. */
         fprintf(f, " fade_power 1001 fade_distance %.9g\n    fade_color rgb <%.9g, %.9g, %.9g>",
                 1 / amax, 1 - mat->absorption[0] / amax, 1 - mat->absorption[1] / amax,
                 1 - mat->absorption[2] / amax);
-      fprintf(f, " }\n  photons { target refraction on reflection off collect off }\n}\n");
+      fprintf(f, " }\n  photons { target refraction on reflection %s collect off }\n}\n",
+              any_chain ? "on" : "off");
     }
   }
   int bad = ferror(f);
