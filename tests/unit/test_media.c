@@ -6,6 +6,7 @@
  * glass-water interface, and controls that fail under the rule of one medium per mesh
  * (scene->media NULL, cavity walls oriented as solids). */
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -126,9 +127,10 @@ static void tuples_by_mesh(const bbc_scene *s, long count[4][4]) {
 /* No tuple the media prove empty: light from outside enters the hollow ball only through
  * its outer surface (no T1 on the inner one), and light that went on through the inner
  * one is in the cavity, which no floor triangle reaches (no (outer, inner) pair; it
- * would have to refract twice more). Pairs through the outer surface alone remain (the
- * media cannot rule them out: the geometry does). Control: one medium per mesh keeps
- * tuples that start on the inner surface. */
+ * would have to refract twice more). Nor does light inside the glass after one
+ * refraction (no T): the ball rests on the floor at its pole, a point. Pairs through the
+ * outer surface alone remain (the media cannot rule them out: the geometry does).
+ * Control: one medium per mesh keeps tuples that start on the inner surface. */
 TEST(hollow_sphere_tuples) {
   bbc_scene *s = NULL;
   REQUIRE(bbc_scene_load(&s, TEST_SCENE("hollow-sphere-small.gltf"), NULL) == BBC_OK);
@@ -139,12 +141,58 @@ TEST(hollow_sphere_tuples) {
   fprintf(stderr, "hollow sphere: T %ld, TT outer-outer %ld, outer-inner %ld, from inner %ld\n",
           count[outer][s->mesh_count], count[outer][outer], count[outer][inner],
           count[inner][outer] + count[inner][inner] + count[inner][s->mesh_count]);
-  CHECK(count[outer][s->mesh_count] > 0 && count[outer][outer] > 0);
+  CHECK_INT(count[outer][s->mesh_count], 0);
+  CHECK(count[outer][outer] > 0);
   CHECK_INT(count[outer][inner], 0);
   CHECK_INT(count[inner][outer] + count[inner][inner] + count[inner][s->mesh_count], 0);
   old_rule(s);
   tuples_by_mesh(s, count);
   CHECK(count[inner][outer] + count[inner][inner] + count[inner][s->mesh_count] > 0);
+  bbc_scene_free(s);
+}
+
+/* The number of candidate T tuples, or SIZE_MAX when the search fails. */
+static size_t t_tuples(const bbc_scene *s) {
+  bbc_tuple *t = NULL;
+  size_t n = 0;
+  if (bbc_tuples_find(s, 1u << BBC_CHAIN_T, &t, &n) != BBC_OK) return SIZE_MAX;
+  free(t);
+  return n;
+}
+
+/* A floor in the plane of a face of a closed glass's box receives light from inside the
+ * glass only where a face of the glass lies on it: none from the hollow ball resting on
+ * its pole (the control without the rule finds T tuples there), and from a glass box
+ * moved down onto the floor, as many as without the rule (its bottom face lies on the
+ * floor: the light that reaches the bottom lands there). */
+TEST(floor_under_a_closed_glass) {
+  bbc_scene *s = NULL;
+  REQUIRE(bbc_scene_load(&s, TEST_SCENE("hollow-sphere-small.gltf"), NULL) == BBC_OK);
+  CHECK_INT(t_tuples(s), 0);
+  bbc__tuple_face_rule = 0;
+  const size_t without = t_tuples(s);
+  bbc__tuple_face_rule = 1;
+  fprintf(stderr, "hollow ball on its pole: T 0 (%zu without the rule)\n", without);
+  CHECK(without > 0 && without != SIZE_MAX);
+  bbc_scene_free(s);
+
+  REQUIRE(bbc_scene_load(&s, TEST_SCENE("glass-box.gltf"), NULL) == BBC_OK);
+  const uint32_t box = mesh_named(s, "glass_box");
+  const bbc_mesh *m = &s->meshes[box];
+  float low = INFINITY;
+  for (uint32_t v = m->first_vertex; v < m->first_vertex + m->vertex_count; v++)
+    low = fminf(low, s->positions[3 * (size_t)v + 1]);
+  REQUIRE(low == 0.5f);
+  CHECK_INT(t_tuples(s), 0); /* floating above the floor */
+  for (uint32_t v = m->first_vertex; v < m->first_vertex + m->vertex_count; v++)
+    s->positions[3 * (size_t)v + 1] -= 0.5f; /* exact: its bottom lands on y = 0 */
+  const size_t with = t_tuples(s);
+  bbc__tuple_face_rule = 0;
+  const size_t all = t_tuples(s);
+  bbc__tuple_face_rule = 1;
+  fprintf(stderr, "glass box on the floor: T %zu (%zu without the rule)\n", with, all);
+  CHECK(with > 0 && with != SIZE_MAX);
+  CHECK_INT((long)with, (long)all);
   bbc_scene_free(s);
 }
 

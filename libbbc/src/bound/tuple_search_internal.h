@@ -51,4 +51,9 @@ void bbc__tuple_search_free(bbc__tuple_search *s); /* NULL is allowed */
  * when nothing of lo..hi is left. Exact on the float data. */
 int bbc__tuple_landing_box(const bbc_scene *scene, const bbc_tuple *t, double lo[3], double hi[3]);
 
+/* A control for the tests, never set otherwise (1): 0 keeps the flat receivers that lie
+ * in a face of an enclosing mesh's box where no triangle of the mesh lies (tuples.c,
+ * medium_reaches), tuples with no path that lands on an area. */
+extern int bbc__tuple_face_rule;
+
 #endif

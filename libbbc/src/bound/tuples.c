@@ -43,6 +43,9 @@ typedef struct bvh {
   uint32_t node_count;
   uint32_t *order;
   double (*mesh_box)[6]; /* per mesh: lo, hi of its triangles */
+  /* per mesh, bit k (k < 6, as mesh_box): some triangle lies wholly in the box's face k,
+   * the plane x_a = mesh_box[k] (a = k % 3) */
+  uint8_t *mesh_faces;
 } bvh;
 
 static void triangle_bounds(const bbc_scene *scene, uint32_t t, double lo[3], double hi[3]) {
@@ -309,7 +312,8 @@ static bbc_result beam_hits(bbc_arena *arena, const beam *b, const triangle_plan
 static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role, int whole_meshes) {
   memset(b, 0, sizeof *b);
   b->mesh_box = malloc((scene->mesh_count ? scene->mesh_count : 1) * sizeof *b->mesh_box);
-  if (!b->mesh_box) return BBC_ERR_OUT_OF_MEMORY;
+  b->mesh_faces = calloc(scene->mesh_count ? scene->mesh_count : 1, 1);
+  if (!b->mesh_box || !b->mesh_faces) return BBC_ERR_OUT_OF_MEMORY;
   uint32_t n = 0;
   for (uint32_t m = 0; m < scene->mesh_count; m++) {
     const bbc_mesh *mesh = &scene->meshes[m];
@@ -320,6 +324,12 @@ static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role, int wh
       triangle_bounds(scene, t, lo, hi);
       for (int a = 0; a < 3; a++)
         box[a] = fmin(box[a], lo[a]), box[3 + a] = fmax(box[3 + a], hi[a]);
+    }
+    for (uint32_t t = mesh->first_triangle; t < mesh->first_triangle + mesh->triangle_count; t++) {
+      double lo[3], hi[3];
+      triangle_bounds(scene, t, lo, hi);
+      for (int k = 0; k < 6; k++)
+        if (lo[k % 3] == box[k] && hi[k % 3] == box[k]) b->mesh_faces[m] |= (uint8_t)(1u << k);
     }
     if (mesh->role == role) n += mesh->plane || whole_meshes ? 1 : mesh->triangle_count;
   }
@@ -346,6 +356,7 @@ static void bvh_free(bvh *b) {
   free(b->nodes);
   free(b->order);
   free(b->mesh_box);
+  free(b->mesh_faces);
 }
 
 /* The triangles of b the beam (x, d) can meet, sorted, into found; returns their number.
@@ -385,8 +396,13 @@ static int encloses(const bbc_scene *scene, uint32_t medium) {
  * encloses, bbc__media_enclosure) after the last specular vertex can reach receiver item
  * r. Inside a closed mesh it reaches only what may lie inside: a receiver whose box
  * misses the mesh's box lies wholly outside, and every segment to it crosses the mesh, a
- * specular vertex more than the chain has (the medium rule, media_internal.h). Exact on
- * the float data. */
+ * specular vertex more than the chain has (the medium rule, media_internal.h). A flat
+ * receiver in the plane of a face of the mesh's box (a floor under a ball resting on it)
+ * meets the closed volume only on the mesh's surface there, an area of zero unless a
+ * triangle of the mesh lies in that plane (the bottom of a pool's water on its floor):
+ * without one, no light lands on it with an area to be seen. Exact on the float data. */
+int bbc__tuple_face_rule = 1;
+
 static int medium_reaches(const bvh *b, const bbc_scene *scene, uint32_t medium, uint32_t r) {
   if (!encloses(scene, medium)) return 1;
   double lo[3], hi[3];
@@ -394,6 +410,9 @@ static int medium_reaches(const bvh *b, const bbc_scene *scene, uint32_t medium,
   const double *box = b->mesh_box[medium - 1];
   for (int a = 0; a < 3; a++)
     if (hi[a] < box[a] || lo[a] > box[3 + a]) return 0;
+  for (int k = 0; k < 6 && bbc__tuple_face_rule; k++)
+    if (lo[k % 3] == hi[k % 3] && lo[k % 3] == box[k] && !(b->mesh_faces[medium - 1] & (1u << k)))
+      return 0;
   return 1;
 }
 
