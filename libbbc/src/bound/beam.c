@@ -179,15 +179,15 @@ static bbc_interval last_vertex_range(const bbc_tuple_geometry *g, int a, const 
 
 typedef enum outcome { OUT_DISCARD, OUT_PARTIAL, OUT_FULL } outcome;
 
-/* Whether a receiver lies in the part of the piece's box (its parent's) within its slab:
- * the test examine makes once the slab is narrowed further, made before the forms, so
- * that the half of a slab holding no receiver costs none. */
-static int slab_reaches(const beam_ctx *c, const bbc_beam_piece *piece) {
+/* The range [*depth_lo, *depth_hi] on the piece's axis of the receivers in the part of
+ * its box (its parent's) within its slab; 0 when none lies there. */
+static int slab_depths(const beam_ctx *c, const bbc_beam_piece *piece, double *depth_lo,
+                       double *depth_hi) {
   const int a = piece->axis;
-  double lo[3], hi[3], depth_lo, depth_hi;
+  double lo[3], hi[3];
   for (int i = 0; i < 3; i++) lo[i] = piece->box_lo[i], hi[i] = piece->box_hi[i];
   lo[a] = fmax(lo[a], piece->lambda_lo), hi[a] = fmin(hi[a], piece->lambda_hi);
-  return lo[a] <= hi[a] && c->prm.beam_depth(c->prm.need_user, a, lo, hi, &depth_lo, &depth_hi);
+  return lo[a] <= hi[a] && c->prm.beam_depth(c->prm.need_user, a, lo, hi, depth_lo, depth_hi);
 }
 
 /* The piece's checks (Supp. Sec. 4.1's, without a receiver triangle), its axis when it
@@ -223,7 +223,13 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int *irradiance, b
   const double box[4] = {piece->u_lo, piece->u_hi, piece->v_lo, piece->v_hi};
   if (box[0] + box[2] >= 1.0) return BBC_OK;
   if (bbc__light_falloff_over_box(g->light, &g->light_model, g->p, box).hi <= 0) return BBC_OK;
-  if (piece->axis >= 0 && c->prm.beam_depth && !slab_reaches(c, piece)) return BBC_OK;
+  /* A piece with an axis (its parent's) is tested against the receivers of its slab
+   * before its forms, so that the half of a slab holding none costs none. */
+  double depth_lo, depth_hi, early_lo = NAN, early_hi = NAN;
+  if (piece->axis >= 0 && c->prm.beam_depth) {
+    if (!slab_depths(c, piece, &depth_lo, &depth_hi)) return BBC_OK;
+    early_lo = piece->lambda_lo, early_hi = piece->lambda_hi;
+  }
   bbc_space space;
   int s_axis, t_axis;
   memset(&space, 0, sizeof space);
@@ -297,14 +303,11 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int *irradiance, b
     if (!(piece->lambda_lo <= piece->lambda_hi)) return BBC_OK; /* no receiver ahead */
   }
   /* The slab narrowed to the depths of the receivers inside the box its paths stay in
-   * (the parent's): a path of the piece reaches a receiver only there. */
-  double depth_lo, depth_hi;
+   * (the parent's): a path of the piece reaches a receiver only there (found above when
+   * the slab has not changed since). */
   if (c->prm.beam_depth) {
-    double blo[3], bhi[3];
-    for (int i = 0; i < 3; i++) blo[i] = piece->box_lo[i], bhi[i] = piece->box_hi[i];
-    blo[a] = fmax(blo[a], piece->lambda_lo), bhi[a] = fmin(bhi[a], piece->lambda_hi);
-    if (!(blo[a] <= bhi[a]) ||
-        !c->prm.beam_depth(c->prm.need_user, a, blo, bhi, &depth_lo, &depth_hi))
+    if (!(piece->lambda_lo == early_lo && piece->lambda_hi == early_hi) &&
+        !slab_depths(c, piece, &depth_lo, &depth_hi))
       return BBC_OK;
     piece->lambda_lo = fmax(piece->lambda_lo, depth_lo);
     piece->lambda_hi = fmin(piece->lambda_hi, depth_hi);

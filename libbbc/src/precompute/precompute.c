@@ -790,31 +790,31 @@ static bbc_result beam_plane_record(const bbc_grid *grid, uint32_t receiver, con
   if (grid->levels == 1)
     return arena_add(a, id, c, receiver, 0, pl->tx0, pl->ty0, pl->tx1 - pl->tx0 + 1,
                      pl->ty1 - pl->ty0 + 1, pl->cells + pl->ty0 * w + pl->tx0, w, 1, power);
-  double own = 0;
-  int unbounded = 0;
-  for (uint32_t y = pl->ty0; y <= pl->ty1; y++)
-    for (uint32_t x = pl->tx0; x <= pl->tx1; x++) {
-      const double v = pl->cells[y * w + x];
-      if (v < INFINITY) own += v;
-      unbounded |= v == INFINITY;
-    }
-  if (unbounded) {
-    bbc_result r = beam_plane_record_unbounded(grid, receiver, pl, cover, a, id, c, power);
-    if (r != BBC_OK || own == 0) return r;
-  }
-  /* The finite bounds at level 0, then each level from the one below, kept while their
-   * sum grows by at most BEAM_LEVEL_GROWTH. */
+  /* The finite bounds at level 0 (in coarse2: the unbounded blocks use coarse), their
+   * sum, and whether any cell is unbounded, in one pass. */
   const size_t n = ((size_t)pl->tx1 - pl->tx0 + 1) * ((size_t)pl->ty1 - pl->ty0 + 1);
   if (!arena_reserve((void **)&cover->coarse, &cover->coarse_cap, n, sizeof *cover->coarse) ||
       !arena_reserve((void **)&cover->coarse2, &cover->coarse2_cap, n, sizeof *cover->coarse2))
     return BBC_ERR_OUT_OF_MEMORY;
-  beam_level cur = {cover->coarse, 0, pl->tx0, pl->ty0, pl->tx1 - pl->tx0 + 1, pl->ty1 - pl->ty0 + 1};
-  beam_level up = {cover->coarse2, 0, 0, 0, 0, 0};
+  beam_level cur = {cover->coarse2, 0, pl->tx0, pl->ty0, pl->tx1 - pl->tx0 + 1, pl->ty1 - pl->ty0 + 1};
+  double own = 0;
+  int unbounded = 0;
   for (uint32_t y = 0; y < cur.h; y++) {
     const double *row = pl->cells + (size_t)(cur.y0 + y) * w + cur.x0;
-    for (uint32_t x = 0; x < cur.w; x++)
-      cur.v[(size_t)y * cur.w + x] = row[x] < INFINITY ? row[x] : 0;
+    for (uint32_t x = 0; x < cur.w; x++) {
+      const double v = row[x] < INFINITY ? row[x] : 0;
+      own += v;
+      unbounded |= row[x] == INFINITY;
+      cur.v[(size_t)y * cur.w + x] = v;
+    }
   }
+  if (unbounded) {
+    bbc_result r = beam_plane_record_unbounded(grid, receiver, pl, cover, a, id, c, power);
+    if (r != BBC_OK || own == 0) return r;
+  }
+  /* Each level from the one below, kept while the sum grows by at most
+   * BEAM_LEVEL_GROWTH. */
+  beam_level up = {cover->coarse, 0, 0, 0, 0, 0};
   while (cur.k + 1 < grid->levels) {
     beam_level_up(&cur, &up);
     if (!(beam_level_sum(rc, &up) <= BEAM_LEVEL_GROWTH * own)) break;
