@@ -1,5 +1,6 @@
 # Shell helpers shared by the benchmark scripts (bench/compare.sh, bench/area-plane.sh,
-# bench/sun-pool.sh, bench/run.sh, bench/versus.sh, bench/gamma_sweep.sh).
+# bench/sun-pool.sh, bench/run.sh, bench/versus.sh, bench/gamma_sweep.sh,
+# bench/povray-glass.sh, bench/transport.sh, bench/precompute-ab.sh).
 # The caller sets $root (the repository), $work (a scratch folder), $scale and $tool (its
 # name, for messages).
 
@@ -88,4 +89,20 @@ shared_scenes() {
     return 1
   fi
   echo "$shared_dir"
+}
+
+# povray_run POV: renders POV with POV-Ray at $width x $height, $threads threads (3x3
+# supersampling of every pixel, as bench/compare.sh) to OUT.exr beside it and prints its
+# CPU-seconds; cached in $work/pov by the content of POV. POV-Ray writes below the
+# current folder only: run it from the repository.
+povray_run() {
+  key=$work/pov/$( (cat "$1"; echo "+W$width +H$height +WT$threads") | md5sum | cut -c1-16)
+  if [ ! -f "$key.cpu" ]; then
+    cpu "$key.log" povray "+I$1" "+O$key.exr" +FE +W$width +H$height -D +WT$threads -V \
+      +A0.0 +AM1 +R3 > "$key.tmp"
+    mv "$key.tmp" "$key.cpu"
+  fi
+  cp "$key.exr" "${1%.pov}.exr"
+  cp "$key.log" "${1%.pov}.log"
+  cat "$key.cpu"
 }

@@ -74,20 +74,6 @@ specs="ball320:TT:3:0.0025,0.005,0.01,0.02 pool4k:T::0.005,0.01,0.02,0.04
 
 err() { "$bin/bench/image_error" "$1" "$2" | awk '{ print $2, $4 }'; } # relMSE lit-mean
 
-# povray_run POV: renders POV (3x3 supersampling of every pixel, as bench/compare.sh) to
-# OUT.exr beside it and prints its CPU-seconds; cached by the content of POV.
-povray_run() {
-  key=$work/pov/$( (cat "$1"; echo "+W$width +H$height +WT$threads") | md5sum | cut -c1-16)
-  if [ ! -f "$key.cpu" ]; then
-    cpu "$key.log" povray "+I$1" "+O$key.exr" +FE +W$width +H$height -D +WT$threads -V \
-      +A0.0 +AM1 +R3 > "$key.tmp"
-    mv "$key.tmp" "$key.cpu"
-  fi
-  cp "$key.exr" "${1%.pov}.exr"
-  cp "$key.log" "${1%.pov}.log"
-  cat "$key.cpu"
-}
-
 # reach FILE E: the least x at which the curve "x y" (sorted by x) falls to E, by log-log
 # interpolation between its points ("<=" and its first x when its first point is already
 # there; "never" when it does not fall to E within its points).

@@ -124,17 +124,17 @@ if [ $report = 0 ]; then
         echo "$s $mode $seed $c $2 $4 $n" | tee -a "$dat"
       done
     done
-    # POV-Ray (it writes below the current folder only).
+    # POV-Ray.
     : > "$work/$s-pov.dat"
+    mkdir -p "$work/pov"
     for count in $povray_counts; do
       for radius in $radii; do
-        pov=bench/work/transport/$s-pov.pov
-        (cd "$root" && "$bin/bench/povray_scene" "$gltf" --width "$width" --height "$height" \
-          --photons "$count" --radius "$radius" --any-chain "$povray_depth" -o "$pov" &&
-          cpu "$work/pov.log" povray "+I$pov" "+O${pov%.pov}.exr" +FE +W$width +H$height -D \
-          +WT$threads -V +A0.0 +AM1 +R3) > "$work/pov.cpu"
+        pov=$work/$s-pov.pov
+        "$bin/bench/povray_scene" "$gltf" --width "$width" --height "$height" --photons "$count" \
+          --radius "$radius" --any-chain "$povray_depth" -o "$pov"
+        c=$(cd "$root" && povray_run "$pov")
         set -- $("$bin/bench/image_error" "$work/$s-pov.exr" "$ref")
-        echo "$count $radius $(cat "$work/pov.cpu") $2 $4" | tee -a "$work/$s-pov.dat"
+        echo "$count $radius $c $2 $4" | tee -a "$work/$s-pov.dat"
       done
     done
   done
