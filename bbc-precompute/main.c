@@ -366,8 +366,9 @@ static const char *why_empty(const bbc_scene *scene, uint32_t chains,
            : mirror             ? "the casters are all mirrors, but --chains asks for no R-only chain"
                                 : "the casters are all dielectrics, but --chains asks for no T-only chain";
   if (st->candidate_tuples == 0)
-    return "no light path reaches a receiver through the casters (no candidate tuple: check "
-           "the roles, the light's position and the casters' normals)";
+    return "no light path reaches a receiver through one or two casters (no candidate tuple: "
+           "check the roles, the light's position and the casters' normals; light through "
+           "more surfaces, a hollow glass, is light-traced by bbc-render with an empty cache)";
   return "every candidate tuple was culled: none carries light to a receiver";
 }
 

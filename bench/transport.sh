@@ -24,8 +24,10 @@
 # shows how much of the error is the render's noise. Scenes,
 # caches and references are kept in bench/work/transport and reused while present
 # (delete them after changing bbc-scenegen, bbc-precompute or bench/light_trace).
-# Precompute: defaults, except for the --max-level given per scene in $levels below,
-# under `ulimit -v 8000000` and a 900-second timeout.
+# Precompute: defaults, except for the --max-level given per scene in $levels below, and
+# --allow-empty (the hollow sphere's cache holds no tuple: every path of one or two
+# specular vertices through it is blocked by its inner sphere), under `ulimit -v 8000000`
+# and a 900-second timeout.
 # POV-Ray 3.7 photon mapping, the comparison users make (--povray-counts, default "250000
 # 1000000 4000000"; "" for none): the scene translated by bench/povray_scene --any-chain
 # --povray-depth (default 8: photons refract and reflect at the glass, Fresnel and total
@@ -89,7 +91,8 @@ if [ $report = 0 ]; then
     if [ ! -f "$cache" ]; then
       lv=$(echo "$levels" | tr ' ' '\n' | sed -n "s/^$s://p")
       c=$( (ulimit -v 8000000; cpu "$work/$s-pre.log" timeout 900 "$bin/bbc-precompute/bbc-precompute" \
-        "$gltf" -o "$cache.tmp" ${lv:+--max-level $lv} --threads "$threads" --no-progress) )
+        "$gltf" -o "$cache.tmp" ${lv:+--max-level $lv} --threads "$threads" --no-progress \
+        --allow-empty) )
       mv "$cache.tmp" "$cache"
       echo "$c ${lv:-default}" > "$work/$s-pre.cpu"
     fi

@@ -7,7 +7,8 @@
  * exactly, by Bernstein bounds of the ray's Plucker edge functions (beam_hits). A prefix
  * (light, T1, T2) extends the same way with the beam of T2: x2 over T2's box and d2
  * scattered by T2's normals from the d1 of the parts of T1 that reach T2, in interval
- * arithmetic. Never all pairs: the work follows the beam. */
+ * arithmetic. Never all pairs: the work follows the beam. A pair with a closed surface
+ * between every point of T1 and of T2 is dropped (occlusion_internal.h). */
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -21,6 +22,7 @@
 #include "chain_internal.h"
 #include "light_internal.h"
 #include "media_internal.h"
+#include "occlusion_internal.h"
 #include "orient_internal.h"
 #include "tuple_search_internal.h"
 #include "vec_internal.h"
@@ -728,8 +730,9 @@ static bbc_result second_tuples(const bbc_scene *scene, uint32_t chains, int bea
  * from which a later call carries on (the stages are found again in the same order). */
 static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int beam_receivers,
                                 const bvh *receivers, const bvh *casters,
-                                const bbc_point_light *light, uint32_t l, search_place *at,
-                                search_scratch *s, tuple_list *list, int *stopped) {
+                                const bbc__occluders *occluders, const bbc_point_light *light,
+                                uint32_t l, search_place *at, search_scratch *s, tuple_list *list,
+                                int *stopped) {
   bbc_result result = BBC_OK;
   const uint32_t t = at->t1;
   *stopped = 0;
@@ -843,7 +846,8 @@ static bbc_result prefix_tuples(const bbc_scene *scene, uint32_t chains, int bea
       }
       reached = 1;
     }
-    if (reached) s->found2[kept++] = t2;
+    /* A closed mesh between every point of T1 and every point of T2: no path. */
+    if (reached && !bbc__occluders_block(occluders, t, t2)) s->found2[kept++] = t2;
   }
   if (result != BBC_OK) return result;
   qsort(s->found2, kept, sizeof *s->found2, compare_u32);
@@ -878,6 +882,7 @@ struct bbc__tuple_search {
   int beam; /* beam receivers (beam_items) */
   int threads;
   bvh receivers, casters;
+  bbc__occluders *occluders; /* two bounces only */
   search_scratch *scratch;
   search_chunk chunk[WINDOW_MAX];
   size_t chunks;             /* per light */
@@ -924,6 +929,7 @@ bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *sc
   bbc_result r = s->scratch ? BBC_OK : BBC_ERR_OUT_OF_MEMORY;
   if (r == BBC_OK) r = bvh_init(&s->receivers, scene, BBC_ROLE_RECEIVER, s->beam);
   if (r == BBC_OK && two) r = bvh_init(&s->casters, scene, BBC_ROLE_CASTER, 0);
+  if (r == BBC_OK && two) r = bbc__occluders_create(&s->occluders, scene);
   for (int i = 0; i < s->threads && r == BBC_OK; i++) r = scratch_init(&s->scratch[i], scene, two);
   if (r != BBC_OK) {
     bbc__tuple_search_free(s);
@@ -942,6 +948,7 @@ void bbc__tuple_search_free(bbc__tuple_search *s) {
   if (!s) return;
   bvh_free(&s->receivers);
   bvh_free(&s->casters);
+  bbc__occluders_free(s->occluders);
   for (int i = 0; s->scratch && i < s->threads; i++) scratch_free(&s->scratch[i]);
   free(s->scratch);
   for (size_t c = 0; c < WINDOW_MAX; c++) free(s->chunk[c].part.items);
@@ -962,8 +969,8 @@ static bbc_result chunk_search(bbc__tuple_search *s, search_chunk *c, search_scr
   const uint32_t chains = light_chains(s, s->light);
   for (; c->at.t1 < c->end; c->at.t1++, c->at.stage = c->at.index = 0) {
     int stopped = 0;
-    bbc_result r = prefix_tuples(s->scene, chains, s->beam, &s->receivers, &s->casters, &s->point,
-                                 s->light, &c->at, w, &c->part, &stopped);
+    bbc_result r = prefix_tuples(s->scene, chains, s->beam, &s->receivers, &s->casters,
+                                 s->occluders, &s->point, s->light, &c->at, w, &c->part, &stopped);
     if (r != BBC_OK || stopped) return r;
   }
   return BBC_OK;
