@@ -12,6 +12,9 @@
 #include "bbc/precompute.h"
 #include "bbc/specular_path.h"
 #include "bbc/validate.h"
+#include "chain_fixtures.h"
+#include "chain_internal.h"
+#include "exact_tracer_oracle.h"
 #include "harness.h"
 
 /* Whether any of a coarse grid of paths through T1 is admissible: in the CI variant only
@@ -384,4 +387,74 @@ TEST(glass_sphere_area_tt) {
   bbc_validation acc;
   validate_scene(&c, "glass-sphere area TT", &acc);
   expect_valid(&acc, 300);
+}
+
+/* The bounders' cheap discard (bbc__chain_second_unreachable): a box of T1 it proves to
+ * miss T2 holds no ray that meets T2. The oracle is the exact tracer (exact_tracer_oracle.h:
+ * normalised reflection and refraction) with T2 as the receiver, at random points of
+ * random boxes of every level 0-6 of RR, TT and RT tuples. The control, the same test on
+ * the box's centre alone (the rays of one point, as a tracer's sample would be), misses
+ * rays from the rest of the box. */
+static void second_unreachable_case(const char *file, uint32_t chains, long *boxes, long *proven,
+                                    long *hits, long *wrong, long *control_wrong) {
+  bbc_scene *s = NULL;
+  char path[512];
+  snprintf(path, sizeof path, "%s/%s", BBC_TEST_SCENES, file);
+  REQUIRE(bbc_scene_load(&s, path, NULL) == BBC_OK);
+  bbc_tuple *t = NULL;
+  size_t n = 0;
+  REQUIRE(bbc_tuples_find(s, chains, &t, &n) == BBC_OK);
+  REQUIRE(n > 0);
+  const size_t stride = n / 150 + 1;
+  for (size_t i = 0; i < n; i += stride) {
+    bbc_tuple_geometry g, g1;
+    REQUIRE(bbc_tuple_geometry_init(&g, s, &t[i]) == BBC_OK);
+    if (g.length != 2) continue;
+    g1 = g;
+    g1.length = 1;
+    for (int k = 0; k < 3; k++) g1.r[k] = g.p2[k]; /* T2 as the receiver */
+    for (int level = 0; level <= 6; level++) {
+      const int cells = 1 << level;
+      for (int j = 0; j < 8; j++) {
+        const int cu = (int)(rnd() * cells), cv = (int)(rnd() * cells);
+        if (cu + cv >= cells) continue;
+        const double w = 1.0 / cells, box[4] = {cu * w, (cu + 1) * w, cv * w, (cv + 1) * w};
+        const double uc = (cu + 0.5) * w, vc = (cv + 0.5) * w;
+        const double centre[4] = {uc, uc, vc, vc};
+        const int is_proven = bbc__chain_second_unreachable(&g, box);
+        const int control = bbc__chain_second_unreachable(&g, centre);
+        (*boxes)++;
+        *proven += is_proven;
+        for (int m = 0; m < 32; m++) {
+          const double u = box[0] + rnd() * w, v = box[2] + rnd() * w;
+          if (u + v > 1 || !trace(&g1, u, v).valid) continue;
+          (*hits)++;
+          *wrong += is_proven;
+          *control_wrong += control;
+        }
+      }
+    }
+  }
+  free(t);
+  bbc_scene_free(s);
+}
+
+TEST(second_unreachable_holds_no_path) {
+  long boxes = 0, proven = 0, hits = 0, wrong = 0, control_wrong = 0;
+  second_unreachable_case("two-mirrors.gltf", 1u << BBC_CHAIN_RR, &boxes, &proven, &hits, &wrong,
+                          &control_wrong);
+  second_unreachable_case("wavy-corner.gltf", 1u << BBC_CHAIN_RR, &boxes, &proven, &hits, &wrong,
+                          &control_wrong);
+  second_unreachable_case("glass-sphere.gltf", 1u << BBC_CHAIN_TT, &boxes, &proven, &hits, &wrong,
+                          &control_wrong);
+  second_unreachable_case("mirror-pool.gltf", 1u << BBC_CHAIN_RT, &boxes, &proven, &hits, &wrong,
+                          &control_wrong);
+  fprintf(stderr,
+          "second triangle unreachable: %ld of %ld boxes proven; %ld rays meet T2, %ld of them "
+          "in a proven box (control: %ld)\n",
+          proven, boxes, hits, wrong, control_wrong);
+  CHECK(proven > boxes / 10);
+  CHECK(hits > 10000);
+  CHECK_INT(wrong, 0);
+  CHECK(control_wrong > 0);
 }

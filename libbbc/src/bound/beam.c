@@ -223,6 +223,8 @@ static bbc_result examine(beam_ctx *c, bbc_beam_piece *piece, int *irradiance, b
   const double box[4] = {piece->u_lo, piece->u_hi, piece->v_lo, piece->v_hi};
   if (box[0] + box[2] >= 1.0) return BBC_OK;
   if (bbc__light_falloff_over_box(g->light, &g->light_model, g->p, box).hi <= 0) return BBC_OK;
+  /* Two bounces: a part of T1 whose light provably misses T2 holds no path. */
+  if (bbc__chain_second_unreachable(g, box)) return BBC_OK;
   /* A piece with an axis (its parent's) is tested against the receivers of its slab
    * before its forms, so that the half of a slab holding none costs none. */
   double depth_lo, depth_hi, early_lo = NAN, early_hi = NAN;

@@ -545,6 +545,8 @@ static bbc_result position_check(bbc_arena *arena, bbc_space *space, const bbc_t
   if (box[0] + box[2] > 1.0) return BBC_OK;
   /* A spot lights nothing of the piece where its falloff is 0 everywhere. */
   if (bbc__light_falloff_over_box(g->light, &g->light_model, g->p, box).hi <= 0) return BBC_OK;
+  /* Two bounces: a part of T1 whose light provably misses T2 holds no path. */
+  if (bbc__chain_second_unreachable(g, box)) return BBC_OK;
   /* Carried forms come whole (in polys, or already in f); computed ones in two steps. */
   bbc_result r = BBC_OK;
   if (polys)

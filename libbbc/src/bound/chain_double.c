@@ -792,3 +792,61 @@ bbc_result bbc__chain_double_implicit(bbc_arena *arena, const chain_implicit *im
   TRY(bbc_poly_mul(arena, &y, &F.t, &im->G.s));
   return bbc_poly_sub(arena, det_st, &x, &y);
 }
+
+int bbc__ray_may_meet_box(const bbc_ivec3 *x, const bbc_ivec3 *d, const double lo[3],
+                          const double hi[3]) {
+  bbc_ivec3 box = {bbc_interval_make(lo[0], hi[0]), bbc_interval_make(lo[1], hi[1]),
+                   bbc_interval_make(lo[2], hi[2])};
+  bbc_ivec3 w = bbc_ivec3_sub(box, *x);
+  bbc_ivec3 c = bbc_ivec3_cross(w, *d);
+  if (!(bbc_interval_contains(c.x, 0) && bbc_interval_contains(c.y, 0) &&
+        bbc_interval_contains(c.z, 0)))
+    return 0;
+  return bbc_ivec3_dot(w, *d).hi > 0;
+}
+
+/* base + u (a - base) + v (b - base) over the intervals u, v, on exact inputs. */
+static bbc_ivec3 affine_over(bbc_vec3 base, bbc_vec3 a, bbc_vec3 b, bbc_interval u,
+                             bbc_interval v) {
+  const bbc_ivec3 o = bbc_ivec3_point(base);
+  const bbc_ivec3 e1 = bbc_ivec3_sub(bbc_ivec3_point(a), o),
+                  e2 = bbc_ivec3_sub(bbc_ivec3_point(b), o);
+  return bbc_ivec3_add(o, bbc_ivec3_add(bbc_ivec3_scale(u, e1), bbc_ivec3_scale(v, e2)));
+}
+
+int bbc__chain_second_unreachable(const bbc_tuple_geometry *g, const double box[4]) {
+  if (g->length != 2 || g->light_model.kind == BBC_LIGHT_AREA) return 0;
+  const bbc_interval u = bbc_interval_make(box[0], box[1]), v = bbc_interval_make(box[2], box[3]);
+  const bbc_ivec3 x1 = affine_over(g->p[0], g->p[1], g->p[2], u, v);
+  const bbc_ivec3 n = affine_over(g->n[0], g->n[1], g->n[2], u, v);
+  const bbc_ivec3 d0 = g->light_model.kind == BBC_LIGHT_DIRECTIONAL
+                           ? bbc_ivec3_point(g->light_model.direction)
+                           : bbc_ivec3_sub(x1, bbc_ivec3_point(g->light));
+  /* Eq. 10-11 unnormalised, as the forms have them (a positive multiple of the ray's
+   * direction): reflection (n.n) d0 - 2 (d0.n) n; refraction eta ((n.n) d0 - (d0.n) n)
+   * - sqrt(beta) n with beta = (1 - eta^2)(n.n)(d0.d0) + eta^2 (d0.n)^2. */
+  const bbc_interval nn = bbc_ivec3_dot(n, n), dn = bbc_ivec3_dot(d0, n);
+  const bbc_ivec3 nn_d = bbc_ivec3_scale(nn, d0);
+  bbc_ivec3 d1;
+  if (!g->refract) {
+    d1 = bbc_ivec3_sub(nn_d, bbc_ivec3_scale(bbc_interval_scale(dn, 2.0), n));
+  } else {
+    const bbc_interval e2 =
+        bbc_interval_mul(bbc_interval_point(g->eta), bbc_interval_point(g->eta));
+    bbc_interval beta =
+        bbc_interval_add(bbc_interval_mul(bbc_interval_sub(bbc_interval_point(1.0), e2),
+                                          bbc_interval_mul(nn, bbc_ivec3_dot(d0, d0))),
+                         bbc_interval_mul(e2, bbc_interval_sqr(dn)));
+    if (beta.hi < 0) return 1; /* totally reflected everywhere: no refracted light */
+    if (beta.lo < 0) beta.lo = 0;
+    const bbc_ivec3 tangential = bbc_ivec3_sub(nn_d, bbc_ivec3_scale(dn, n));
+    d1 = bbc_ivec3_sub(bbc_ivec3_scale(bbc_interval_point(g->eta), tangential),
+                       bbc_ivec3_scale(bbc_interval_sqrt(beta), n));
+  }
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (int k = 0; k < 3; k++) {
+    const double c[3] = {g->p2[k].x, g->p2[k].y, g->p2[k].z};
+    for (int a = 0; a < 3; a++) lo[a] = fmin(lo[a], c[a]), hi[a] = fmax(hi[a], c[a]);
+  }
+  return !bbc__ray_may_meet_box(&x1, &d1, lo, hi);
+}

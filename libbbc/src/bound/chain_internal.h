@@ -127,6 +127,18 @@ bbc_result bbc__chain_double_prefix(bbc_arena *arena, bbc_space *space, const bb
 bbc_result bbc__chain_double_rest(bbc_arena *arena, bbc_space *space, const bbc_tuple_geometry *g,
                                   int derivatives, chain_forms *out);
 
+/* Whether a point of the box lo..hi can lie on a ray x1 + t d1, t > 0, for some x1 in x
+ * and d1 in d (intervals, outward rounded): 0 proves that none does. */
+int bbc__ray_may_meet_box(const bbc_ivec3 *x, const bbc_ivec3 *d, const double lo[3],
+                          const double hi[3]);
+
+/* 1 when no light of the box of T1's barycentrics box = {u_lo, u_hi, v_lo, v_hi} can
+ * reach T2 (g->length 2, a point, spot or sun): x1 and the scattered d1 in interval
+ * arithmetic over the box (the vertex normals interpolated as in the forms), their rays
+ * against T2's bounding box. A proof: such a piece holds no path. Far cheaper than the
+ * two-bounce forms, it lets the bounders discard the parts of T1 that miss T2 first. */
+int bbc__chain_second_unreachable(const bbc_tuple_geometry *g, const double box[4]);
+
 /* Implicit differentiation of the last refraction (Eq. 17-19) for two bounces whose
  * second vertex refracts, on forms computed with derivatives: with the receiver
  * barycentrics as two more variables over uk_box = {u_lo, u_hi, v_lo, v_hi} (alpha,

@@ -119,19 +119,6 @@ static uint32_t bvh_build(bvh *b, const bbc_scene *scene, uint32_t first, uint32
   return index;
 }
 
-/* Can a point of the box lie on the ray x1 + t d1, t > 0, for some x1 in X, d1 in D? */
-static int beam_meets(const bbc_ivec3 *x, const bbc_ivec3 *d, const double lo[3],
-                      const double hi[3]) {
-  bbc_ivec3 box = {bbc_interval_make(lo[0], hi[0]), bbc_interval_make(lo[1], hi[1]),
-                   bbc_interval_make(lo[2], hi[2])};
-  bbc_ivec3 w = bbc_ivec3_sub(box, *x);
-  bbc_ivec3 c = bbc_ivec3_cross(w, *d);
-  if (!(bbc_interval_contains(c.x, 0) && bbc_interval_contains(c.y, 0) &&
-        bbc_interval_contains(c.z, 0)))
-    return 0;
-  return bbc_ivec3_dot(w, *d).hi > 0;
-}
-
 /* The tuples of a chunk of prefixes, at most `limit` of them (the search stops there and
  * carries on once they are handed out). */
 typedef struct tuple_list {
@@ -370,12 +357,12 @@ static uint32_t bvh_beam(const bvh *b, const bbc_scene *scene, const bbc_ivec3 *
   stack[top++] = 0;
   while (top) {
     const bvh_node *node = &b->nodes[stack[--top]];
-    if (!beam_meets(x, d, node->lo, node->hi)) continue;
+    if (!bbc__ray_may_meet_box(x, d, node->lo, node->hi)) continue;
     if (node->count) {
       for (uint32_t i = node->first; i < node->first + node->count; i++) {
         double lo[3], hi[3];
         item_bounds(b, scene, b->order[i], lo, hi);
-        if (beam_meets(x, d, lo, hi)) found[n++] = b->order[i];
+        if (bbc__ray_may_meet_box(x, d, lo, hi)) found[n++] = b->order[i];
       }
     } else {
       stack[top++] = node->right;
