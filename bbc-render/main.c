@@ -32,10 +32,10 @@ static const char help[] =
     "                        extras.bbc.width; with only one of width/height given,\n"
     "                        the other follows the camera's aspect ratio)\n"
     "  --height N            image height in pixels (default: extras.bbc.height)\n"
-  "  --region X0,Y0,X1,Y1  render only the pixels X0 <= x < X1, Y0 <= y < Y1 (0,0 the\n"
-  "                        top left); the image keeps its size, the other pixels are\n"
-  "                        black, and each rendered pixel is bit-identical to the same\n"
-  "                        pixel of a whole-image render with the same seed and spp\n"
+    "  --region X0,Y0,X1,Y1  render only the pixels X0 <= x < X1, Y0 <= y < Y1 (0,0 the\n"
+    "                        top left); the image keeps its size, the other pixels are\n"
+    "                        black, and each rendered pixel is bit-identical to the same\n"
+    "                        pixel of a whole-image render with the same seed and spp\n"
     "\n"
     "Cameras (the scene, cache and ray-tracing structure are loaded once for all images):\n"
     "  --camera NAME|INDEX   the camera to render: its glTF name (the camera's, else its\n"
@@ -96,7 +96,9 @@ static const char help[] =
     "                        casters to points the camera sees directly; it counts the\n"
     "                        chains of 3+ specular vertices (and kinds the cache lacks)\n"
     "                        and, in the cells --light-trace-cells picks, the cached\n"
-    "                        chain types, which the estimator then leaves out there\n"
+    "                        chain types, which the estimator then leaves out there;\n"
+    "                        without a cache (off by default), 'on' light-traces every\n"
+    "                        caustic path of those lights, of any length\n"
     "  --light-trace-cells B inf (default): cells with a tuple whose bound is infinite;\n"
     "                        a number: a bound at least B (per unit intensity, as\n"
     "                        bbc-inspect shows it); all: every cell; none: no cell\n"
@@ -109,7 +111,7 @@ static const char help[] =
     "\n"
     "Measuring:\n"
     "  --reference FILE      print the relMSE against this EXR (same size; with\n"
-  "                        --region, over the region's pixels)\n"
+    "                        --region, over the region's pixels)\n"
     "  --relmse-eps E        the eps of relMSE (default 1e-2)\n"
     "  --reject-outliers     leave the worst 0.1 % of pixels out of relMSE\n"
     "\n"
@@ -140,7 +142,8 @@ static const char help[] =
     "\n"
     "Units: point lights give KHR_lights_punctual intensity x color in candela, divided\n"
     "by 683 lm/W (or in W/sr with light units radiometric); emissive triangles give\n"
-    "emissiveFactor x emissive_strength as radiance (W/sr/m^2). The EXR holds the mean radiance per pixel (box filter).\n"
+    "emissiveFactor x emissive_strength as radiance (W/sr/m^2). The EXR holds the mean radiance "
+    "per pixel (box filter).\n"
     "Interrupting (SIGINT, SIGTERM) stops after the current pass.\n"
     "Exit status: 0 on success, 1 on a runtime failure (bad file, I/O), 2 on bad usage,\n"
     "130 when interrupted (nothing is written, or with --write-partial the partial image).\n";
@@ -427,7 +430,7 @@ int main(int argc, char **argv) {
   double exposure = 0;
   long long width = 0, height = 0;
   int progress = -1, stats = 0, write_partial = 0, verify = 1;
-  int light_trace = 1, cells_none = 0;
+  int light_trace = -1, cells_none = 0; /* -1: the default, on with a cache */
   const char *camera_arg = NULL, *frames_arg = NULL;
   uint32_t shard_index = 0, shard_count = 0; /* --shard; count 0: every image */
   int all_cameras = 0;
@@ -578,7 +581,9 @@ int main(int argc, char **argv) {
   if (!scene_path) cli_usage_error(usage, "no scene given");
   if (!output) cli_usage_error(usage, "no output given (-o OUT.exr)");
   if (!method_given) options.method = cache_path ? BBC_METHOD_BBC : BBC_METHOD_PT;
-  options.light_trace = light_trace && options.method != BBC_METHOD_PT;
+  /* Without a cache the path tracer renders alone, and light tracing, when asked for,
+   * counts every caustic path of the point, spot and delta-sun lights. */
+  options.light_trace = options.method == BBC_METHOD_PT ? light_trace == 1 : light_trace != 0;
   if (cells_none) options.light_trace_bound = NAN;
   if (options.method != BBC_METHOD_PT && !cache_path)
     cli_usage_error(usage, "--method %s needs a cache (--cache FILE.bbc from bbc-precompute)",

@@ -117,6 +117,23 @@ test_light_units_override() {
   return 0
 }
 
+# A hollow glass ball: every light path of one or two specular vertices through it is
+# blocked by its inner sphere, so the precompute finds no tuple and says what to do; the
+# renderer light-traces its caustic without a cache when asked (off by default there).
+test_hollow_glass_without_a_cache() {
+  scene="$BBC_TEST_SCENES/hollow-sphere.gltf"
+  expect_status 1 "$PRECOMPUTE" "$scene" -o "$TMP/h.bbc" --no-progress
+  grep -q "would hold no tuple.*light-traced by bbc-render" "$TMP/err" || fail "$(cat "$TMP/err")"
+  [ -e "$TMP/h.bbc" ] && fail "a cache was written"
+  expect_status 0 "$RENDER" "$scene" -o "$TMP/off.exr" --only caustics --width 32 --spp 2 --stats
+  grep -q "^photons" "$TMP/err" && fail "light-traced without being asked: $(cat "$TMP/err")"
+  expect_status 0 "$RENDER" "$scene" -o "$TMP/on.exr" --only caustics --width 32 --spp 2 --stats \
+    --light-trace on
+  added=$(sed -n 's/^photons.* traced, \([0-9]*\) added.*/\1/p' "$TMP/err")
+  [ "${added:-0}" -gt 0 ] || fail "no photon reached a pixel: $(cat "$TMP/err")"
+  return 0
+}
+
 # Many images from one cache: --camera, --all-cameras and --frames name their outputs,
 # and every image is reproducible bit for bit.
 test_cameras_and_frames() {

@@ -257,6 +257,38 @@ TEST(light_tracing_renders_four_vertex_chains) {
   teardown(&f);
 }
 
+/* Without a cache (the path tracer alone), light tracing counts every caustic path of
+ * the lights, one slab's two refractions (Fresnel-weighted, the floor seen directly)
+ * and two slabs' four and more: the exact floors. The control without light tracing is
+ * black (a path tracer never meets a point light through glass). */
+TEST(light_tracing_without_a_cache_is_exact) {
+  for (int slabs = 1; slabs <= 2; slabs++) {
+    fixture f;
+    REQUIRE(setup(&f, slabs, 0));
+    bbc_render_options o = caustic_options(0, 0, 0, 1u << 18);
+    o.method = BBC_METHOD_PT;
+    o.max_depth = 16;
+    bbc_image *off = fixture_render(&f, o, FILM, FILM, NULL);
+    o.light_trace = 1;
+    bbc_render_stats st;
+    bbc_image *on = fixture_render(&f, o, FILM, FILM, &st);
+    REQUIRE(off && on);
+    const double exact = ALBEDO / PI * (slabs == 1 ? slab_all() : two_slabs_all());
+    double mean, tol;
+    mean_and_tolerance(off, &mean, &tol);
+    CHECK(mean < 0.01 * exact);
+    mean_and_tolerance(on, &mean, &tol);
+    fprintf(stderr, "%d slab(s) without a cache: %.6f, exact %.6f (tolerance %.6f)\n", slabs, mean,
+            exact, tol);
+    CHECK(st.photon_splats > 10000);
+    CHECK(tol < 0.02 * exact);
+    CHECK_NEAR(mean, exact, tol);
+    bbc_image_free(off);
+    bbc_image_free(on);
+    teardown(&f);
+  }
+}
+
 /* A bound that splits the cells the pixels' centres see: some have a TT tuple bounded
  * by at least it, some not (NaN if none does). */
 static double split_cell_bound(const fixture *f) {

@@ -116,7 +116,9 @@ typedef struct bbc_render_options {
    * specular vertices and of chain types the cache does not hold, and, for points seen
    * directly in a cell whose tuples of a chain type include one with a bound (per unit
    * intensity, as stored) of at least light_trace_bound, that chain type's paths, which
-   * the caustic estimator then leaves out there: each path counted once. */
+   * the caustic estimator then leaves out there: each path counted once. Without a cache
+   * (BBC_METHOD_PT), it counts every such path, of any number of specular vertices: the
+   * path tracer counts none of them (a point light is met by no sampled direction). */
   int light_trace;          /* 1: on; default 0 */
   double light_trace_bound; /* the cells' threshold: INFINITY (or 0) only cells with an
                                unbounded tuple, a negative value every cell, NaN
@@ -125,8 +127,9 @@ typedef struct bbc_render_options {
                                count (one per pixel per sample; the same for a region,
                                so that its pixels stay those of the whole image), a
                                sixteenth of it
-                               when no caster is a dielectric and no cell is
-                               light-traced (only chains of 3+ mirrors remain) */
+                               when there is a cache, no caster is a dielectric and
+                               no cell is light-traced (only chains of 3+ mirrors
+                               remain) */
 } bbc_render_options;
 
 typedef struct bbc_render_stats {

@@ -568,8 +568,11 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
   double *traced = NULL;
   bbc__splat *splats = NULL;
   uint32_t *splat_count = NULL;
-  const int light_trace =
-      ctx.caustics && opts.light_trace && (ctx.components & BBC_COMPONENT_CAUSTICS);
+  /* Without a cache (the path tracer alone), every caustic path of a point, spot or
+   * delta sun is light-traced: the path tracer counts none of them (docs/light-tracing.md,
+   * "Without a cache"). */
+  const int light_trace = (ctx.caustics || opts.method == BBC_METHOD_PT) && opts.light_trace &&
+                          (ctx.components & BBC_COMPONENT_CAUSTICS);
   uint64_t photons_per_spp = opts.photons_per_spp;
   bbc_result lt_ok = BBC_OK;
   if (sum && light_trace) {

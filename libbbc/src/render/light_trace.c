@@ -145,6 +145,7 @@ uint64_t bbc__light_tracer_default_photons(const bbc__light_tracer *lt, bbc_cach
                                            uint64_t pixels) {
   const bbc_scene *scene = lt->scene;
   const bbc__caustics *c = lt->caustics;
+  if (!c) return pixels; /* no cache: every caustic path is light-traced */
   for (uint32_t mi = 0; mi < scene->mesh_count; mi++)
     if (scene->meshes[mi].role == BBC_ROLE_CASTER &&
         scene->materials[scene->meshes[mi].material].type == BBC_MATERIAL_DIELECTRIC)
