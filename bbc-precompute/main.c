@@ -368,7 +368,8 @@ static const char *why_empty(const bbc_scene *scene, uint32_t chains,
   if (st->candidate_tuples == 0)
     return "no light path reaches a receiver through one or two casters (no candidate tuple: "
            "check the roles, the light's position and the casters' normals; light through "
-           "more surfaces, a hollow glass, is light-traced by bbc-render with an empty cache)";
+           "more surfaces, as in a hollow glass, is light-traced by bbc-render --light-trace "
+           "on without a cache)";
   return "every candidate tuple was culled: none carries light to a receiver";
 }
 
