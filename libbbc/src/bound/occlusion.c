@@ -437,21 +437,56 @@ static int touches_at_a_point(const bbc_scene *s, uint32_t u, uint32_t t) {
   return on <= 1;
 }
 
+/* Whether the segment z0 z1, in the plane of triangle t, misses t's interior (exact): a
+ * line separates them, along an edge of t (both ends on it or beyond) or along the
+ * segment (t's vertices on one side of it, not all on it). */
+static int segment_misses(const bbc_scene *s, uint32_t t, const float *z0, const float *z1) {
+  for (int k = 0; k < 3; k++) {
+    int flat = 0;
+    for (int e = 0; e < 3 && !flat; e++) {
+      const float *p = corner(s, t, e), *q = corner(s, t, (e + 1) % 3);
+      const int own = side_2d(p, q, corner(s, t, (e + 2) % 3), k);
+      if (own == 0)
+        flat = 1; /* this projection flattens t: the next axis */
+      else if (side_2d(p, q, z0, k) != own && side_2d(p, q, z1, k) != own)
+        return 1;
+    }
+    if (flat) continue;
+    int pos = 0, neg = 0;
+    for (int j = 0; j < 3; j++) {
+      const int o = side_2d(z0, z1, corner(s, t, j), k);
+      pos |= o > 0, neg |= o < 0;
+    }
+    return pos != neg;
+  }
+  return 0;
+}
+
 /* Whether triangle u may pass through the interior of triangle *arg along more than a
  * point: not when one lies strictly aside the other's plane (leaving out shared
  * vertices, where they touch on the border only) or meets it in one point, nor when
- * they are coplanar and apart in the plane. A single point of contact leaves the side
- * of *arg one region. */
+ * they are coplanar and apart in the plane, nor when u meets t's plane in an edge of u
+ * that misses t's interior. A single point of contact leaves the side of *arg one
+ * region. */
 static int may_cross(const bbc__occluders *o, uint32_t u, const void *arg) {
   const uint32_t t = *(const uint32_t *)arg;
   const bbc_scene *s = o->scene;
   if (strictly_aside(s, u, t) || strictly_aside(s, t, u) || touches_at_a_point(s, u, t) ||
       touches_at_a_point(s, t, u))
     return 0;
-  for (int k = 0; k < 3; k++)
-    if (bbc__orient3d(corner(s, t, 0), corner(s, t, 1), corner(s, t, 2), corner(s, u, k)) != 0)
-      return 1;
-  return !coplanar_disjoint(s, u, t);
+  int on[3], count = 0, sign = 0, both = 0;
+  for (int k = 0; k < 3; k++) {
+    const int r = bbc__orient3d(corner(s, t, 0), corner(s, t, 1), corner(s, t, 2), corner(s, u, k));
+    if (r == 0)
+      on[count++] = k;
+    else if (sign && r != sign)
+      both = 1;
+    else
+      sign = r;
+  }
+  if (count == 3) return !coplanar_disjoint(s, u, t);
+  if (count == 2 && !both) return !segment_misses(s, t, corner(s, u, on[0]), corner(s, u, on[1]));
+  return 1;
 }
 
 int bbc__occluders_block(const bbc__occluders *o, uint32_t a, uint32_t b) {
