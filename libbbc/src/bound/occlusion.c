@@ -489,28 +489,11 @@ static int may_cross(const bbc__occluders *o, uint32_t u, const void *arg) {
   return 1;
 }
 
-int bbc__occluders_block(const bbc__occluders *o, uint32_t a, uint32_t b) {
-  if (!o || bbc__occlusion_control == 2) return 0;
+/* Whether every segment from a to b crosses a closed mesh, proven on the plane
+ * x_axis = c between them, given the parities just off a on b's side (at_a). */
+static int blocked_at(const bbc__occluders *o, uint32_t a, uint32_t b, int axis, double c,
+                      const tally *at_a, const double alo[3], const double ahi[3]) {
   const bbc_scene *s = o->scene;
-  /* B strictly on one side of A's plane (exact): the segments leave A to that side. */
-  int side = 0;
-  for (int k = 0; k < 3; k++) {
-    const int r = bbc__orient3d(corner(s, a, 0), corner(s, a, 1), corner(s, a, 2), corner(s, b, k));
-    if (r == 0 || (side && r != side)) return 0;
-    side = r;
-  }
-  /* The axis-aligned plane x_axis = c between them, in the middle of the widest gap. */
-  double alo[3], ahi[3], blo[3], bhi[3];
-  triangle_box(s, a, alo, ahi);
-  triangle_box(s, b, blo, bhi);
-  int axis = -1;
-  double gap = 0, c = 0;
-  for (int k = 0; k < 3; k++) {
-    const double g1 = blo[k] - ahi[k], g2 = alo[k] - bhi[k];
-    if (g1 > gap) gap = g1, axis = k, c = 0.5 * (blo[k] + ahi[k]);
-    if (g2 > gap) gap = g2, axis = k, c = 0.5 * (alo[k] + bhi[k]);
-  }
-  if (axis < 0) return 0;
   /* R: the box of the nine crossings, widened by the margin. */
   const bbc_vec3 pa[3] = {vertex(s, a, 0), vertex(s, a, 1), vertex(s, a, 2)};
   const bbc_vec3 pb[3] = {vertex(s, b, 0), vertex(s, b, 1), vertex(s, b, 2)};
@@ -525,17 +508,13 @@ int bbc__occluders_block(const bbc__occluders *o, uint32_t a, uint32_t b) {
       }
     }
   for (int k = 0; k < 3; k++) box[k] -= o->margin, box[3 + k] += o->margin;
-  /* The parities: at R's centre along a fixed oblique direction, and just off A's
-   * centroid on B's side along A's normal. */
+  /* R's parities, at its centre along a fixed oblique direction. */
   const bbc_vec3 q = v3(0.5 * (box[0] + box[3]), 0.5 * (box[1] + box[4]), 0.5 * (box[2] + box[5]));
-  const bbc_vec3 normal = v3_cross(v3_sub(pa[1], pa[0]), v3_sub(pa[2], pa[0]));
-  const bbc_vec3 centroid = v3_scale(v3_add(pa[0], v3_add(pa[1], pa[2])), 1.0 / 3.0);
-  tally at_r, at_a;
+  tally at_r;
   ray_tally(o, q, v3(0.5773, 0.5779, 0.5768), UINT32_MAX, &at_r);
-  ray_tally(o, centroid, v3_scale(normal, side > 0 ? 1.0 : -1.0), a, &at_a);
-  if (at_r.overflow || at_a.overflow) return 0;
+  if (at_r.overflow) return 0;
   for (int pass = 0; pass < 2; pass++) {
-    const tally *t = pass ? &at_a : &at_r, *other = pass ? &at_r : &at_a;
+    const tally *t = pass ? at_a : &at_r, *other = pass ? &at_r : at_a;
     for (int i = 0; i < t->count; i++) {
       const uint32_t m = t->mesh[i];
       int j = 0;
@@ -554,5 +533,42 @@ int bbc__occluders_block(const bbc__occluders *o, uint32_t a, uint32_t b) {
       return 1;
     }
   }
+  return 0;
+}
+
+int bbc__occluders_block(const bbc__occluders *o, uint32_t a, uint32_t b) {
+  if (!o || bbc__occlusion_control == 2) return 0;
+  const bbc_scene *s = o->scene;
+  /* B strictly on one side of A's plane (exact): the segments leave A to that side. */
+  int side = 0;
+  for (int k = 0; k < 3; k++) {
+    const int r = bbc__orient3d(corner(s, a, 0), corner(s, a, 1), corner(s, a, 2), corner(s, b, k));
+    if (r == 0 || (side && r != side)) return 0;
+    side = r;
+  }
+  /* The axis of the widest gap between them. */
+  double alo[3], ahi[3], blo[3], bhi[3];
+  triangle_box(s, a, alo, ahi);
+  triangle_box(s, b, blo, bhi);
+  int axis = -1;
+  double gap = 0, from = 0, step = 0; /* the planes are x_axis = from + f step, f in (0, 1) */
+  for (int k = 0; k < 3; k++) {
+    const double g1 = blo[k] - ahi[k], g2 = alo[k] - bhi[k];
+    if (g1 > gap) gap = g1, axis = k, from = ahi[k], step = g1;
+    if (g2 > gap) gap = g2, axis = k, from = alo[k], step = -g2;
+  }
+  if (axis < 0) return 0;
+  /* The parities just off A's centroid on B's side, along A's normal. */
+  const bbc_vec3 pa[3] = {vertex(s, a, 0), vertex(s, a, 1), vertex(s, a, 2)};
+  const bbc_vec3 normal = v3_cross(v3_sub(pa[1], pa[0]), v3_sub(pa[2], pa[0]));
+  const bbc_vec3 centroid = v3_scale(v3_add(pa[0], v3_add(pa[1], pa[2])), 1.0 / 3.0);
+  tally at_a;
+  ray_tally(o, centroid, v3_scale(normal, side > 0 ? 1.0 : -1.0), a, &at_a);
+  if (at_a.overflow) return 0;
+  /* Planes across the gap: its middle, then a quarter from either side (where the middle
+   * one's R meets the mesh, a vase's neck, another may not). */
+  static const double at[3] = {0.5, 0.25, 0.75};
+  for (int i = 0; i < 3; i++)
+    if (blocked_at(o, a, b, axis, from + at[i] * step, &at_a, alo, ahi)) return 1;
   return 0;
 }
