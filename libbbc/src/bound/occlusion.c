@@ -89,115 +89,6 @@ static uint32_t build(bbc__occluders *o, uint32_t first, uint32_t count) {
   return id;
 }
 
-static int closed_dielectric(const bbc_scene *scene, const bbc_mesh *mesh) {
-  return mesh->closed && scene->materials[mesh->material].type == BBC_MATERIAL_DIELECTRIC;
-}
-
-/* Fills o->order with the triangles of the meshes `use` marks and builds the BVH. */
-static bbc_result build_over(bbc__occluders *o, const uint8_t *use) {
-  const bbc_scene *scene = o->scene;
-  size_t n = 0;
-  for (uint32_t m = 0; m < scene->mesh_count; m++)
-    if (use[m]) n += scene->meshes[m].triangle_count;
-  free(o->order);
-  free(o->nodes);
-  o->order = malloc((n ? n : 1) * sizeof *o->order);
-  o->nodes = malloc((n ? 2 * n : 1) * sizeof *o->nodes);
-  o->key = malloc((n ? n : 1) * sizeof *o->key);
-  o->node_count = 0;
-  if (!o->order || !o->nodes || !o->key) return BBC_ERR_OUT_OF_MEMORY;
-  size_t k = 0;
-  for (uint32_t m = 0; m < scene->mesh_count; m++)
-    for (uint32_t t = 0; use[m] && t < scene->meshes[m].triangle_count; t++)
-      o->order[k++] = scene->meshes[m].first_triangle + t;
-  if (n) build(o, 0, (uint32_t)n);
-  free(o->key);
-  o->key = NULL;
-  return BBC_OK;
-}
-
-static int strictly_aside(const bbc_scene *s, uint32_t u, uint32_t t);
-
-/* Whether triangle u, of another mesh than *arg's, may meet triangle t (neither lies
- * strictly on one side of the other's plane). */
-static int other_mesh_meets(const bbc__occluders *o, uint32_t u, const void *arg) {
-  const uint32_t t = *(const uint32_t *)arg;
-  const bbc_scene *s = o->scene;
-  return s->triangle_mesh[u] != s->triangle_mesh[t] && !strictly_aside(s, u, t) &&
-         !strictly_aside(s, t, u);
-}
-
-static int mesh_box_any(const bbc__occluders *o, uint32_t m, uint32_t skip, const double lo[3],
-                        const double hi[3],
-                        int (*test)(const bbc__occluders *, uint32_t, const void *),
-                        const void *arg);
-
-bbc_result bbc__occluders_create(bbc__occluders **out, const bbc_scene *scene) {
-  *out = NULL;
-  int any = 0;
-  for (uint32_t m = 0; m < scene->mesh_count; m++)
-    any |= closed_dielectric(scene, &scene->meshes[m]);
-  if (!any) return BBC_OK;
-  bbc__occluders *o = calloc(1, sizeof *o);
-  uint8_t *use = calloc(scene->mesh_count, 1);
-  bbc_result r = o && use ? BBC_OK : BBC_ERR_OUT_OF_MEMORY;
-  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (size_t v = 0; v < scene->vertex_count; v++)
-    for (int a = 0; a < 3; a++) {
-      lo[a] = fmin(lo[a], scene->positions[3 * v + a]);
-      hi[a] = fmax(hi[a], scene->positions[3 * v + a]);
-    }
-  double size = 0;
-  for (int a = 0; a < 3; a++)
-    size = fmax(size, fmax(hi[a] - lo[a], fmax(fabs(lo[a]), fabs(hi[a]))));
-  if (r == BBC_OK) {
-    o->scene = scene;
-    o->margin = 1e-9 * size;
-    /* Every closed dielectric first, to find those that meet another one. */
-    for (uint32_t m = 0; m < scene->mesh_count; m++)
-      use[m] = closed_dielectric(scene, &scene->meshes[m]);
-    r = build_over(o, use);
-  }
-  /* An occluder's every crossing must be an interface, as the renderer's rays see it: a
-   * mesh without cut-outs, with two media on every triangle, that meets no other closed
-   * dielectric (a liquid reaching into its glass makes surfaces the path tracer goes
-   * through: docs/materials.md, "Media"). */
-  uint8_t *occluder = r == BBC_OK ? calloc(scene->mesh_count, 1) : NULL;
-  if (r == BBC_OK && !occluder) r = BBC_ERR_OUT_OF_MEMORY;
-  for (uint32_t m = 0; r == BBC_OK && m < scene->mesh_count; m++) {
-    const bbc_mesh *mesh = &scene->meshes[m];
-    if (!use[m] || bbc_material_partial(scene, &scene->materials[mesh->material])) continue;
-    int ok = 1;
-    for (uint32_t t = mesh->first_triangle; ok && t < mesh->first_triangle + mesh->triangle_count;
-         t++) {
-      if (scene->media && scene->media[2 * (size_t)t] == scene->media[2 * (size_t)t + 1]) ok = 0;
-      double tlo[3], thi[3];
-      triangle_box(scene, t, tlo, thi);
-      if (ok && mesh_box_any(o, UINT32_MAX, UINT32_MAX, tlo, thi, other_mesh_meets, &t)) ok = 0;
-    }
-    occluder[m] = (uint8_t)ok;
-  }
-  int kept = 0;
-  for (uint32_t m = 0; r == BBC_OK && m < scene->mesh_count; m++) kept |= occluder[m];
-  if (r == BBC_OK && kept) r = build_over(o, occluder);
-  free(use);
-  free(occluder);
-  if (r != BBC_OK || !kept) {
-    bbc__occluders_free(o);
-    return r;
-  }
-  *out = o;
-  return BBC_OK;
-}
-
-void bbc__occluders_free(bbc__occluders *o) {
-  if (!o) return;
-  free(o->order);
-  free(o->nodes);
-  free(o->key);
-  free(o);
-}
-
 /* The closed meshes a ray crosses, with the number of crossings of each, and whether a
  * crossing was too close to an edge (or the ray's origin) to count. */
 typedef struct tally {
@@ -487,6 +378,108 @@ static int may_cross(const bbc__occluders *o, uint32_t u, const void *arg) {
   if (count == 3) return !coplanar_disjoint(s, u, t);
   if (count == 2 && !both) return !segment_misses(s, t, corner(s, u, on[0]), corner(s, u, on[1]));
   return 1;
+}
+
+static int closed_dielectric(const bbc_scene *scene, const bbc_mesh *mesh) {
+  return mesh->closed && scene->materials[mesh->material].type == BBC_MATERIAL_DIELECTRIC;
+}
+
+/* Fills o->order with the triangles of the meshes `use` marks and builds the BVH. */
+static bbc_result build_over(bbc__occluders *o, const uint8_t *use) {
+  const bbc_scene *scene = o->scene;
+  size_t n = 0;
+  for (uint32_t m = 0; m < scene->mesh_count; m++)
+    if (use[m]) n += scene->meshes[m].triangle_count;
+  free(o->order);
+  free(o->nodes);
+  o->order = malloc((n ? n : 1) * sizeof *o->order);
+  o->nodes = malloc((n ? 2 * n : 1) * sizeof *o->nodes);
+  o->key = malloc((n ? n : 1) * sizeof *o->key);
+  o->node_count = 0;
+  if (!o->order || !o->nodes || !o->key) return BBC_ERR_OUT_OF_MEMORY;
+  size_t k = 0;
+  for (uint32_t m = 0; m < scene->mesh_count; m++)
+    for (uint32_t t = 0; use[m] && t < scene->meshes[m].triangle_count; t++)
+      o->order[k++] = scene->meshes[m].first_triangle + t;
+  if (n) build(o, 0, (uint32_t)n);
+  free(o->key);
+  o->key = NULL;
+  return BBC_OK;
+}
+
+/* Whether triangle u, of another mesh than *arg's, may meet triangle t (neither lies
+ * strictly on one side of the other's plane). */
+static int other_mesh_meets(const bbc__occluders *o, uint32_t u, const void *arg) {
+  const uint32_t t = *(const uint32_t *)arg;
+  const bbc_scene *s = o->scene;
+  return s->triangle_mesh[u] != s->triangle_mesh[t] && !strictly_aside(s, u, t) &&
+         !strictly_aside(s, t, u);
+}
+
+bbc_result bbc__occluders_create(bbc__occluders **out, const bbc_scene *scene) {
+  *out = NULL;
+  int any = 0;
+  for (uint32_t m = 0; m < scene->mesh_count; m++)
+    any |= closed_dielectric(scene, &scene->meshes[m]);
+  if (!any) return BBC_OK;
+  bbc__occluders *o = calloc(1, sizeof *o);
+  uint8_t *use = calloc(scene->mesh_count, 1);
+  bbc_result r = o && use ? BBC_OK : BBC_ERR_OUT_OF_MEMORY;
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (size_t v = 0; v < scene->vertex_count; v++)
+    for (int a = 0; a < 3; a++) {
+      lo[a] = fmin(lo[a], scene->positions[3 * v + a]);
+      hi[a] = fmax(hi[a], scene->positions[3 * v + a]);
+    }
+  double size = 0;
+  for (int a = 0; a < 3; a++)
+    size = fmax(size, fmax(hi[a] - lo[a], fmax(fabs(lo[a]), fabs(hi[a]))));
+  if (r == BBC_OK) {
+    o->scene = scene;
+    o->margin = 1e-9 * size;
+    /* Every closed dielectric first, to find those that meet another one. */
+    for (uint32_t m = 0; m < scene->mesh_count; m++)
+      use[m] = closed_dielectric(scene, &scene->meshes[m]);
+    r = build_over(o, use);
+  }
+  /* An occluder's every crossing must be an interface, as the renderer's rays see it: a
+   * mesh without cut-outs, with two media on every triangle, that meets no other closed
+   * dielectric (a liquid reaching into its glass makes surfaces the path tracer goes
+   * through: docs/materials.md, "Media"). */
+  uint8_t *occluder = r == BBC_OK ? calloc(scene->mesh_count, 1) : NULL;
+  if (r == BBC_OK && !occluder) r = BBC_ERR_OUT_OF_MEMORY;
+  for (uint32_t m = 0; r == BBC_OK && m < scene->mesh_count; m++) {
+    const bbc_mesh *mesh = &scene->meshes[m];
+    if (!use[m] || bbc_material_partial(scene, &scene->materials[mesh->material])) continue;
+    int ok = 1;
+    for (uint32_t t = mesh->first_triangle; ok && t < mesh->first_triangle + mesh->triangle_count;
+         t++) {
+      if (scene->media && scene->media[2 * (size_t)t] == scene->media[2 * (size_t)t + 1]) ok = 0;
+      double tlo[3], thi[3];
+      triangle_box(scene, t, tlo, thi);
+      if (ok && mesh_box_any(o, UINT32_MAX, UINT32_MAX, tlo, thi, other_mesh_meets, &t)) ok = 0;
+    }
+    occluder[m] = (uint8_t)ok;
+  }
+  int kept = 0;
+  for (uint32_t m = 0; r == BBC_OK && m < scene->mesh_count; m++) kept |= occluder[m];
+  if (r == BBC_OK && kept) r = build_over(o, occluder);
+  free(use);
+  free(occluder);
+  if (r != BBC_OK || !kept) {
+    bbc__occluders_free(o);
+    return r;
+  }
+  *out = o;
+  return BBC_OK;
+}
+
+void bbc__occluders_free(bbc__occluders *o) {
+  if (!o) return;
+  free(o->order);
+  free(o->nodes);
+  free(o->key);
+  free(o);
 }
 
 /* Whether every segment from a to b crosses a closed mesh, proven on the plane
