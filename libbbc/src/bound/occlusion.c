@@ -6,6 +6,7 @@
 #include "bbc/texture.h"
 #include "occlusion_internal.h"
 #include "orient_internal.h"
+#include "scene_internal.h"
 #include "vec_internal.h"
 
 #define LEAF_SIZE 4
@@ -37,15 +38,6 @@ static const float *corner(const bbc_scene *s, uint32_t t, int k) {
   return s->positions + 3 * (size_t)s->indices[3 * (size_t)t + k];
 }
 
-static void triangle_box(const bbc_scene *s, uint32_t t, double lo[3], double hi[3]) {
-  for (int a = 0; a < 3; a++) lo[a] = INFINITY, hi[a] = -INFINITY;
-  for (int k = 0; k < 3; k++)
-    for (int a = 0; a < 3; a++) {
-      lo[a] = fmin(lo[a], corner(s, t, k)[a]);
-      hi[a] = fmax(hi[a], corner(s, t, k)[a]);
-    }
-}
-
 static int compare_key(const void *x, const void *y) {
   const double *a = x, *b = y;
   return a[0] < b[0] ? -1 : a[0] > b[0] ? 1 : a[1] < b[1] ? -1 : a[1] > b[1];
@@ -60,7 +52,7 @@ static uint32_t build(bbc__occluders *o, uint32_t first, uint32_t count) {
   for (int a = 0; a < 3; a++) n->lo[a] = INFINITY, n->hi[a] = -INFINITY;
   for (uint32_t i = first; i < first + count; i++) {
     double lo[3], hi[3];
-    triangle_box(s, o->order[i], lo, hi);
+    bbc__triangle_box(s, o->order[i], lo, hi);
     for (int a = 0; a < 3; a++) {
       n->lo[a] = fmin(n->lo[a], lo[a]), n->hi[a] = fmax(n->hi[a], hi[a]);
       clo[a] = fmin(clo[a], lo[a] + hi[a]), chi[a] = fmax(chi[a], lo[a] + hi[a]);
@@ -75,7 +67,7 @@ static uint32_t build(bbc__occluders *o, uint32_t first, uint32_t count) {
     if (chi[a] - clo[a] > chi[axis] - clo[axis]) axis = a;
   for (uint32_t i = 0; i < count; i++) {
     double lo[3], hi[3];
-    triangle_box(s, o->order[first + i], lo, hi);
+    bbc__triangle_box(s, o->order[first + i], lo, hi);
     o->key[i][0] = lo[axis] + hi[axis];
     o->key[i][1] = o->order[first + i];
   }
@@ -250,7 +242,7 @@ static int mesh_box_any(const bbc__occluders *o, uint32_t m, uint32_t skip, cons
       const uint32_t tri = o->order[i];
       if (tri == skip || (m != UINT32_MAX && s->triangle_mesh[tri] != m)) continue;
       double tlo[3], thi[3];
-      triangle_box(s, tri, tlo, thi);
+      bbc__triangle_box(s, tri, tlo, thi);
       int overlap = 1;
       for (int a = 0; a < 3; a++) overlap &= tlo[a] <= hi[a] && thi[a] >= lo[a];
       if (overlap && test(o, tri, arg)) return 1;
@@ -456,7 +448,7 @@ bbc_result bbc__occluders_create(bbc__occluders **out, const bbc_scene *scene) {
          t++) {
       if (scene->media && scene->media[2 * (size_t)t] == scene->media[2 * (size_t)t + 1]) ok = 0;
       double tlo[3], thi[3];
-      triangle_box(scene, t, tlo, thi);
+      bbc__triangle_box(scene, t, tlo, thi);
       if (ok && mesh_box_any(o, UINT32_MAX, UINT32_MAX, tlo, thi, other_mesh_meets, &t)) ok = 0;
     }
     occluder[m] = (uint8_t)ok;
@@ -484,8 +476,16 @@ void bbc__occluders_free(bbc__occluders *o) {
 
 /* Whether every segment from a to b crosses a closed mesh, proven on the plane
  * x_axis = c between them, given the parities just off a on b's side (at_a). */
+/* Whether no triangle of mesh `mesh` passes through triangle a, asked once per call of
+ * bbc__occluders_block whatever the planes tried (it depends on a and the mesh only). */
+typedef struct side_check {
+  uint32_t mesh; /* UINT32_MAX: not asked yet */
+  int clear;
+} side_check;
+
 static int blocked_at(const bbc__occluders *o, uint32_t a, uint32_t b, int axis, double c,
-                      const tally *at_a, const double alo[3], const double ahi[3]) {
+                      const tally *at_a, const double alo[3], const double ahi[3],
+                      side_check *asked) {
   const bbc_scene *s = o->scene;
   /* R: the box of the nine crossings, widened by the margin. */
   const bbc_vec3 pa[3] = {vertex(s, a, 0), vertex(s, a, 1), vertex(s, a, 2)};
@@ -520,10 +520,13 @@ static int blocked_at(const bbc__occluders *o, uint32_t a, uint32_t b, int axis,
       if (bbc__occlusion_control != 1 &&
           mesh_box_any(o, m, UINT32_MAX, box, box + 3, meets_box, box))
         continue;
-      double lo[3], hi[3];
-      for (int k = 0; k < 3; k++) lo[k] = alo[k] - o->margin, hi[k] = ahi[k] + o->margin;
-      if (mesh_box_any(o, m, a, lo, hi, may_cross, &a)) continue;
-      return 1;
+      if (asked->mesh != m) {
+        double lo[3], hi[3];
+        for (int k = 0; k < 3; k++) lo[k] = alo[k] - o->margin, hi[k] = ahi[k] + o->margin;
+        asked->mesh = m;
+        asked->clear = !mesh_box_any(o, m, a, lo, hi, may_cross, &a);
+      }
+      if (asked->clear) return 1;
     }
   }
   return 0;
@@ -541,8 +544,8 @@ int bbc__occluders_block(const bbc__occluders *o, uint32_t a, uint32_t b) {
   }
   /* The axis of the widest gap between them. */
   double alo[3], ahi[3], blo[3], bhi[3];
-  triangle_box(s, a, alo, ahi);
-  triangle_box(s, b, blo, bhi);
+  bbc__triangle_box(s, a, alo, ahi);
+  bbc__triangle_box(s, b, blo, bhi);
   int axis = -1;
   double gap = 0, from = 0, step = 0; /* the planes are x_axis = from + f step, f in (0, 1) */
   for (int k = 0; k < 3; k++) {
@@ -561,7 +564,8 @@ int bbc__occluders_block(const bbc__occluders *o, uint32_t a, uint32_t b) {
   /* Planes across the gap: its middle, then a quarter from either side (where the middle
    * one's R meets the mesh, a vase's neck, another may not). */
   static const double at[3] = {0.5, 0.25, 0.75};
+  side_check asked = {UINT32_MAX, 0};
   for (int i = 0; i < 3; i++)
-    if (blocked_at(o, a, b, axis, from + at[i] * step, &at_a, alo, ahi)) return 1;
+    if (blocked_at(o, a, b, axis, from + at[i] * step, &at_a, alo, ahi, &asked)) return 1;
   return 0;
 }

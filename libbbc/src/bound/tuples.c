@@ -24,6 +24,7 @@
 #include "media_internal.h"
 #include "occlusion_internal.h"
 #include "orient_internal.h"
+#include "scene_internal.h"
 #include "tuple_search_internal.h"
 #include "vec_internal.h"
 
@@ -50,24 +51,10 @@ typedef struct bvh {
   uint8_t *mesh_faces;
 } bvh;
 
-static void triangle_bounds(const bbc_scene *scene, uint32_t t, double lo[3], double hi[3]) {
-  for (int a = 0; a < 3; a++) {
-    lo[a] = INFINITY;
-    hi[a] = -INFINITY;
-  }
-  for (int j = 0; j < 3; j++) {
-    const float *p = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t + j];
-    for (int a = 0; a < 3; a++) {
-      lo[a] = fmin(lo[a], p[a]);
-      hi[a] = fmax(hi[a], p[a]);
-    }
-  }
-}
-
 static void item_bounds(const bvh *b, const bbc_scene *scene, uint32_t item, double lo[3],
                         double hi[3]) {
   if (!bbc_receiver_is_plane(item)) {
-    triangle_bounds(scene, item, lo, hi);
+    bbc__triangle_box(scene, item, lo, hi);
     return;
   }
   const double *box = b->mesh_box[bbc_receiver_plane_mesh(item)];
@@ -310,13 +297,13 @@ static bbc_result bvh_init(bvh *b, const bbc_scene *scene, bbc_role role, int wh
     for (int a = 0; a < 3; a++) box[a] = INFINITY, box[3 + a] = -INFINITY;
     for (uint32_t t = mesh->first_triangle; t < mesh->first_triangle + mesh->triangle_count; t++) {
       double lo[3], hi[3];
-      triangle_bounds(scene, t, lo, hi);
+      bbc__triangle_box(scene, t, lo, hi);
       for (int a = 0; a < 3; a++)
         box[a] = fmin(box[a], lo[a]), box[3 + a] = fmax(box[3 + a], hi[a]);
     }
     for (uint32_t t = mesh->first_triangle; t < mesh->first_triangle + mesh->triangle_count; t++) {
       double lo[3], hi[3];
-      triangle_bounds(scene, t, lo, hi);
+      bbc__triangle_box(scene, t, lo, hi);
       for (int k = 0; k < 6; k++)
         if (lo[k % 3] == box[k] && hi[k % 3] == box[k]) b->mesh_faces[m] |= (uint8_t)(1u << k);
     }
@@ -655,7 +642,7 @@ int bbc__tuple_landing_box(const bbc_scene *scene, const bbc_tuple *t, double lo
   double box[6] = {INFINITY, INFINITY, INFINITY, -INFINITY, -INFINITY, -INFINITY};
   for (uint32_t k = mesh->first_triangle; k < mesh->first_triangle + mesh->triangle_count; k++) {
     double tlo[3], thi[3];
-    triangle_bounds(scene, k, tlo, thi);
+    bbc__triangle_box(scene, k, tlo, thi);
     for (int a = 0; a < 3; a++)
       box[a] = fmin(box[a], tlo[a]), box[3 + a] = fmax(box[3 + a], thi[a]);
   }

@@ -2,19 +2,12 @@
 #include "beam_cells_internal.h"
 
 #include "bbc/interval.h"
+#include "scene_internal.h"
 
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-static void triangle_box(const bbc_scene *scene, uint32_t t, double lo[3], double hi[3]) {
-  for (int a = 0; a < 3; a++) lo[a] = INFINITY, hi[a] = -INFINITY;
-  for (int j = 0; j < 3; j++) {
-    const float *p = scene->positions + 3 * (size_t)scene->indices[3 * (size_t)t + j];
-    for (int a = 0; a < 3; a++) lo[a] = fmin(lo[a], p[a]), hi[a] = fmax(hi[a], p[a]);
-  }
-}
 
 /* Whether two closed boxes share a point (exact: every value is a double). */
 static int boxes_meet(const double alo[3], const double ahi[3], const double blo[3],
@@ -47,7 +40,7 @@ static uint32_t node_build(bbc__beam_receivers *b, const bbc_scene *scene, uint3
   for (int a = 0; a < 3; a++) node.lo[a] = INFINITY, node.hi[a] = -INFINITY;
   for (uint32_t i = first; i < first + count; i++) {
     double lo[3], hi[3];
-    triangle_box(scene, b->order[i], lo, hi);
+    bbc__triangle_box(scene, b->order[i], lo, hi);
     for (int a = 0; a < 3; a++)
       node.lo[a] = fmin(node.lo[a], lo[a]), node.hi[a] = fmax(node.hi[a], hi[a]);
   }
@@ -64,7 +57,7 @@ static uint32_t node_build(bbc__beam_receivers *b, const bbc_scene *scene, uint3
   uint32_t split = first;
   for (uint32_t i = first; i < first + count; i++) {
     double lo[3], hi[3];
-    triangle_box(scene, b->order[i], lo, hi);
+    bbc__triangle_box(scene, b->order[i], lo, hi);
     if (0.5 * (lo[axis] + hi[axis]) < mid) {
       const uint32_t t = b->order[i];
       b->order[i] = b->order[split];
@@ -174,7 +167,7 @@ bbc_result bbc__beam_receivers_init(bbc__beam_receivers *b, const bbc_scene *sce
     item->root = node_build(b, scene, at, rc->triangle_count);
     for (uint32_t j = at; j < at + rc->triangle_count; j++) {
       double lo[3], hi[3];
-      triangle_box(scene, b->order[j], lo, hi);
+      bbc__triangle_box(scene, b->order[j], lo, hi);
       for (int a = 0; a < 3; a++)
         b->boxes[6 * (size_t)j + a] = (float)lo[a], b->boxes[6 * (size_t)j + 3 + a] = (float)hi[a];
     }
