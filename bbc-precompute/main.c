@@ -45,7 +45,17 @@ static const char help[] =
     "Bounds:\n"
     "  --chains LIST         chain types, comma-separated: R, T, RR, RT, TR, TT (R\n"
     "                        reflects on a mirror, T refracts through a dielectric, in\n"
-    "                        the light's order); default: all six\n"
+    "                        the light's order); default: every type the materials\n"
+    "                        can form, less the two-bounce types over --double-budget\n"
+    "  --double-budget MIN   without --chains: leave to bbc-render's light tracing the\n"
+    "                        costliest two-bounce chain types (RR, RT, TR, TT) until\n"
+    "                        bounding the rest would take about MIN minutes of CPU or\n"
+    "                        less (default 10; 0 leaves them all out). The cost is\n"
+    "                        estimated from 16 candidates of each type bounded first\n"
+    "                        and counted in pieces, 240,000 to the minute, not clocked,\n"
+    "                        so the cache is the same on any machine. A type left out\n"
+    "                        is light-traced where the camera sees its caustic\n"
+    "                        directly, and missing in mirrors and through glass\n"
     "  --max-level N         deepest subdivision level of a tuple's domain (default 10);\n"
     "                        a two-bounce piece whose irradiance bound is unbounded\n"
     "                        may be split once more, and one whose position bound is\n"
@@ -331,6 +341,43 @@ static int on_estimate(void *user, const bbc_precompute_estimate *e) {
   return 0;
 }
 
+/* The line that says which two-bounce chain types the default leaves out, and why. */
+static void say_left_out(const bbc_chain_choice *c, double budget_minutes) {
+  char list[320] = "", all[64] = "", n[32], t[32];
+  double kept = 0;
+  for (int k = 0; k < BBC_CHAIN_COUNT; k++) {
+    if (!(c->left_out & BBC_CHAIN_BIT(k))) {
+      kept += c->pieces[k];
+      continue;
+    }
+    size_t used = strlen(list);
+    if (c->candidates[k])
+      snprintf(list + used, sizeof list - used, "%s%s (%s candidates, about %s CPU)",
+               used ? ", " : "", bbc_chain_name((bbc_chain)k), count_text(c->candidates[k], n),
+               seconds_text(c->pieces[k] / BBC_DOUBLE_PIECES_PER_SECOND, t));
+    else
+      snprintf(list + used, sizeof list - used, "%s%s", used ? ", " : "",
+               bbc_chain_name((bbc_chain)k));
+  }
+  for (int k = 0; k < BBC_CHAIN_COUNT; k++) {
+    if (!(c->chains & BBC_CHAIN_BIT(k)) && !(c->left_out & BBC_CHAIN_BIT(k))) continue;
+    size_t used = strlen(all);
+    snprintf(all + used, sizeof all - used, "%s%s", used ? "," : "", bbc_chain_name((bbc_chain)k));
+  }
+  char b[32], r[32] = "";
+  if (budget_minutes > 0) snprintf(r, sizeof r, " of %s CPU", seconds_text(budget_minutes * 60, b));
+  char rest[96] = "";
+  if (kept > 0)
+    snprintf(rest, sizeof rest, "; the two-bounce types kept take about %s",
+             seconds_text(kept / BBC_DOUBLE_PIECES_PER_SECOND, b));
+  fprintf(
+      stderr,
+      "bbc-precompute: chains: %s left to bbc-render's light tracing, over --double-budget%s%s: "
+      "light-traced where the camera sees their caustic directly, missing in mirrors and "
+      "through glass (--chains %s bounds them)\n",
+      list, budget_minutes > 0 ? r : " 0", rest, all);
+}
+
 static int has_caster(const bbc_scene *scene) {
   for (uint32_t i = 0; i < scene->mesh_count; i++)
     if (scene->meshes[i].role == BBC_ROLE_CASTER) return 1;
@@ -410,6 +457,8 @@ int main(int argc, char **argv) {
   int progress = -1, stats = 0, allow_empty = 0, no_geometry = 0, alpha_area_given = 0;
   int dry_run = 0, ignore_estimate = 0, receivers_auto = 1;
   double memory_mb = 0; /* --memory; 0: the default */
+  int chains_given = 0;
+  double double_budget = 10; /* --double-budget, minutes of CPU */
   bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
 
   while (a.i < argc) {
@@ -435,6 +484,9 @@ int main(int argc, char **argv) {
       stats = 1;
     } else if (cli_option(&a, "--chains", &value)) {
       options.params.chains = cli_parse_chains(&a, "--chains", value);
+      chains_given = 1;
+    } else if (cli_option(&a, "--double-budget", &value)) {
+      double_budget = cli_parse_double(&a, "--double-budget", value, 0, 1e9);
     } else if (cli_option(&a, "--max-level", &value)) {
       options.params.max_level = (uint32_t)cli_parse_int(&a, "--max-level", value, 0, 30);
     } else if (cli_option(&a, "--sigma", &value)) {
@@ -545,17 +597,36 @@ int main(int argc, char **argv) {
   }
 
   cli_progress bar;
-  cli_progress_begin(&bar, "finding tuples", progress);
-  options.search_progress = on_search_progress;
-  options.progress = on_progress;
-  options.progress_user = &bar;
-  options.estimate_fn = on_estimate;
   options.cancel_fn = cli_interrupt_requested; /* SIGINT, SIGTERM: stop within a piece */
   options.error_fn = on_error;
   options.user = &run;
   /* The candidate list is held whole when it takes at most a sixteenth of the budget;
    * a longer one is searched again, a block at a time, while it is bounded. */
   options.candidate_memory = (size_t)(memory.mb * 1048576.0 / 16);
+  bbc_chain_choice choice;
+  memset(&choice, 0, sizeof choice);
+  if (!chains_given) {
+    cli_progress_begin(&bar, "weighing two-bounce chains", progress);
+    options.search_progress = on_search_progress;
+    options.progress_user = &bar;
+    run.phase = "while weighing the two-bounce chain types";
+    const bbc_result r = bbc_precompute_choose_chains(
+        scene, &options, double_budget * 60 * BBC_DOUBLE_PIECES_PER_SECOND, &choice);
+    cli_progress_end(&bar);
+    if (r != BBC_OK) {
+      if (r == BBC_ERR_CANCELLED || cli_interrupted)
+        fprintf(stderr, "bbc-precompute: interrupted%s\n", not_written(output));
+      bbc_scene_free(scene);
+      return r == BBC_ERR_CANCELLED || cli_interrupted ? 130 : 1;
+    }
+    if (choice.left_out) say_left_out(&choice, double_budget);
+    options.params.chains = choice.chains;
+  }
+  cli_progress_begin(&bar, "finding tuples", progress);
+  options.search_progress = on_search_progress;
+  options.progress = on_progress;
+  options.progress_user = &bar;
+  options.estimate_fn = on_estimate;
   run.bar = &bar;
   run.show_estimate = bar.enabled || stats || dry_run;
   run.dry_run = dry_run;
@@ -582,7 +653,14 @@ int main(int argc, char **argv) {
     return 1;
   }
   const char *empty = options.shard_count ? NULL : why_empty(scene, options.params.chains, &st);
-  if (empty && !has_caster(scene)) {
+  if (empty && choice.left_out && st.candidate_tuples == 0) {
+    /* The default left every chain type with candidates to light tracing: an empty cache
+     * is then the answer, not a mistake. */
+    fprintf(stderr,
+            "bbc-precompute: warning: %s: the cache holds no tuples: every chain type with "
+            "candidates is left to bbc-render's light tracing (--double-budget)\n",
+            scene_path);
+  } else if (empty && !has_caster(scene)) {
     /* Nothing to cache is the right answer for a scene without mirrors or glass. */
     fprintf(stderr, "bbc-precompute: warning: %s: %s; the cache holds no tuples\n", scene_path,
             empty);
@@ -712,6 +790,16 @@ int main(int argc, char **argv) {
             st.second_per_first, st.position_pieces / tuples, st.irradiance_pieces / tuples,
             (unsigned long long)st.entries, (unsigned long long)st.spill_bytes, file_size,
             process_cpu, memory.mb, memory.source, memory.allowance_mb, memory.limit_mb, peak_mb);
+    /* The two-bounce chain types the default left out, as the probe weighed them. */
+    fputs("  \"chains_left_out\": {", f);
+    for (int c = 0, first = 1; c < BBC_CHAIN_COUNT; c++)
+      if (choice.left_out & BBC_CHAIN_BIT(c)) {
+        fprintf(f, "%s\"%s\": {\"candidates\": %llu, \"pieces\": %.0f}", first ? "" : ", ",
+                bbc_chain_name((bbc_chain)c), (unsigned long long)choice.candidates[c],
+                choice.pieces[c]);
+        first = 0;
+      }
+    fputs("},\n", f);
     /* The estimate made before the bounding, beside what came true. */
     const bbc_precompute_estimate *e = &st.estimate;
     fputs("  \"estimate\": {\n", f);

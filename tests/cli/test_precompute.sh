@@ -48,7 +48,7 @@ test_help_documents_every_flag() {
   for flag in --output --stats --json --chains --max-level --sigma --alpha --alpha2 --alpha-area --m --resolution \
               --no-remainder --jacobian --threads --memory --entry-memory --progress --no-progress \
               --version --help --allow-empty --light-units --dry-run --ignore-estimate \
-              --receivers; do
+              --receivers --double-budget; do
     grep -q -- "$flag" "$TMP/out" || fail "--help does not mention $flag"
   done
 }
@@ -85,6 +85,37 @@ test_empty_cache_says_why() {
   expect_status 0 "$PRECOMPUTE" "$BBC_TEST_SCENES/floor.gltf" -o "$TMP/f.bbc" --no-progress
   grep -q "warning: .*no mesh is a caster" "$TMP/err" || fail "floor: $(cat "$TMP/err")"
   [ -s "$TMP/f.bbc" ] || fail "floor: no cache"
+}
+
+# Without --chains, the two-bounce chain types over --double-budget are left out, said in
+# one line, and the cache is then the one --chains names; an explicit --chains is never
+# trimmed. A cache left with no tuple is written (light tracing renders the caustic).
+test_default_leaves_costly_double_chains_out() {
+  scene="$BBC_TEST_SCENES/mirror-pool.gltf"
+  opts="--max-level 3 --resolution 64 --no-progress"
+  expect_status 0 "$PRECOMPUTE" "$scene" -o "$TMP/auto.bbc" $opts --double-budget 0 \
+    --json "$TMP/a.json"
+  grep -q "^bbc-precompute: chains: RR, RT, TR, TT left to bbc-render's light tracing" "$TMP/err" ||
+    fail "no line says what was left out: $(cat "$TMP/err")"
+  grep -q '"chains_left_out": {"RR"' "$TMP/a.json" || fail "JSON: $(grep left_out "$TMP/a.json")"
+  expect_status 0 "$PRECOMPUTE" "$scene" -o "$TMP/rt.bbc" $opts --chains R,T --double-budget 0
+  grep -q "chains:" "$TMP/err" && fail "--chains was trimmed: $(cat "$TMP/err")"
+  cmp -s "$TMP/auto.bbc" "$TMP/rt.bbc" || fail "the default's cache is not that of --chains R,T"
+  # The default budget keeps every chain type of this small scene.
+  expect_status 0 "$PRECOMPUTE" "$scene" -o "$TMP/all.bbc" $opts
+  grep -q "chains:" "$TMP/err" && fail "a chain type was left out: $(cat "$TMP/err")"
+  expect_status 0 "$BBC_BIN/bbc-inspect/bbc-inspect" info "$TMP/all.bbc"
+  grep -q "chains R,T,RR,RT,TR,TT" "$TMP/out" || fail "$(grep chains "$TMP/out")"
+  expect_status 0 "$PRECOMPUTE" "$BBC_TEST_SCENES/ball80.gltf" -o "$TMP/b.bbc" $opts \
+    --double-budget 0
+  grep -q "warning: .*holds no tuples: every chain type with candidates is left" "$TMP/err" ||
+    fail "ball80: $(cat "$TMP/err")"
+  [ -s "$TMP/b.bbc" ] || fail "ball80: no cache"
+  for bad in -1 abc nan; do
+    expect_status 2 "$PRECOMPUTE" "$scene" -o "$TMP/x.bbc" --double-budget "$bad"
+  done
+  [ -e "$TMP/x.bbc" ] && fail "an output was written"
+  return 0
 }
 
 test_bad_scene_exits_1() {

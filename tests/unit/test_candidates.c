@@ -216,3 +216,71 @@ TEST(cache_same_held_or_searched_again) {
   }
   bbc_scene_free(s);
 }
+
+/* The choice of the default chain types (bbc_precompute_choose_chains) on a scene with
+ * every chain type: its work is counted, not clocked, so the choice is the same for any
+ * thread count and shard; the costliest two-bounce type goes first, and only as many as
+ * the budget asks; candidates are the census's exactly. */
+static bbc_chain_choice choose(const bbc_scene *s, int threads, uint32_t shard_count,
+                               double max_pieces) {
+  bbc_precompute_options o;
+  memset(&o, 0, sizeof o);
+  bbc_precompute_params_default(&o.params);
+  o.params.max_level = 4;
+  o.threads = threads;
+  o.shard_count = shard_count;
+  o.shard_index = shard_count ? shard_count - 1 : 0;
+  bbc_chain_choice c;
+  memset(&c, 0xAB, sizeof c);
+  CHECK_INT(bbc_precompute_choose_chains(s, &o, max_pieces, &c), BBC_OK);
+  return c;
+}
+
+TEST(default_chains_by_counted_work) {
+  bbc_scene *s = NULL;
+  REQUIRE(bbc_scene_load(&s, TEST_SCENE("mirror-pool.gltf"), NULL) == BBC_OK);
+  size_t count = 0;
+  bbc_tuple *want = reference_list(s, BBC_CHAIN_MASK_DOUBLE, 0, &count);
+  REQUIRE(want != NULL);
+  uint64_t per_chain[BBC_CHAIN_COUNT] = {0};
+  for (size_t i = 0; i < count; i++) per_chain[want[i].chain]++;
+  free(want);
+
+  const bbc_chain_choice all = choose(s, 1, 0, 1e30);
+  CHECK_INT(all.chains, BBC_CHAIN_MASK_ALL);
+  CHECK_INT(all.left_out, 0);
+  double total = 0;
+  int worst = -1, types = 0;
+  for (int c = 0; c < BBC_CHAIN_COUNT; c++) {
+    const int dbl = (BBC_CHAIN_MASK_DOUBLE & BBC_CHAIN_BIT(c)) != 0;
+    CHECK_INT(all.candidates[c], dbl ? per_chain[c] : 0);
+    CHECK(dbl ? all.pieces[c] >= (double)per_chain[c] : all.pieces[c] == 0);
+    total += all.pieces[c];
+    types += dbl && per_chain[c] > 0;
+    if (dbl && (worst < 0 || all.pieces[c] > all.pieces[worst])) worst = c;
+  }
+  CHECK(types == 4); /* RR, RT, TR and TT all have candidates */
+
+  /* Counted work: the same for two threads and for a shard (every shard chooses the
+   * same chains, from every candidate). */
+  const bbc_chain_choice two = choose(s, 2, 0, 1e30), shard = choose(s, 2, 3, 1e30);
+  CHECK(memcmp(&all, &two, sizeof all) == 0);
+  CHECK(memcmp(&all, &shard, sizeof all) == 0);
+
+  /* A budget just short of the total leaves out the costliest type alone; one just
+   * above it, none. */
+  const bbc_chain_choice less = choose(s, 2, 0, total - 0.5 * all.pieces[worst]);
+  CHECK_INT(less.left_out, BBC_CHAIN_BIT(worst));
+  CHECK_INT(less.chains, BBC_CHAIN_MASK_ALL & ~BBC_CHAIN_BIT(worst));
+  CHECK_INT(choose(s, 2, 0, total * 1.001).left_out, 0);
+  /* A budget below every type's work leaves out all four; 0 does so without weighing. */
+  double least = 1e300;
+  for (int c = 0; c < BBC_CHAIN_COUNT; c++)
+    if (per_chain[c] && all.pieces[c] < least) least = all.pieces[c];
+  CHECK_INT(choose(s, 1, 0, 0.5 * least).left_out, BBC_CHAIN_MASK_DOUBLE);
+  const bbc_chain_choice none = choose(s, 1, 0, 0);
+  CHECK_INT(none.left_out, BBC_CHAIN_MASK_DOUBLE);
+  CHECK_INT(none.chains, BBC_CHAIN_MASK_ALL & ~BBC_CHAIN_MASK_DOUBLE);
+  CHECK(none.candidates[BBC_CHAIN_TT] == 0 && none.pieces[BBC_CHAIN_TT] == 0);
+  bbc_scene_free(s);
+}

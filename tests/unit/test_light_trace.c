@@ -188,6 +188,34 @@ TEST(light_tracing_alone_matches_exact_slab) {
   teardown(&f);
 }
 
+/* A cache whose chain types leave out the slab's TT (bbc-precompute's default leaves out
+ * two-bounce types over its budget, bbc_precompute_choose_chains): the light tracer
+ * counts those paths in every cell, so the floor is exact; the control without light
+ * tracing is black. */
+TEST(light_tracing_covers_chain_types_the_cache_lacks) {
+  fixture f;
+  REQUIRE(setup(&f, 1, 0));
+  bbc_cache_close(f.cache);
+  free(f.bytes);
+  f.cache = NULL, f.bytes = NULL;
+  REQUIRE(fixture_cache(&f, f.scene, BBC_CHAIN_MASK_ALL & ~BBC_CHAIN_MASK_DOUBLE, 3, 16, 0));
+  bbc_image *off = fixture_render(&f, caustic_options(0, 0, 0, 1u << 18), FILM, FILM, NULL);
+  bbc_render_stats st;
+  bbc_image *on = fixture_render(&f, caustic_options(1, INFINITY, 0, 1u << 18), FILM, FILM, &st);
+  REQUIRE(off && on);
+  const double exact = ALBEDO / PI * (1 - R) * (1 - R);
+  double mean, tol;
+  mean_and_tolerance(off, &mean, &tol);
+  CHECK(mean < 0.01 * exact);
+  mean_and_tolerance(on, &mean, &tol);
+  CHECK(tol < 0.02 * exact);
+  CHECK_NEAR(mean, exact, tol);
+  CHECK(st.photon_splats > 10000);
+  bbc_image_free(off);
+  bbc_image_free(on);
+  teardown(&f);
+}
+
 static double split_cell_bound(const fixture *f);
 
 /* Byte-identical images for 1 and 2 threads, light tracing and the estimator each taking

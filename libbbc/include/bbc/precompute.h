@@ -68,6 +68,12 @@ typedef struct bbc_precompute_estimate {
   uint32_t sample_tuples;
   double sample_cpu_seconds; /* the threads' CPU time bounding the sample */
   double stored_fraction;    /* of the sample, the tuples stored (with a kept piece) */
+  uint64_t sample_pieces;    /* pieces bounded in the sample (see pieces_per_chain) */
+  /* The bounding's work per chain type, in pieces (position and irradiance bounds
+   * computed): the sample's mean per candidate of the type times its candidates in this
+   * run's shard. Counted, not clocked: the same on any machine and for any thread
+   * count. */
+  double pieces_per_chain[BBC_CHAIN_COUNT];
   double entries_per_tuple;  /* grid entries per stored tuple of the sample */
   /* Estimates: the bounding's CPU time (bounded_tuples times the sample's mean), the
    * wall time left (that over the threads, plus the second search when the list is
@@ -121,6 +127,30 @@ BBC_API uint32_t bbc_beam_receivers_auto(const bbc_scene *scene, uint64_t *trian
 BBC_API bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
                                   const bbc_precompute_options *options,
                                   bbc_precompute_stats *stats);
+
+/* The chain types a precompute bounds by default (bbc-precompute without --chains):
+ * those of options->params.chains less the two-bounce types whose bounding would cost
+ * more than max_pieces pieces in all, the costliest left out first. Bounding one piece
+ * of a two-bounce tuple costs about 1 / BBC_DOUBLE_PIECES_PER_SECOND CPU-s (measured:
+ * 180-600 us on the real assets and the glass spheres); counting pieces instead of
+ * clocking them makes the choice, and so the cache, the same on any machine, under any
+ * load and for any thread count or shard. A chain type left out is not lost to the
+ * image: bbc-render light-traces every caustic path whose chain type its cache lacks,
+ * where the camera sees it directly (docs/light-tracing.md); seen in a mirror or
+ * through glass, it is missing. The estimate comes from a probe: the two-bounce
+ * candidates counted and PROBE_PER_CHAIN (16) of each type bounded (the options'
+ * memory, cancel and search-progress callbacks hold; the estimate callback is not
+ * called); with max_pieces 0 there is no probe, and candidates and pieces stay 0. */
+#define BBC_DOUBLE_PIECES_PER_SECOND 4000.0
+typedef struct bbc_chain_choice {
+  uint32_t chains;                      /* to bound: options->params.chains less left_out */
+  uint32_t left_out;                    /* the two-bounce chain types over the budget */
+  uint64_t candidates[BBC_CHAIN_COUNT]; /* per two-bounce chain type, exact */
+  double pieces[BBC_CHAIN_COUNT];       /* per two-bounce chain type, estimated */
+} bbc_chain_choice;
+BBC_API bbc_result bbc_precompute_choose_chains(const bbc_scene *scene,
+                                                const bbc_precompute_options *options,
+                                                double max_pieces, bbc_chain_choice *choice);
 
 #ifdef __cplusplus
 }

@@ -25,7 +25,11 @@ bbc_result bbc__census_take(bbc__census *c, const bbc_scene *scene,
   bbc__tuple_search *s = NULL;
   bbc_result r = bbc__tuple_search_create(&s, scene, q->chains, q->area_chains, q->beam, q->threads,
                                           q->block_bytes);
-  c->sample = q->sample_max ? malloc(q->sample_max * sizeof *c->sample) : NULL;
+  /* The reservoir: sample_max slots, or sample_max per chain type. */
+  const size_t strata = q->sample_per_chain ? BBC_CHAIN_COUNT : 1;
+  uint64_t seen[BBC_CHAIN_COUNT] = {0}; /* the shard's candidates so far, per stratum */
+  size_t drawn[BBC_CHAIN_COUNT] = {0};
+  c->sample = q->sample_max ? malloc(strata * q->sample_max * sizeof *c->sample) : NULL;
   if (r == BBC_OK && q->sample_max && !c->sample) r = BBC_ERR_OUT_OF_MEMORY;
   bbc__xxh64_state hash;
   bbc__xxh64_init(&hash);
@@ -46,13 +50,17 @@ bbc_result bbc__census_take(bbc__census *c, const bbc_scene *scene,
       c->per_chain[t->chain < BBC_CHAIN_COUNT ? t->chain : 0]++;
       if (in_shard(k, q->shard_index, q->shard_count)) {
         /* Reservoir sampling with a hash for the dice: the j-th of the shard's
-         * candidates replaces a drawn one with probability sample_max / (j + 1). */
-        const uint64_t j = c->bounded++;
+         * candidates (of its chain type, per stratum) replaces a drawn one with
+         * probability sample_max / (j + 1). */
+        c->bounded++;
+        const size_t h = strata > 1 && t->chain < BBC_CHAIN_COUNT ? t->chain : 0;
+        bbc_tuple *slots = c->sample + h * q->sample_max;
+        const uint64_t j = seen[h]++;
         if (j < q->sample_max) {
-          c->sample[c->sample_count++] = *t;
+          slots[drawn[h]++] = *t;
         } else if (q->sample_max) {
           const uint64_t slot = bbc__mix64(j ^ 0x5DEECE66Dull) % (j + 1);
-          if (slot < q->sample_max) c->sample[slot] = *t;
+          if (slot < q->sample_max) slots[slot] = *t;
         }
       }
       if (bbc_chain_length((bbc_chain)t->chain) != 2) continue;
@@ -98,6 +106,13 @@ bbc_result bbc__census_take(bbc__census *c, const bbc_scene *scene,
   if (r != BBC_OK) {
     bbc__census_free(c);
     return r;
+  }
+  /* The strata's draws, one after the other. */
+  for (size_t h = 0; h < strata; h++) {
+    if (drawn[h])
+      memmove(c->sample + c->sample_count, c->sample + h * q->sample_max,
+              drawn[h] * sizeof *c->sample);
+    c->sample_count += drawn[h];
   }
   c->hash = bbc__xxh64_final(&hash);
   c->second_per_first = firsts ? (double)pairs / (double)firsts : 0.0;

@@ -25,6 +25,7 @@ typedef struct bbc__census_request {
   size_t hold_bytes;  /* keep the list when its bytes are at most this */
   size_t block_bytes; /* the search's aim for a block (tuple_search_internal.h) */
   size_t sample_max;  /* candidates drawn for the timed sample */
+  int sample_per_chain;     /* 1: sample_max of each chain type (bbc_precompute_choose_chains) */
   bbc_progress_fn progress; /* optional: prefixes searched / total; non-zero cancels */
   void *progress_user;
 } bbc__census_request;

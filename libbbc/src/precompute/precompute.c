@@ -934,29 +934,51 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
   const size_t n = census->sample_count;
   double cpu = 0;
   uint64_t stored = 0, entries = 0;
+  uint64_t *pieces = calloc(n ? n : 1, sizeof *pieces); /* per sampled tuple */
+  if (!pieces) return BBC_ERR_OUT_OF_MEMORY;
   int failed = 0, cancelled = 0;
   for (int i = 0; i < threads; i++) arena_clear(&arenas[i]);
 #pragma omp parallel num_threads(threads) reduction(+ : cpu, stored, entries) \
     reduction(| : failed, cancelled)
   {
     const int id = omp_get_thread_num();
-    bbc_bound_stats unused;
-    memset(&unused, 0, sizeof unused);
     const double cpu0 = thread_cpu_seconds();
 #pragma omp for schedule(dynamic, 1)
     for (size_t i = 0; i < n; i++) {
-      const int r = bound_one(x, id, &census->sample[i], &arenas[id], &cells[i], &unused);
+      bbc_bound_stats one;
+      memset(&one, 0, sizeof one);
+      const int r = bound_one(x, id, &census->sample[i], &arenas[id], &cells[i], &one);
       if (r == 0) failed = 1;
       if (r < 0) cancelled = 1;
       stored += cells[i].stored;
       entries += cells[i].stored ? cells[i].entries : 0;
+      pieces[i] = one.position_pieces + one.irradiance_pieces;
       arena_clear(&arenas[id]); /* only the counts are needed: one tuple's cells at a time */
     }
     cpu += thread_cpu_seconds() - cpu0;
   }
   for (int i = 0; i < threads; i++) arena_clear(&arenas[i]);
+  /* Pieces per chain type: the sample's mean per candidate of that type times the
+   * type's candidates in the shard, summed in sample order (the same for any thread
+   * count). A type the sample missed counts its candidates at the sample's overall
+   * mean. */
+  double sum[BBC_CHAIN_COUNT] = {0}, all = 0;
+  uint64_t drawn[BBC_CHAIN_COUNT] = {0};
+  for (size_t i = 0; i < n; i++) {
+    const int c = census->sample[i].chain < BBC_CHAIN_COUNT ? census->sample[i].chain : 0;
+    sum[c] += (double)pieces[i];
+    drawn[c]++;
+    all += (double)pieces[i];
+  }
+  free(pieces);
+  e->sample_pieces = (uint64_t)all;
   if (cancelled) return BBC_ERR_CANCELLED;
   if (failed) return BBC_ERR_OUT_OF_MEMORY;
+  const double shard = census->count ? (double)census->bounded / (double)census->count : 0;
+  for (int c = 0; c < BBC_CHAIN_COUNT; c++) {
+    const double mean = drawn[c] ? sum[c] / (double)drawn[c] : n ? all / (double)n : 0;
+    e->pieces_per_chain[c] = mean * (double)census->per_chain[c] * shard;
+  }
   e->sample_tuples = (uint32_t)n;
   e->sample_cpu_seconds = cpu;
   e->stored_fraction = n ? (double)stored / (double)n : 0;
@@ -1067,8 +1089,13 @@ uint32_t bbc_beam_receivers_auto(const bbc_scene *scene, uint64_t *triangles) {
   return n >= BBC_BEAM_RECEIVER_TRIANGLES;
 }
 
-bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
-                          const bbc_precompute_options *options, bbc_precompute_stats *stats) {
+/* The precompute, or with `probe` its estimate alone from a sample of PROBE_PER_CHAIN
+ * candidates of each chain type (bbc_precompute_choose_chains): *out stays NULL and
+ * stats gets the estimate. */
+#define PROBE_PER_CHAIN 16
+static bbc_result precompute(bbc_cache_builder **out, const bbc_scene *scene,
+                             const bbc_precompute_options *options, bbc_precompute_stats *stats,
+                             int probe) {
   *out = NULL;
   if (!scene || !options) return BBC_ERR_INVALID_ARGUMENT;
   const bbc_precompute_params *params = &options->params;
@@ -1101,7 +1128,8 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   request.hold_bytes = options->candidate_memory ? options->candidate_memory : (size_t)64 << 20;
   /* Blocks of an eighth of what may be held: a window's lists stay small beside it. */
   request.block_bytes = request.hold_bytes / 8 > 4096 ? request.hold_bytes / 8 : 4096;
-  request.sample_max = SAMPLE_MAX;
+  request.sample_max = probe ? PROBE_PER_CHAIN : SAMPLE_MAX;
+  request.sample_per_chain = probe;
   request.progress = options->search_progress;
   request.progress_user = options->progress_user;
   bbc__census census;
@@ -1113,7 +1141,7 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   if (result == BBC_OK) result = bbc__census_take(&census, scene, &request);
   /* The sample: 1 in 64 of the candidates, at least SAMPLE_MIN (all of them when they
    * are fewer) and at most SAMPLE_MAX. */
-  if (result == BBC_OK) {
+  if (result == BBC_OK && !probe) {
     size_t k = (size_t)(census.bounded / 64);
     if (k < SAMPLE_MIN) k = SAMPLE_MIN;
     /* k of the reservoir drawn uniformly (a partial Fisher-Yates shuffle, a hash for
@@ -1203,17 +1231,17 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
                           &st.estimate);
   if (result == BBC_OK) {
     estimate_costs(&census, options, grid, threads, &beams, &st.estimate);
-    if (options->estimate_fn && options->estimate_fn(options->user, &st.estimate))
+    if (!probe && options->estimate_fn && options->estimate_fn(options->user, &st.estimate))
       result = BBC_ERR_CANCELLED;
   }
-  if (result == BBC_OK) result = bbc__candidates_begin(&source, scene, &census, &request);
+  if (result == BBC_OK && !probe) result = bbc__candidates_begin(&source, scene, &census, &request);
   const uint64_t tuple_count = census.bounded;
 
   /* Batch k is bounded while batch k - 1, its ids given in tuple order, is recorded (so
    * ids and the file are the same for any thread count): a thread done with its share
    * of the bounding records rows instead of waiting for the others. */
   size_t first = 0;
-  for (size_t k = 0; result == BBC_OK; k++) {
+  for (size_t k = 0; result == BBC_OK && !probe; k++) {
     batch *cur = &batches[k & 1], *prev = &batches[(k + 1) & 1];
     size_t n = 0;
     if ((result = bbc__candidates_next(&source, cur->tuples, cur->candidate, batch_tuples, &n)) !=
@@ -1382,6 +1410,60 @@ bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
   }
   bbc__cache_builder_spill_stats(builder, &st.spill_runs, &st.spill_bytes);
   if (stats) *stats = st;
-  *out = builder;
+  if (probe)
+    bbc_cache_builder_free(builder);
+  else
+    *out = builder;
+  return BBC_OK;
+}
+
+bbc_result bbc_precompute(bbc_cache_builder **out, const bbc_scene *scene,
+                          const bbc_precompute_options *options, bbc_precompute_stats *stats) {
+  return precompute(out, scene, options, stats, 0);
+}
+
+bbc_result bbc_precompute_choose_chains(const bbc_scene *scene,
+                                        const bbc_precompute_options *options, double max_pieces,
+                                        bbc_chain_choice *choice) {
+  if (!scene || !options || !choice) return BBC_ERR_INVALID_ARGUMENT;
+  memset(choice, 0, sizeof *choice);
+  choice->chains = options->params.chains;
+  if (!(options->params.chains & BBC_CHAIN_MASK_DOUBLE)) return BBC_OK;
+  if (!(max_pieces > 0)) { /* every two-bounce type out: nothing to weigh */
+    choice->left_out = choice->chains & BBC_CHAIN_MASK_DOUBLE;
+    choice->chains &= ~BBC_CHAIN_MASK_DOUBLE;
+    return BBC_OK;
+  }
+  /* The probe: the two-bounce chain types alone, every candidate (no shard, so that
+   * every shard chooses alike), no estimate callback. */
+  bbc_precompute_options probe = *options;
+  probe.params.chains &= BBC_CHAIN_MASK_DOUBLE;
+  probe.shard_index = probe.shard_count = 0;
+  probe.estimate_fn = NULL;
+  probe.progress = NULL;
+  bbc_cache_builder *none = NULL;
+  bbc_precompute_stats st;
+  const bbc_result r = precompute(&none, scene, &probe, &st, 1);
+  if (r != BBC_OK) return r;
+  const bbc_precompute_estimate *e = &st.estimate;
+  double total = 0;
+  for (int c = 0; c < BBC_CHAIN_COUNT; c++) {
+    if (!(probe.params.chains & BBC_CHAIN_BIT(c))) continue;
+    choice->candidates[c] = e->candidates_per_chain[c];
+    choice->pieces[c] = e->pieces_per_chain[c];
+    total += e->pieces_per_chain[c];
+  }
+  /* The costliest type out first, until the rest fit. */
+  while (total > max_pieces) {
+    int worst = -1;
+    for (int c = 0; c < BBC_CHAIN_COUNT; c++)
+      if ((choice->chains & BBC_CHAIN_MASK_DOUBLE & BBC_CHAIN_BIT(c)) &&
+          (worst < 0 || choice->pieces[c] > choice->pieces[worst]))
+        worst = c;
+    if (worst < 0) break;
+    choice->chains &= ~BBC_CHAIN_BIT(worst);
+    choice->left_out |= BBC_CHAIN_BIT(worst);
+    total -= choice->pieces[worst];
+  }
   return BBC_OK;
 }

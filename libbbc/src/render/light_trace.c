@@ -150,7 +150,11 @@ uint64_t bbc__light_tracer_default_photons(const bbc__light_tracer *lt, bbc_cach
     if (scene->meshes[mi].role == BBC_ROLE_CASTER &&
         scene->materials[scene->meshes[mi].material].type == BBC_MATERIAL_DIELECTRIC)
       return pixels;
-  if (c && c->light_trace && !isnan(c->light_trace_bound)) {
+  /* A cache without R or RR (left out by --chains or the precompute's default, see
+   * bbc_precompute_choose_chains) leaves those mirror chains to the photons. */
+  const uint32_t mirror_chains = BBC_CHAIN_BIT(BBC_CHAIN_R) | BBC_CHAIN_BIT(BBC_CHAIN_RR);
+  if ((c->cache_chains & mirror_chains) != mirror_chains) return pixels;
+  if (c->light_trace && !isnan(c->light_trace_bound)) {
     bbc_cache_info info;
     bbc_cache_get_info(c->cache, &info);
     for (uint64_t cell = 0; cell < info.cell_count; cell++) {
