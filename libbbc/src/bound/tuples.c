@@ -876,6 +876,25 @@ static uint32_t light_chains(const bbc__tuple_search *s, uint32_t l) {
   return l < s->scene->point_light_count ? s->chains : s->area_chains;
 }
 
+/* The chain types the casters can form: a vertex of a class no caster has ends the
+ * type, and its search would walk for nothing. */
+static uint32_t formable_chains(const bbc_scene *scene) {
+  int has[2] = {0, 0};
+  for (uint32_t m = 0; m < scene->mesh_count; m++)
+    if (scene->meshes[m].triangle_count) {
+      const int k = scattering_of(scene, scene->meshes[m].first_triangle);
+      if (k >= 0) has[k] = 1;
+    }
+  uint32_t chains = 0;
+  for (int c = 0; c < BBC_CHAIN_COUNT; c++) {
+    int ok = 1;
+    for (int v = 0; v < bbc_chain_length((bbc_chain)c); v++)
+      ok &= has[bbc_chain_refracts((bbc_chain)c, v)];
+    if (ok) chains |= BBC_CHAIN_BIT(c);
+  }
+  return chains;
+}
+
 bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *scene,
                                     uint32_t chains, uint32_t area_chains, int beam, int threads,
                                     size_t block_bytes) {
@@ -883,9 +902,9 @@ bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *sc
   bbc__tuple_search *s = calloc(1, sizeof *s);
   if (!s) return BBC_ERR_OUT_OF_MEMORY;
   s->scene = scene;
-  s->chains = chains;
+  s->chains = chains & formable_chains(scene);
   s->beam = beam != 0;
-  s->area_chains = scene->emitter_count ? area_chains : 0;
+  s->area_chains = scene->emitter_count ? area_chains & formable_chains(scene) : 0;
   s->threads = threads > 0 ? threads : omp_get_max_threads();
   s->target = block_bytes ? block_bytes : DEFAULT_BLOCK_BYTES;
   s->window = (size_t)s->threads < WINDOW_MAX ? (size_t)s->threads : WINDOW_MAX;
