@@ -117,6 +117,24 @@ test_light_units_override() {
   return 0
 }
 
+# Photons per sample: a sixteenth of the pixels for a scene of mirrors whose cache holds
+# R and RR (photons can then only add chains of three mirrors), a photon per pixel when
+# the cache lacks RR (as --chains R or the precompute's --double-budget leave it).
+test_photons_cover_mirror_chains_the_cache_lacks() {
+  scene="$BBC_TEST_SCENES/two-mirrors.gltf"
+  opts="--max-level 3 --resolution 32 --no-progress"
+  expect_status 0 "$PRECOMPUTE" "$scene" -o "$TMP/all.bbc" $opts
+  expect_status 0 "$PRECOMPUTE" "$scene" -o "$TMP/r.bbc" $opts --chains R
+  traced() { expect_status 0 "$RENDER" "$scene" --cache "$1" -o "$TMP/x.exr" --width 32 --spp 2 \
+      --stats --no-progress
+    sed -n 's/^photons *\([0-9]*\) traced.*/\1/p' "$TMP/err"; }
+  pixels=$((32 * 24)) # the camera's 4:3
+  all=$(traced "$TMP/all.bbc")
+  [ "$all" = $((pixels / 16 * 2)) ] || fail "R and RR cached: $all photons in 2 samples"
+  r=$(traced "$TMP/r.bbc")
+  [ "$r" = $((pixels * 2)) ] || fail "RR not cached: $r photons in 2 samples"
+}
+
 # A hollow glass ball: every light path of one or two specular vertices through it is
 # blocked by its inner sphere, so the precompute finds no tuple and says what to do; the
 # renderer light-traces its caustic without a cache when asked (off by default there).
