@@ -474,11 +474,7 @@ double bbc__media_eta(const bbc_scene *scene, uint32_t t, int side) {
 int bbc__media_interface(const bbc_scene *scene, uint32_t medium, uint32_t t, int front,
                          double *eta, uint32_t *after) {
   const int side = front ? 1 : -1;
-  if (!scene->media) {
-    *after = front ? scene->triangle_mesh[t] + 1 : 0;
-  } else if (!bbc__media_refract(scene, medium, t, side, after)) {
-    return 0;
-  }
+  if (!bbc__media_refract(scene, medium, t, side, after)) return 0;
   *eta = bbc__media_eta(scene, t, side);
   return 1;
 }
