@@ -18,7 +18,8 @@
 # repository. Without it the script says so in one line and exits 0.
 #
 # Each asset is precomputed once per entry of --runs: a chain type (bbc-precompute
-# --chains R, T, TT, ...) or "all", the defaults (every chain type), one at a time, with
+# --chains R, T, TT, ...) or "all", the defaults (every chain type the materials form,
+# less the two-bounce types over --double-budget), one at a time, with
 # --threads 2, under `ulimit -v` of --memory-gb (default 8) and stopped after --timeout
 # seconds (default 600; then SIGKILL 30 s later if it has not stopped). The status says
 # what the user saw: ok; "refused: estimate ..." when bbc-precompute's estimate (printed
@@ -37,11 +38,14 @@
 # written is rendered at 320x240 with --spp (default 4), --threads 2, under the same
 # limits, with a PNG preview beside it in bench/work/real-assets/. CPU-s are user + sys
 # of the whole process (/usr/bin/time). With --reference PHOTONS (default 0: none), each
-# run of a chain list (not "all") whose cache was written is also compared with an
+# run whose cache was written is also compared with an
 # independent light-traced reference where the caustic is seen directly: `bench/light_trace
 # SCENE --chains LIST --width 320 --photons PHOTONS --seed 1 --punctual-only` (the lamp
 # alone: the caches hold no emissive triangle's tuples) against `bbc-render --only
-# caustics --chains LIST --max-depth 2 + its longest chain --spp --ref-spp (default 64)`,
+# caustics --chains LIST --max-depth 2 + its longest chain --spp --ref-spp (default 64)`;
+# for "all", `--any-chain 2` (every path of one or two specular vertices, glass reflecting
+# with Fresnel's probability too) against `bbc-render --only caustics --max-depth 4`
+# (the cache's chain types, and light tracing for what it lacks),
 # by bench/image_error with eps = (the reference's lit mean / 10)^2 (the relMSE of
 # bench/compare.sh, whose caustics are of order 1, scaled to the scene's radiance), and
 # the ratio of the images' means; a second reference of PHOTONS / 4 photons (seed 2)
@@ -180,19 +184,24 @@ finding() {
 compare_reference() {
   sc=$1 nm=$2 ch=$3
   case ,$ch, in *,[RT][RT],*) depth=4 ;; *) depth=3 ;; esac
+  # The defaults: every path of one or two specular vertices, glass reflecting too, in
+  # the reference; the render's cache and light tracing (for what the cache lacks).
+  lt_pick="--chains $ch" render_pick="--chains $ch"
+  [ "$ch" != all ] || { depth=4 lt_pick="--chains R --any-chain 2" render_pick=""; }
   r1=$work/$nm-ref-$photons-1.exr r2=$work/$nm-ref-$photons-2.exr
   echo "$tool: $nm: light-traced references, $photons and $((photons / 4)) photons" >&2
   for k in 1 2; do
     f=$r1 n=$photons
     [ "$k" = 1 ] || f=$r2 n=$((photons / 4))
-    [ -f "$f" ] || limited "$work/$nm.ref$k.time" "$work/$nm.ref$k.log" "$lt" "$sc" --chains "$ch" \
+    # shellcheck disable=SC2086 # split into options on purpose
+    [ -f "$f" ] || limited "$work/$nm.ref$k.time" "$work/$nm.ref$k.log" "$lt" "$sc" $lt_pick \
       --width 320 --photons "$n" --seed "$k" --threads 2 --punctual-only -o "$f" > /dev/null
   done
   [ -f "$r1" ] && [ -f "$r2" ] || { echo "reference failed"; return; }
   ref_cpu=$(times_of "$work/$nm.ref1.time" | cut -d' ' -f1)
   echo "$tool: $nm: caustic render, $ref_spp spp" >&2
   cstatus=$(limited "$work/$nm.caustic.time" "$work/$nm.caustic.log" "$ren" "$sc" \
-    --cache "$work/$nm.bbc" -o "$work/$nm-caustic.exr" --only caustics --chains "$ch" \
+    --cache "$work/$nm.bbc" -o "$work/$nm-caustic.exr" --only caustics $render_pick \
     --max-depth "$depth" --width 320 --spp "$ref_spp" --threads 2 --no-progress)
   [ "$cstatus" = ok ] || { echo "caustic render: $cstatus"; return; }
   eps=$("$err" "$r1" "$r1" | awk '{ printf "%.6g", ($6 / 10) ^ 2 }')
@@ -275,7 +284,7 @@ for asset in $assets; do
       else
         render="$rstatus"
       fi
-      [ "$photons" = 0 ] || [ "$run" = all ] || reference=$(compare_reference "$scene" "$name" "$run")
+      [ "$photons" = 0 ] || reference=$(compare_reference "$scene" "$name" "$run")
     else
       p=$(progress "$work/$name.log")
       f=$(finding "$work/$name.log")
