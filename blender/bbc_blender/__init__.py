@@ -49,7 +49,8 @@ class BBCSettings(bpy.types.PropertyGroup):
     chains: StringProperty(
         name="Chains",
         description="Chain types to precompute, e.g. T,TT for water and glass without "
-                    "mirrors (empty: all of R, T, RR, RT, TR, TT)", default="")
+                    "mirrors (empty: bbc-precompute's default, every type the materials "
+                    "form less the two-bounce types over its --double-budget)", default="")
     threads: IntProperty(name="Threads", description="Threads of the bbc tools (0: all cores)",
                          min=0, default=0)
     precompute_options: StringProperty(
