@@ -68,7 +68,6 @@ typedef struct bbc_precompute_estimate {
   uint32_t sample_tuples;
   double sample_cpu_seconds; /* the threads' CPU time bounding the sample */
   double stored_fraction;    /* of the sample, the tuples stored (with a kept piece) */
-  uint64_t sample_pieces;    /* pieces bounded in the sample (see pieces_per_chain) */
   /* The bounding's work per chain type, in pieces (position and irradiance bounds
    * computed): the sample's mean per candidate of the type times its candidates in this
    * run's shard. Counted, not clocked: the same on any machine and for any thread

@@ -971,7 +971,6 @@ static bbc_result bound_sample(const bound_context *x, int threads, const bbc__c
     all += (double)pieces[i];
   }
   free(pieces);
-  e->sample_pieces = (uint64_t)all;
   if (cancelled) return BBC_ERR_CANCELLED;
   if (failed) return BBC_ERR_OUT_OF_MEMORY;
   const double shard = census->count ? (double)census->bounded / (double)census->count : 0;
