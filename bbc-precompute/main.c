@@ -53,9 +53,10 @@ static const char help[] =
     "                        less (default 10; 0 leaves them all out). The cost is\n"
     "                        estimated from 16 candidates of each type bounded first\n"
     "                        and counted in pieces, 240,000 to the minute, not clocked,\n"
-    "                        so the cache is the same on any machine. A type left out\n"
-    "                        is light-traced where the camera sees its caustic\n"
-    "                        directly, and missing in mirrors and through glass\n"
+    "                        so the cache is the same on any machine. With beam\n"
+    "                        receivers (--receivers) all of them are left out. A type\n"
+    "                        left out is light-traced where the camera sees its\n"
+    "                        caustic directly, and missing in mirrors and through glass\n"
     "  --max-level N         deepest subdivision level of a tuple's domain (default 10);\n"
     "                        a two-bounce piece whose irradiance bound is unbounded\n"
     "                        may be split once more, and one whose position bound is\n"
@@ -342,7 +343,7 @@ static int on_estimate(void *user, const bbc_precompute_estimate *e) {
 }
 
 /* The line that says which two-bounce chain types the default leaves out, and why. */
-static void say_left_out(const bbc_chain_choice *c, double budget_minutes) {
+static void say_left_out(const bbc_chain_choice *c, double budget_minutes, int beams) {
   char list[320] = "", all[64] = "", n[32], t[32];
   double kept = 0;
   for (int k = 0; k < BBC_CHAIN_COUNT; k++) {
@@ -370,12 +371,18 @@ static void say_left_out(const bbc_chain_choice *c, double budget_minutes) {
   if (kept > 0)
     snprintf(rest, sizeof rest, "; the two-bounce types kept take about %s",
              seconds_text(kept / BBC_DOUBLE_PIECES_PER_SECOND, b));
-  fprintf(
-      stderr,
-      "bbc-precompute: chains: %s left to bbc-render's light tracing, over --double-budget%s%s: "
-      "light-traced where the camera sees their caustic directly, missing in mirrors and "
-      "through glass (--chains %s bounds them)\n",
-      list, budget_minutes > 0 ? r : " 0", rest, all);
+  char why[160];
+  if (beams)
+    snprintf(why, sizeof why,
+             "with beam receivers (two-bounce beam tuples cost the render "
+             "more than light tracing)");
+  else
+    snprintf(why, sizeof why, "over --double-budget%s%s", budget_minutes > 0 ? r : " 0", rest);
+  fprintf(stderr,
+          "bbc-precompute: chains: %s left to bbc-render's light tracing, %s: light-traced "
+          "where the camera sees their caustic directly, missing in mirrors and through "
+          "glass (--chains %s bounds them)\n",
+          list, why, all);
 }
 
 static int has_caster(const bbc_scene *scene) {
@@ -619,7 +626,7 @@ int main(int argc, char **argv) {
       bbc_scene_free(scene);
       return r == BBC_ERR_CANCELLED || cli_interrupted ? 130 : 1;
     }
-    if (choice.left_out) say_left_out(&choice, double_budget);
+    if (choice.left_out) say_left_out(&choice, double_budget, options.params.beam_receivers);
     options.params.chains = choice.chains;
   }
   cli_progress_begin(&bar, "finding tuples", progress);

@@ -111,6 +111,15 @@ test_default_leaves_costly_double_chains_out() {
   grep -q "warning: .*holds no tuples: every chain type with candidates is left" "$TMP/err" ||
     fail "ball80: $(cat "$TMP/err")"
   [ -s "$TMP/b.bbc" ] || fail "ball80: no cache"
+  # Beam receivers (a bent floor of 1,200 triangles): every two-bounce type is left out
+  # whatever the budget; --receivers per-triangle keeps them.
+  expect_status 0 "$BBC_BIN/scenes/bbc-scenegen" glass-sphere --size 80 --floor-size 1200 \
+    --floor-bend 0.2 -o "$TMP/bent.gltf"
+  expect_status 0 "$PRECOMPUTE" "$TMP/bent.gltf" --dry-run $opts --double-budget 1e6
+  grep -q "chains: RR, RT, TR, TT left to .* with beam receivers" "$TMP/err" ||
+    fail "beams: $(cat "$TMP/err")"
+  expect_status 0 "$PRECOMPUTE" "$TMP/bent.gltf" --dry-run $opts --receivers per-triangle
+  grep -q "chains:" "$TMP/err" && fail "per-triangle: $(cat "$TMP/err")"
   for bad in -1 abc nan; do
     expect_status 2 "$PRECOMPUTE" "$scene" -o "$TMP/x.bbc" --double-budget "$bad"
   done

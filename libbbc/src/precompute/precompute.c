@@ -1428,7 +1428,10 @@ bbc_result bbc_precompute_choose_chains(const bbc_scene *scene,
   memset(choice, 0, sizeof *choice);
   choice->chains = options->params.chains;
   if (!(options->params.chains & BBC_CHAIN_MASK_DOUBLE)) return BBC_OK;
-  if (!(max_pieces > 0)) { /* every two-bounce type out: nothing to weigh */
+  /* Every two-bounce type out, nothing to weigh: with a budget of 0, and with beam
+   * receivers, where a cached two-bounce type costs the render more than light tracing
+   * its caustic (see precompute.h). */
+  if (!(max_pieces > 0) || options->params.beam_receivers) {
     choice->left_out = choice->chains & BBC_CHAIN_MASK_DOUBLE;
     choice->chains &= ~BBC_CHAIN_MASK_DOUBLE;
     return BBC_OK;
