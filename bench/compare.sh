@@ -216,7 +216,7 @@ flat() {
     done
   done
 
-  # bbc: the default precompute (every chain type), then renders of the caustic.
+  # bbc: the default precompute, then renders of the caustic.
   pre_cpu=$(cpu "$d/pre.log" "$pre" "$scene" -o "$d/flat.bbc" --threads 2 --no-progress --json "$d/pre.json")
   tuples=$(sed -n 's/.*"tuples": \([0-9]*\).*/\1/p' "$d/pre.json" | head -1)
   : > "$d/bbc.dat"
@@ -288,7 +288,7 @@ EOF
     echo "|---|---|---|---|---|---|"
     awk '{ printf "| %s | %s | %s | %s | %.3g | %.4f |\n", $1, $6, $2, $3, $4, $5 }' "$d/povray.dat"
     echo
-    echo "bbc: \`bbc-precompute SCENE -o C.bbc --threads 2\` (defaults, every chain type):"
+    echo "bbc: \`bbc-precompute SCENE -o C.bbc --threads 2\` (defaults):"
     echo "**$pre_cpu CPU-s**, $tuples tuples; then"
     echo "\`bbc-render SCENE --cache C.bbc --only caustics --width $w --height $h --threads 2 --spp N --seed K\`"
     echo "for each seed K of $seeds: CPU-s, relMSE and lit-mean ratio are means over the seeds."
