@@ -26,6 +26,17 @@ static bbc_tuple *reference_list(const bbc_scene *s, uint32_t chains, uint32_t a
   return all;
 }
 
+/* The candidates of reference_list per chain type into per_chain, and their count. */
+static void reference_per_chain(const bbc_scene *s, uint32_t chains,
+                                uint64_t per_chain[BBC_CHAIN_COUNT], size_t *count) {
+  memset(per_chain, 0, BBC_CHAIN_COUNT * sizeof *per_chain);
+  *count = 0;
+  bbc_tuple *want = reference_list(s, chains, 0, count);
+  REQUIRE(want != NULL);
+  for (size_t i = 0; i < *count; i++) per_chain[want[i].chain]++;
+  free(want);
+}
+
 /* Whether two tuples share their prefix (light, T1), and (light, T1, T2). */
 static int same_first(const bbc_tuple *a, const bbc_tuple *b) {
   return a->light == b->light && a->specular[0] == b->specular[0];
@@ -136,11 +147,9 @@ static int keep_estimate(void *user, const bbc_precompute_estimate *e) {
 TEST(estimate_counts_the_candidates) {
   bbc_scene *s = NULL;
   REQUIRE(bbc_scene_load(&s, TEST_SCENE("wavy-mirror.gltf"), NULL) == BBC_OK);
+  uint64_t per_chain[BBC_CHAIN_COUNT];
   size_t count = 0;
-  bbc_tuple *want = reference_list(s, BBC_CHAIN_MASK_ALL, 0, &count);
-  REQUIRE(want != NULL);
-  uint64_t per_chain[BBC_CHAIN_COUNT] = {0};
-  for (size_t i = 0; i < count; i++) per_chain[want[i].chain]++;
+  reference_per_chain(s, BBC_CHAIN_MASK_ALL, per_chain, &count);
   for (uint32_t shards = 0; shards <= 3; shards += 3) {
     bbc_precompute_options o;
     memset(&o, 0, sizeof o);
@@ -165,7 +174,6 @@ TEST(estimate_counts_the_candidates) {
     CHECK(e.stored_tuples <= e.bounded_tuples);
     CHECK(e.memory_bytes > 0 && e.file_bytes > 0);
   }
-  free(want);
   bbc_scene_free(s);
 }
 
@@ -239,12 +247,9 @@ static bbc_chain_choice choose(const bbc_scene *s, int threads, uint32_t shard_c
 TEST(default_chains_by_counted_work) {
   bbc_scene *s = NULL;
   REQUIRE(bbc_scene_load(&s, TEST_SCENE("mirror-pool.gltf"), NULL) == BBC_OK);
+  uint64_t per_chain[BBC_CHAIN_COUNT];
   size_t count = 0;
-  bbc_tuple *want = reference_list(s, BBC_CHAIN_MASK_DOUBLE, 0, &count);
-  REQUIRE(want != NULL);
-  uint64_t per_chain[BBC_CHAIN_COUNT] = {0};
-  for (size_t i = 0; i < count; i++) per_chain[want[i].chain]++;
-  free(want);
+  reference_per_chain(s, BBC_CHAIN_MASK_DOUBLE, per_chain, &count);
 
   const bbc_chain_choice all = choose(s, 1, 0, 1e30);
   CHECK_INT(all.chains, BBC_CHAIN_MASK_ALL);

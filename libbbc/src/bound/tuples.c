@@ -902,9 +902,10 @@ bbc_result bbc__tuple_search_create(bbc__tuple_search **out, const bbc_scene *sc
   bbc__tuple_search *s = calloc(1, sizeof *s);
   if (!s) return BBC_ERR_OUT_OF_MEMORY;
   s->scene = scene;
-  s->chains = chains & formable_chains(scene);
+  const uint32_t formable = formable_chains(scene);
+  s->chains = chains & formable;
   s->beam = beam != 0;
-  s->area_chains = scene->emitter_count ? area_chains & formable_chains(scene) : 0;
+  s->area_chains = scene->emitter_count ? area_chains & formable : 0;
   s->threads = threads > 0 ? threads : omp_get_max_threads();
   s->target = block_bytes ? block_bytes : DEFAULT_BLOCK_BYTES;
   s->window = (size_t)s->threads < WINDOW_MAX ? (size_t)s->threads : WINDOW_MAX;
