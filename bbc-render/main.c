@@ -106,8 +106,10 @@ static const char help[] =
     "                        per pixel per sample, with --region too; a sixteenth\n"
     "                        when only chains of 3+ mirrors can be light-traced)\n"
     "  --only PARTS          render only these parts, comma-separated: caustics (the\n"
-    "                        caustic estimator), direct (light before any diffuse\n"
-    "                        bounce), indirect (the rest)\n"
+    "                        caustic estimator and light tracing), seen-caustics (the\n"
+    "                        caustics where the camera sees them directly, no specular\n"
+    "                        surface between: what a light tracer renders), direct\n"
+    "                        (light before any diffuse bounce), indirect (the rest)\n"
     "\n"
     "Measuring:\n"
     "  --reference FILE      print the relMSE against this EXR (same size; with\n"
@@ -540,8 +542,11 @@ int main(int argc, char **argv) {
           options.components |= BBC_COMPONENT_DIRECT;
         else if (strcmp(name, "indirect") == 0)
           options.components |= BBC_COMPONENT_INDIRECT;
+        else if (strcmp(name, "seen-caustics") == 0)
+          options.components |= BBC_COMPONENT_SEEN_CAUSTICS;
         else
-          cli_usage_error(usage, "--only: unknown part '%s' (caustics, direct, indirect)", name);
+          cli_usage_error(
+              usage, "--only: unknown part '%s' (caustics, seen-caustics, direct, indirect)", name);
       }
     } else if (cli_option(&a, "--reference", &value)) {
       reference_path = value;

@@ -28,13 +28,15 @@
  * receiver. A landing point x that the camera sees directly adds
  * flux * f * |d(pixel) / dA(x)| to its pixel (f the receiver's BSDF, albedo / pi when
  * Lambertian): that is the pixel's mean radiance
- * (a box filter) of the caustic, the quantity `bbc-render --only caustics --max-depth
- * 2 + chain length` estimates. The same admissibility rules as bbc's caustic estimator
- * apply: a refraction's shading normal must agree with its geometric side, a reflection's
- * light must arrive on its shading normal's side, and the light must reach the receiver on
- * the side the camera sees. The variance of a pixel is finite even at a caustic's focus,
- * where the irradiance (and so every estimator that samples points of the pixel) has an
- * integrable singularity.
+ * (a box filter) of the caustic where the camera sees it directly, the quantity
+ * `bbc-render --only seen-caustics --max-depth 2 + chain length` estimates. The same
+ * admissibility rules as bbc's caustic estimator apply: a refraction's shading normal must
+ * agree with its geometric side, a reflection's light must arrive on its shading normal's
+ * side, the scattered light must leave on the geometric side of its event (back for a
+ * reflection, across for a refraction; a shading normal can tilt it the other way), and
+ * the light must reach the receiver on the side the camera sees. The variance of a pixel
+ * is finite even at a caustic's focus, where the irradiance (and so every estimator that
+ * samples points of the pixel) has an integrable singularity.
  *
  * From a sun (a directional light of irradiance E travelling along D) N photons start
  * uniformly on a disk perpendicular to D, beyond every vertex of the scene against D,
@@ -189,10 +191,24 @@ static int next_hit(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d
   return 0;
 }
 
+/* Whether the scattered direction `next` leaves the geometric surface (normal ng) on the
+ * side its event implies: back to the side d came from for a reflection (through = 0),
+ * across for a refraction (through = 1). A shading normal can tilt a reflection into the
+ * surface or a refraction back out of it; such a photon ends, as in bbc's scattering. */
+static int leaves_as(bbc_vec3 d, bbc_vec3 next, bbc_vec3 ng, int through) {
+  double in = dot(d, ng), out = dot(next, ng);
+  return through ? (in < 0) == (out < 0) && out != 0 : (in < 0) != (out < 0) && out != 0;
+}
+
 /* Follows a photon from origin along d (unit) that has made `made` specular vertices of
- * the chain letters[0..made) (0 R, 1 T). */
+ * the chain letters[0..made) (0 R, 1 T), in air (inside 0) or inside the glass of material
+ * inside - 1. A dielectric surface refracts light in air met from its front (into the
+ * glass behind it) and light in that glass met from behind (out into air); any other
+ * crossing (glass met from behind by light in air, which came in through a cut-out or
+ * round an open mesh's edge) goes straight on and is no vertex: docs/materials.md's rule
+ * for media, which glTF leaves open for a solid with holes. */
 static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d, double flux[3],
-                   int made, int letters, double *lane) {
+                   int made, int letters, uint32_t inside, double *lane) {
   const bbc_scene *s = tr->scene;
   bbc_hit hit;
   if (!next_hit(tr, origin, from, d, &hit)) return;
@@ -206,12 +222,21 @@ static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d,
     if (tr->chains & (1u << chain)) land(tr, &hit, x, d, flux, lane);
     return;
   }
-  if (made == 2 || mesh->role != BBC_ROLE_CASTER ||
+  if (mesh->role != BBC_ROLE_CASTER ||
       (m->type != BBC_MATERIAL_MIRROR && m->type != BBC_MATERIAL_DIELECTRIC))
     return;
   bbc_vec3 ng, ns;
   normals(s, t, hit.u, hit.v, &ng, &ns);
+  /* Off the surface to the side the photon leaves to, beyond the rounding of x (a float
+   * hit distance times the ray's length). */
+  double off = 1e-6 * (1 + fmax(fabs(x.x), fmax(fabs(x.y), fabs(x.z))));
   int letter = m->type == BBC_MATERIAL_DIELECTRIC;
+  const int back = dot(d, ng) > 0;
+  if (letter && !(back ? inside == mesh->material + 1 : inside == 0)) {
+    follow(tr, add(x, scale(ng, back ? off : -off)), t, d, flux, made, letters, inside, lane);
+    return;
+  }
+  if (made == 2) return;
   int goes_on = 0; /* some wanted chain has this letter here after the letters made */
   for (int c = 0; c < 6; c++)
     if ((tr->chains & (1u << c)) && chain_length(c) > made &&
@@ -231,6 +256,7 @@ static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d,
     double cos_t = sqrt(1 - sin2_t);
     bbc_vec3 n = dn < 0 ? ns : scale(ns, -1); /* against d */
     next = unit(add(scale(d, eta), scale(n, eta * cos_i - cos_t)));
+    if (!leaves_as(d, next, ng, 1)) return;
     double f = tr->no_fresnel ? 0 : fresnel(cos_i, eta);
     tint(s, &hit, weight);
     for (int k = 0; k < 3; k++) weight[k] *= 1 - f;
@@ -244,14 +270,13 @@ static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d,
     }
     if (!(dn < 0)) return;
     next = sub(d, scale(ns, 2 * dn));
+    if (!leaves_as(d, next, ng, 0)) return;
     bbc_scene_base_color(s, t, hit.u, hit.v, weight);
   }
   double f2[3] = {flux[0] * weight[0], flux[1] * weight[1], flux[2] * weight[2]};
-  /* Off the surface to the side the photon leaves to, beyond the rounding of x (a float
-   * hit distance times the ray's length). */
-  double off = 1e-6 * (1 + fmax(fabs(x.x), fmax(fabs(x.y), fabs(x.z))));
   x = add(x, scale(ng, dot(next, ng) > 0 ? off : -off));
-  follow(tr, x, t, next, f2, made + 1, made == 0 ? letter : (letters << 1) | letter, lane);
+  if (letter) inside = back ? 0 : mesh->material + 1;
+  follow(tr, x, t, next, f2, made + 1, made == 0 ? letter : (letters << 1) | letter, inside, lane);
 }
 
 /* --any-chain K: every path of one to K specular vertices, with media of its own.
@@ -261,12 +286,16 @@ static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d,
  * dielectric material with an odd count and the highest index (a liquid that reaches into
  * its glass is glass there: the container wins), air (index 1) when none. A crossing
  * that leaves the medium unchanged (a liquid's side inside its glass, met from either
- * side) goes straight on and is no vertex. Otherwise the interface's ratio is
+ * side) goes straight on and is no vertex, and so does one against the surface's
+ * orientation: a triangle of material m met from behind while bit m is clear (glass met
+ * by light in air, in through a cut-out) or from its front while bit m is set; its bit
+ * stays as it was (follow's rule, docs/materials.md). Otherwise the interface's ratio is
  * n(before) / n(after), and the photon reflects with the Fresnel probability F (always
  * under total internal reflection, the parity unchanged) or refracts, tinted by the base
  * colour. Mirrors reflect on either side, weighted by their base colour. None of this
- * asks the scene's own media (bbc_scene.media, the renderer's per-triangle fronts):
- * normals give only the shading of a refraction, never a side. Absorbing media are not
+ * asks the scene's own media (bbc_scene.media, the renderer's per-triangle fronts): the
+ * parity gives the media, a triangle's orientation only whether it bounds them here.
+ * Absorbing media are not
  * supported (refused in main). */
 static double medium_ior(const bbc_scene *s, uint64_t parity) {
   double n = 1;
@@ -304,7 +333,8 @@ static void follow_any(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec
     if (m->type == BBC_MATERIAL_DIELECTRIC) {
       uint64_t after = parity ^ (1ull << mesh->material);
       double n1 = medium_ior(s, parity), n2 = medium_ior(s, after);
-      if (n1 == n2) { /* no interface here: straight on */
+      if ((parity >> mesh->material & 1) != (dot(d, ng) > 0)) after = parity;
+      if (after == parity || n1 == n2) { /* no interface here: straight on */
         parity = after;
         origin = add(x, scale(ng, dot(d, ng) > 0 ? off : -off));
         from = t;
@@ -318,9 +348,11 @@ static void follow_any(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec
       bbc_vec3 n = dn < 0 ? ns : scale(ns, -1); /* against d */
       if (sin2_t >= 1 || uniform(state) < f) {
         next = sub(d, scale(ns, 2 * dn)); /* reflection, probability F: flux unchanged */
+        if (!leaves_as(d, next, ng, 0)) return;
       } else {
         double cos_t = sqrt(1 - sin2_t);
         next = unit(add(scale(d, eta), scale(n, eta * cos_i - cos_t)));
+        if (!leaves_as(d, next, ng, 1)) return;
         double w[3];
         tint(s, &hit, w);
         for (int k = 0; k < 3; k++) flux[k] *= w[k];
@@ -335,6 +367,7 @@ static void follow_any(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec
       }
       if (!(dn < 0)) return;
       next = sub(d, scale(ns, 2 * dn));
+      if (!leaves_as(d, next, ng, 0)) return;
       double w[3];
       bbc_scene_base_color(s, t, hit.u, hit.v, w);
       for (int k = 0; k < 3; k++) flux[k] *= w[k];
@@ -529,7 +562,8 @@ int main(int argc, char **argv) {
               flux[k] = light->intensity[k] * disk *
                         (sun_half > 0 ? sun_scale * cz * sun_omega : 1.0) / (double)per_light;
             if (any_chain) follow_any(&tr, origin, UINT32_MAX, d, flux, &state, image);
-            else follow(&tr, origin, UINT32_MAX, d, flux, 0, 0, image);
+            else
+              follow(&tr, origin, UINT32_MAX, d, flux, 0, 0, 0, image);
             continue;
           }
           if (area) {
@@ -563,7 +597,8 @@ int main(int argc, char **argv) {
           }
           uint32_t start = area ? scene->emitters[l - scene->point_light_count] : UINT32_MAX;
           if (any_chain) follow_any(&tr, origin, start, d, flux, &state, image);
-          else follow(&tr, origin, start, d, flux, 0, 0, image);
+          else
+            follow(&tr, origin, start, d, flux, 0, 0, 0, image);
         }
       }
     }

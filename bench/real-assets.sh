@@ -42,10 +42,11 @@
 # independent light-traced reference where the caustic is seen directly: `bench/light_trace
 # SCENE --chains LIST --width 320 --photons PHOTONS --seed 1 --punctual-only` (the lamp
 # alone: the caches hold no emissive triangle's tuples) against `bbc-render --only
-# caustics --chains LIST --max-depth 2 + its longest chain --spp --ref-spp (default 64)`;
-# for "all", `--any-chain 2` (every path of one or two specular vertices, glass reflecting
-# with Fresnel's probability too) against `bbc-render --only caustics --max-depth 4`
-# (the cache's chain types, and light tracing for what it lacks),
+# seen-caustics --chains LIST --max-depth 2 + its longest chain --spp --ref-spp (default
+# 64)`; for "all", `--any-chain 2` (every path of one or two specular vertices, glass
+# reflecting with Fresnel's probability too) against `bbc-render --only seen-caustics
+# --max-depth 4` (the cache's chain types, and light tracing for what it lacks; only where
+# the camera sees the caustic directly, as a light tracer sees it),
 # by bench/image_error with eps = (the reference's lit mean / 10)^2 (the relMSE of
 # bench/compare.sh, whose caustics are of order 1, scaled to the scene's radiance), and
 # the ratio of the images' means; a second reference of PHOTONS / 4 photons (seed 2)
@@ -193,15 +194,16 @@ compare_reference() {
   for k in 1 2; do
     f=$r1 n=$photons
     [ "$k" = 1 ] || f=$r2 n=$((photons / 4))
+    # A reference is reused while it is newer than bench/light_trace.
     # shellcheck disable=SC2086 # split into options on purpose
-    [ -f "$f" ] || limited "$work/$nm.ref$k.time" "$work/$nm.ref$k.log" "$lt" "$sc" $lt_pick \
+    [ "$f" -nt "$lt" ] || limited "$work/$nm.ref$k.time" "$work/$nm.ref$k.log" "$lt" "$sc" $lt_pick \
       --width 320 --photons "$n" --seed "$k" --threads 2 --punctual-only -o "$f" > /dev/null
   done
   [ -f "$r1" ] && [ -f "$r2" ] || { echo "reference failed"; return; }
   ref_cpu=$(times_of "$work/$nm.ref1.time" | cut -d' ' -f1)
   echo "$tool: $nm: caustic render, $ref_spp spp" >&2
   cstatus=$(limited "$work/$nm.caustic.time" "$work/$nm.caustic.log" "$ren" "$sc" \
-    --cache "$work/$nm.bbc" -o "$work/$nm-caustic.exr" --only caustics $render_pick \
+    --cache "$work/$nm.bbc" -o "$work/$nm-caustic.exr" --only seen-caustics $render_pick \
     --max-depth "$depth" --width 320 --spp "$ref_spp" --threads 2 --no-progress)
   [ "$cstatus" = ok ] || { echo "caustic render: $cstatus"; return; }
   eps=$("$err" "$r1" "$r1" | awk '{ printf "%.6g", ($6 / 10) ^ 2 }')

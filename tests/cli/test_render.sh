@@ -135,6 +135,22 @@ test_photons_cover_mirror_chains_the_cache_lacks() {
   [ "$r" = $((pixels * 2)) ] || fail "RR not cached: $r photons in 2 samples"
 }
 
+# --only seen-caustics counts the caustic only where the camera sees it directly: with the
+# TT chains alone that is every caustic path of 4 segments, so the image is the one that
+# --max-depth 4 makes bit for bit; without the limit the caustic seen through the ball
+# adds light.
+test_seen_caustics() {
+  scene="$BBC_TEST_SCENES/glass-sphere.gltf"
+  expect_status 0 "$PRECOMPUTE" "$scene" -o "$TMP/tt.bbc" --chains TT --max-level 1 --no-progress
+  opts="--cache $TMP/tt.bbc --chains TT --width 32 --spp 2 --no-progress"
+  expect_status 0 "$RENDER" "$scene" $opts -o "$TMP/seen.exr" --only seen-caustics
+  expect_status 0 "$RENDER" "$scene" $opts -o "$TMP/four.exr" --only caustics --max-depth 4
+  expect_status 0 "$RENDER" "$scene" $opts -o "$TMP/all.exr" --only caustics
+  cmp -s "$TMP/seen.exr" "$TMP/four.exr" || fail "seen-caustics differs from depth 4"
+  cmp -s "$TMP/seen.exr" "$TMP/all.exr" && fail "no caustic is seen through the ball"
+  return 0
+}
+
 # A hollow glass ball: every light path of one or two specular vertices through it is
 # blocked by its inner sphere, so the precompute finds no tuple and says what to do; the
 # renderer light-traces its caustic without a cache when asked (off by default there).

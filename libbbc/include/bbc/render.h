@@ -73,6 +73,10 @@ typedef enum bbc_sampler {
 #define BBC_COMPONENT_CAUSTICS 1u /* the caustic estimator's contributions, at any depth */
 #define BBC_COMPONENT_DIRECT 2u   /* emission and lights seen before any diffuse bounce */
 #define BBC_COMPONENT_INDIRECT 4u /* everything after a diffuse bounce but caustics */
+/* The caustic estimator's contributions at the first surface the camera sees (no
+ * specular vertex before it) and light tracing's: the caustic a light tracer can render,
+ * for comparisons against one. Within BBC_COMPONENT_CAUSTICS. */
+#define BBC_COMPONENT_SEEN_CAUSTICS 8u
 
 /* Options; a zero-initialised struct means the defaults given per field. */
 typedef struct bbc_render_options {

@@ -341,6 +341,9 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
   run.count = 0;
   /* Light found before the first diffuse bounce is "direct", after it "indirect". */
   uint32_t lit_component = BBC_COMPONENT_DIRECT;
+  /* The caustics counted here: at any vertex, or (BBC_COMPONENT_SEEN_CAUSTICS alone) at
+   * the first, while no specular vertex lies between it and the camera. */
+  uint32_t caustic_component = BBC_COMPONENT_CAUSTICS | BBC_COMPONENT_SEEN_CAUSTICS;
   /* The medium the ray travels in (media_internal.h) and the point it left: every
    * segment inside a dielectric is absorbed (Beer-Lambert), an escape from one entirely
    * where it absorbs. Refractions switch the medium as the estimator's medium rule does:
@@ -399,9 +402,10 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
           shade_diffuse_vertex(ctx, ct, &s, &bsdf, wo, depth + 1, medium, ps, rays);
       if (ctx->components & lit_component)
         radiance = v3_add(radiance, v3_mul(throughput, light.direct));
-      if (ctx->components & BBC_COMPONENT_CAUSTICS)
+      if (ctx->components & caustic_component)
         radiance = v3_add(radiance, v3_mul(throughput, light.caustic));
       lit_component = BBC_COMPONENT_INDIRECT;
+      caustic_component = BBC_COMPONENT_CAUSTICS;
       diffuse_triangle = s.triangle;
       run.count = 0;
       double u[2];
@@ -434,6 +438,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
         continue;
       }
       note_specular(&run, &s, sc.letter);
+      caustic_component = BBC_COMPONENT_CAUSTICS;
       if (goes_on == BBC__SCATTER_ENDS) break;
       dir = sc.dir;
       /* Radiance is scaled by (n_t / n_i)^2 across a refraction; along a camera path the
@@ -572,7 +577,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
    * delta sun is light-traced: the path tracer counts none of them (docs/light-tracing.md,
    * "Without a cache"). */
   const int light_trace = (ctx.caustics || opts.method == BBC_METHOD_PT) && opts.light_trace &&
-                          (ctx.components & BBC_COMPONENT_CAUSTICS);
+                          (ctx.components & (BBC_COMPONENT_CAUSTICS | BBC_COMPONENT_SEEN_CAUSTICS));
   uint64_t photons_per_spp = opts.photons_per_spp;
   bbc_result lt_ok = BBC_OK;
   if (sum && light_trace) {
