@@ -148,10 +148,21 @@ static void land(const tracer *tr, const bbc_hit *h, bbc_vec3 x, bbc_vec3 d, con
   double px = (sx / (tr->tan_half * tr->aspect) + 1) * 0.5 * tr->width;
   double py = (1 - sy / tr->tan_half) * 0.5 * tr->height;
   if (!(px >= 0 && px < tr->width && py >= 0 && py < tr->height)) return;
-  /* Seen directly: the camera's ray toward x first hits t, at x. */
+  /* Seen directly: the camera's ray toward x first hits t, at x, but for glass it meets
+   * from behind, which light in air goes through (follow's rule; the camera is in air). */
   bbc_hit hit;
-  if (!bbc_accel_intersect(tr->accel, c->position, to_x, 0, 1 + 1e-6, &hit) || hit.triangle != t)
-    return;
+  double from = 0;
+  for (;;) {
+    if (!bbc_accel_intersect(tr->accel, c->position, to_x, from, 1 + 1e-6, &hit)) return;
+    if (hit.triangle == t) break;
+    bbc_vec3 hng, hns;
+    normals(s, hit.triangle, hit.u, hit.v, &hng, &hns);
+    if (s->materials[s->meshes[s->triangle_mesh[hit.triangle]].material].type !=
+            BBC_MATERIAL_DIELECTRIC ||
+        !(dot(to_x, hng) > 0))
+      return;
+    from = hit.t * (1 + 1e-6) + 1e-9;
+  }
   /* |d(px, py) / dA(x)|: the film at distance 1 has d(film)/dA = cos_x / (r^2 cos_c^3),
    * and a film unit is width / (2 tan_half aspect) = height / (2 tan_half) pixels. */
   double r2 = dot(to_x, to_x), r = sqrt(r2);

@@ -2,7 +2,8 @@
 # Light through more than two specular surfaces: the hollow glass sphere
 # (`bbc-scenegen hollow-sphere`: outer and inner surfaces two closed meshes, every path
 # through it to the floor refracts four times) and the glass of water (`bbc-scenegen
-# glass-of-water`: a glass mesh, a water mesh reaching 0.005 into it), caustic only,
+# glass-of-water`: a glass mesh, a water mesh reaching 0.005 into it), caustic only
+# where the camera sees it directly (--only seen-caustics: what a light tracer sees),
 # rendered by bbc-render with light tracing (the default, docs/light-tracing.md) and
 # without it (--light-trace off: the cached one- and two-vertex chains alone), each
 # against an independent light-traced reference: bench/light_trace --any-chain K (every
@@ -120,7 +121,7 @@ if [ $report = 0 ]; then
           n=$((16 * spp))
         fi
         c=$(cpu "$work/render.log" "$bin/bbc-render/bbc-render" "$gltf" --cache "$cache" \
-          --only caustics --max-depth $depth --width "$width" --threads "$threads" \
+          --only seen-caustics --max-depth $depth --width "$width" --threads "$threads" \
           --spp "$n" --seed "$seed" --light-trace "$mode" --no-progress -o "$work/r.exr")
         cp "$work/r.exr" "$work/$s-$mode-$seed.exr"
         set -- $("$bin/bench/image_error" "$work/r.exr" "$ref")
@@ -147,7 +148,7 @@ out=$root/bench/results/transport.md
 {
   echo "# Light through more than two specular surfaces (bench/transport.sh)"
   echo
-  echo "Caustic only (\`bbc-render SCENE --cache SCENE.bbc --only caustics --max-depth $depth"
+  echo "Caustic only (\`bbc-render SCENE --cache SCENE.bbc --only seen-caustics --max-depth $depth"
   echo "--width $width --threads $threads --spp $spp --seed S --light-trace on|off\`), ${width} px wide,"
   echo "against \`bench/light_trace SCENE --any-chain 14 --width $width --photons P --seed 1001\`."
   echo "POV-Ray 3.7: \`bench/povray_scene SCENE --width $width --height $height --photons N --radius R"

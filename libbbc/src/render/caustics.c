@@ -93,33 +93,13 @@ static void absorb(const bbc_scene *scene, uint32_t medium, bbc_vec3 a, bbc_vec3
 /* 1 if the segment from a (on the surface with unit geometric normal na) to b (on the
  * surface with normal nb) is unoccluded. Both ends are pushed off their surfaces toward
  * the segment, as the path tracer's rays are. */
-/* Whether nothing stops light in `medium` along origin + t d, t in (0, tmax). Where the
- * scene's media come from the geometry, a dielectric that does not bound `medium` on the
- * side met (the part of a liquid's wall inside its glass) is gone through, as the path
- * tracer goes through it (media_internal.h); elsewhere every surface stops it. */
-static int clear_for(const bbc__caustics *c, bbc_vec3 origin, bbc_vec3 d, double tmax,
-                     uint32_t medium) {
-  const bbc_scene *scene = c->scene;
-  if (!scene->media) return !bbc_accel_occluded(c->accel, origin, d, 0.0, tmax);
-  double from = 0.0;
-  for (int k = 0; k < 64; k++) {
-    bbc_hit h;
-    if (!bbc_accel_intersect(c->accel, origin, d, from, tmax, &h)) return 1;
-    if (bbc_scene_triangle_material(scene, h.triangle)->type != BBC_MATERIAL_DIELECTRIC) return 0;
-    const int side = bbc__media_side(scene, h.triangle, origin);
-    uint32_t after;
-    if (side == 0 || bbc__media_refract(scene, medium, h.triangle, side, &after)) return 0;
-    from = h.t + 1e-7;
-  }
-  return 0;
-}
-
 static int segment_visible(const bbc__caustics *c, bbc_vec3 a, bbc_vec3 na, bbc_vec3 b, bbc_vec3 nb,
                            uint32_t medium) {
   bbc_vec3 d = v3_sub(b, a);
   bbc_vec3 origin = v3_offset_origin(a, na, d);
   bbc_vec3 target = v3_offset_origin(b, nb, v3_neg(d));
-  return clear_for(c, origin, v3_sub(target, origin), 1.0 - 1e-6, medium);
+  return bbc__media_clear(c->scene, c->accel, origin, v3_sub(target, origin), 1.0 - 1e-6, medium,
+                          0);
 }
 
 /* See bbc__caustics_solution_value; returns 0 for an inadmissible or invisible path
@@ -214,14 +194,18 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
   if (sun) {
     /* The sun's light comes from infinity: nothing may lie on the ray from x1 back
      * against its direction. */
-    if (!clear_for(c, x1_light_side, v3_neg(light->model.direction), INFINITY, segment_medium[0]))
+    if (!bbc__media_clear(c->scene, c->accel, x1_light_side, v3_neg(light->model.direction),
+                          INFINITY, segment_medium[0], 1))
       return 0;
   } else if (area) {
     /* From the emitter point, pushed off the emitter toward x1. */
     bbc_vec3 ne = v3_normalize(light->model.emitter_normal);
     bbc_vec3 y = v3_offset_origin(x[0], ne, v3_sub(x[1], x[0]));
-    if (!clear_for(c, y, v3_sub(x1_light_side, y), 1.0 - 1e-6, segment_medium[0])) return 0;
-  } else if (!clear_for(c, x[0], v3_sub(x1_light_side, x[0]), 1.0 - 1e-6, segment_medium[0])) {
+    if (!bbc__media_clear(c->scene, c->accel, y, v3_sub(x1_light_side, y), 1.0 - 1e-6,
+                          segment_medium[0], 0))
+      return 0;
+  } else if (!bbc__media_clear(c->scene, c->accel, x[0], v3_sub(x1_light_side, x[0]), 1.0 - 1e-6,
+                               segment_medium[0], 0)) {
     return 0;
   }
   for (int i = 1; i <= length; i++) {

@@ -207,9 +207,9 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
     if (!(falloff > 0)) continue;
     bbc_vec3 origin = v3_offset_origin(s->p, s->ng, to_light);
     (*rays)++;
-    if (sun ? bbc_accel_occluded(ctx->accel, origin, to_light, 0.0, INFINITY)
-            : bbc_accel_occluded(ctx->accel, origin, v3_sub(light->position, origin), 0.0,
-                                 1.0 - 1e-6))
+    if (!(sun ? bbc__media_clear(scene, ctx->accel, origin, to_light, INFINITY, medium, 1)
+              : bbc__media_clear(scene, ctx->accel, origin, v3_sub(light->position, origin),
+                                 1.0 - 1e-6, medium, 1)))
       continue;
     double g = disk ? cos_s * bbc__sun_solid_angle(&light->model) *
                           bbc_light_sun_radiance_scale(light->model.angular_diameter)
@@ -248,7 +248,8 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
       bbc_vec3 origin = v3_offset_origin(s->p, s->ng, to_light);
       bbc_vec3 target = v3_offset_origin(q, light.ng, v3_neg(to_light));
       (*rays)++;
-      if (!bbc_accel_occluded(ctx->accel, origin, v3_sub(target, origin), 0.0, 1.0 - 1e-6)) {
+      if (bbc__media_clear(scene, ctx->accel, origin, v3_sub(target, origin), 1.0 - 1e-6, medium,
+                           1)) {
         double le[3];
         bbc_scene_emission(scene, e, at.u, at.v, le);
         double g = cos_s * cos_l / dist2 * area / probability * cover;

@@ -221,7 +221,8 @@ static int land(const bbc__light_tracer *lt, bbc__caustics_thread *ct, const bbc
   /* Seen directly: nothing between the camera and x. */
   (*rays)++;
   bbc_vec3 target = v3_offset_origin(s->p, s->ng, v3_neg(to_x));
-  if (bbc_accel_occluded(lt->accel, cam->position, v3_sub(target, cam->position), 0.0, 1.0 - 1e-6))
+  if (!bbc__media_clear(scene, lt->accel, cam->position, v3_sub(target, cam->position), 1.0 - 1e-6,
+                        lt->camera_medium, 0))
     return 0;
   double r2 = v3_dot(to_x, to_x), r = sqrt(r2);
   double cos_x = fabs(v3_dot(to_x, s->ng)) / r, cos_c = z / r;

@@ -450,6 +450,23 @@ int bbc__media_refract(const bbc_scene *scene, uint32_t medium, uint32_t t, int 
   return 0;
 }
 
+int bbc__media_clear(const bbc_scene *scene, const bbc_accel *accel, bbc_vec3 origin, bbc_vec3 d,
+                     double tmax, uint32_t medium, int against) {
+  if (!bbc_accel_occluded(accel, origin, d, 0.0, tmax)) return 1;
+  double from = 0.0;
+  for (int k = 0; k < 64; k++) {
+    bbc_hit h;
+    if (!bbc_accel_intersect(accel, origin, d, from, tmax, &h)) return 1;
+    if (bbc_scene_triangle_material(scene, h.triangle)->type != BBC_MATERIAL_DIELECTRIC) return 0;
+    const int side = bbc__media_side(scene, h.triangle, origin);
+    uint32_t after;
+    if (side == 0 || bbc__media_refract(scene, medium, h.triangle, against ? -side : side, &after))
+      return 0;
+    from = h.t + 1e-7;
+  }
+  return 0;
+}
+
 /* The index of refraction of medium `medium` (1 for air). */
 static double medium_ior(const bbc_scene *scene, uint32_t medium) {
   if (!medium || medium > scene->mesh_count) return 1.0;

@@ -19,6 +19,7 @@
 
 #include <math.h>
 
+#include "bbc/accel.h"
 #include "bbc/scene.h"
 #include "bbc/texture.h"
 #include "vec_internal.h"
@@ -77,6 +78,19 @@ double bbc__media_eta(const bbc_scene *scene, uint32_t t, int side);
  * watt of it through a back face that light in air met through a hole). */
 int bbc__media_interface(const bbc_scene *scene, uint32_t medium, uint32_t t, int front,
                          double *eta, uint32_t *after);
+
+/* Whether a ray in `medium` goes unstopped along origin + t d, t in (0, tmax): what a
+ * shadow or camera ray asks. A dielectric it meets where the medium rule lets it pass
+ * (bbc__media_interface returns 0: a liquid's wall inside its glass, glass met from
+ * behind by light in air) is gone through, as the path and light tracers go through it;
+ * every other surface stops it. The rule is one-way, so it is applied in the direction
+ * the tracer that this ray stands for travels: along d (light from a point light toward
+ * its first vertex, between specular vertices, a camera ray as the path tracer's), or,
+ * with `against`, opposite to d (a shadow ray from a lit point back to the light). The
+ * caustic estimator, next-event estimation and light tracing's camera rays all ask this,
+ * so that they agree with the tracers. */
+int bbc__media_clear(const bbc_scene *scene, const bbc_accel *accel, bbc_vec3 origin, bbc_vec3 d,
+                     double tmax, uint32_t medium, int against);
 
 /* Snell's law: the refracted unit direction of unit dir at shading normal n (unit, on
  * the incident side), cos_i = -dir . n > 0 and cos_t = sqrt(1 - eta^2 (1 - cos_i^2)). */
