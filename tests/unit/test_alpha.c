@@ -21,6 +21,7 @@
 #include "floor_footprint.h"
 #include "gltf_shim_internal.h"
 #include "harness.h"
+#include "media_internal.h"
 #include "json_text.h"
 #include "render_fixture.h"
 #include "vec_internal.h"
@@ -364,6 +365,7 @@ static double caustic_at(const fixture *f, bbc__caustics_thread *t, floor_point 
   memset(&c, 0, sizeof c);
   c.scene = f->scene;
   c.accel = f->accel;
+  c.passable = bbc__media_passable(c.scene);
   c.cache = f->cache;
   c.tuples = bbc_cache_tuples(f->cache);
   c.chains = BBC_CHAIN_MASK_ALL;
@@ -445,6 +447,7 @@ TEST(mirror_reflectance_follows_its_base_colour_texture) {
   memset(&c, 0, sizeof c);
   c.scene = f.scene;
   c.accel = f.accel;
+  c.passable = bbc__media_passable(c.scene);
   c.cache = f.cache;
   c.tuples = bbc_cache_tuples(f.cache);
   c.chains = BBC_CHAIN_MASK_ALL;

@@ -17,6 +17,7 @@
 #include "caustics_internal.h"
 #include "floor_footprint.h"
 #include "harness.h"
+#include "media_internal.h"
 #include "vec_internal.h"
 
 #define PI 3.14159265358979323846
@@ -471,6 +472,7 @@ TEST(stoch_is_unbiased) {
   memset(&c, 0, sizeof c);
   c.scene = f.scene;
   c.accel = f.accel;
+  c.passable = bbc__media_passable(c.scene);
   c.solver = BBC_SOLVER_NEWTON_STOCH;
   bbc__caustics_thread t;
   memset(&t, 0, sizeof t);
@@ -626,6 +628,7 @@ static void estimator_converges(const char *path, int trace_n, int n_wanted, int
   memset(&c, 0, sizeof c);
   c.scene = f.scene;
   c.accel = f.accel;
+  c.passable = bbc__media_passable(c.scene);
   c.cache = f.cache;
   c.tuples = bbc_cache_tuples(f.cache);
   c.chains = BBC_CHAIN_MASK_ALL;

@@ -98,8 +98,8 @@ static int segment_visible(const bbc__caustics *c, bbc_vec3 a, bbc_vec3 na, bbc_
   bbc_vec3 d = v3_sub(b, a);
   bbc_vec3 origin = v3_offset_origin(a, na, d);
   bbc_vec3 target = v3_offset_origin(b, nb, v3_neg(d));
-  return bbc__media_clear(c->scene, c->accel, origin, v3_sub(target, origin), 1.0 - 1e-6, medium,
-                          0);
+  return bbc__media_clear(c->scene, c->accel, c->passable, origin, v3_sub(target, origin),
+                          1.0 - 1e-6, medium, 0);
 }
 
 /* See bbc__caustics_solution_value; returns 0 for an inadmissible or invisible path
@@ -194,18 +194,18 @@ static int solution_value(const bbc__caustics *c, const bbc__receiver_shading *s
   if (sun) {
     /* The sun's light comes from infinity: nothing may lie on the ray from x1 back
      * against its direction. */
-    if (!bbc__media_clear(c->scene, c->accel, x1_light_side, v3_neg(light->model.direction),
-                          INFINITY, segment_medium[0], 1))
+    if (!bbc__media_clear(c->scene, c->accel, c->passable, x1_light_side,
+                          v3_neg(light->model.direction), INFINITY, segment_medium[0], 1))
       return 0;
   } else if (area) {
     /* From the emitter point, pushed off the emitter toward x1. */
     bbc_vec3 ne = v3_normalize(light->model.emitter_normal);
     bbc_vec3 y = v3_offset_origin(x[0], ne, v3_sub(x[1], x[0]));
-    if (!bbc__media_clear(c->scene, c->accel, y, v3_sub(x1_light_side, y), 1.0 - 1e-6,
+    if (!bbc__media_clear(c->scene, c->accel, c->passable, y, v3_sub(x1_light_side, y), 1.0 - 1e-6,
                           segment_medium[0], 0))
       return 0;
-  } else if (!bbc__media_clear(c->scene, c->accel, x[0], v3_sub(x1_light_side, x[0]), 1.0 - 1e-6,
-                               segment_medium[0], 0)) {
+  } else if (!bbc__media_clear(c->scene, c->accel, c->passable, x[0], v3_sub(x1_light_side, x[0]),
+                               1.0 - 1e-6, segment_medium[0], 0)) {
     return 0;
   }
   for (int i = 1; i <= length; i++) {

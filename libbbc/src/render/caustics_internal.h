@@ -23,6 +23,7 @@
 typedef struct bbc__caustics {
   const bbc_scene *scene;
   const bbc_accel *accel;
+  int passable; /* bbc__media_passable */
   const bbc_cache *cache;
   const bbc_tuple *tuples;
   bbc__sampling sampling;

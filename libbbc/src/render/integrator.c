@@ -48,6 +48,7 @@ typedef struct render_ctx {
   const bbc__caustics *caustics; /* NULL: plain path tracing */
   int disk_suns;                 /* some sun has an angular size */
   uint32_t camera_medium;        /* the camera's medium (media_internal.h) */
+  int passable;                  /* bbc__media_passable */
 } render_ctx;
 
 /* The random decisions of one path. Each has a slot: the film position, then per path
@@ -207,9 +208,10 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
     if (!(falloff > 0)) continue;
     bbc_vec3 origin = v3_offset_origin(s->p, s->ng, to_light);
     (*rays)++;
-    if (!(sun ? bbc__media_clear(scene, ctx->accel, origin, to_light, INFINITY, medium, 1)
-              : bbc__media_clear(scene, ctx->accel, origin, v3_sub(light->position, origin),
-                                 1.0 - 1e-6, medium, 1)))
+    if (!(sun ? bbc__media_clear(scene, ctx->accel, ctx->passable, origin, to_light, INFINITY,
+                                 medium, 1)
+              : bbc__media_clear(scene, ctx->accel, ctx->passable, origin,
+                                 v3_sub(light->position, origin), 1.0 - 1e-6, medium, 1)))
       continue;
     double g = disk ? cos_s * bbc__sun_solid_angle(&light->model) *
                           bbc_light_sun_radiance_scale(light->model.angular_diameter)
@@ -248,8 +250,8 @@ static vertex_light shade_diffuse_vertex(const render_ctx *ctx, bbc__caustics_th
       bbc_vec3 origin = v3_offset_origin(s->p, s->ng, to_light);
       bbc_vec3 target = v3_offset_origin(q, light.ng, v3_neg(to_light));
       (*rays)++;
-      if (bbc__media_clear(scene, ctx->accel, origin, v3_sub(target, origin), 1.0 - 1e-6, medium,
-                           1)) {
+      if (bbc__media_clear(scene, ctx->accel, ctx->passable, origin, v3_sub(target, origin),
+                           1.0 - 1e-6, medium, 1)) {
         double le[3];
         bbc_scene_emission(scene, e, at.u, at.v, le);
         double g = cos_s * cos_l / dist2 * area / probability * cover;
@@ -488,7 +490,8 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
                         : BBC_COMPONENT_CAUSTICS | BBC_COMPONENT_DIRECT | BBC_COMPONENT_INDIRECT,
                     NULL,
                     0,
-                    0};
+                    0,
+                    bbc__media_passable(scene)};
   for (uint32_t i = 0; i < scene->point_light_count; i++)
     ctx.disk_suns |= bbc__sun_is_disk(&scene->point_lights[i].model);
   ctx.camera_medium = bbc__media_at(scene, (opts.camera ? opts.camera : &scene->camera)->position);
@@ -517,6 +520,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     memset(&caustics, 0, sizeof caustics);
     caustics.scene = scene;
     caustics.accel = accel;
+    caustics.passable = ctx.passable;
     caustics.cache = opts.cache;
     caustics.tuples = bbc_cache_tuples(opts.cache);
     caustics.chains = opts.chains ? opts.chains : BBC_CHAIN_MASK_ALL;

@@ -70,6 +70,7 @@ bbc_result bbc__light_tracer_init(bbc__light_tracer *lt, const bbc_scene *scene,
   memset(lt, 0, sizeof *lt);
   lt->scene = scene;
   lt->accel = accel;
+  lt->passable = bbc__media_passable(scene);
   lt->caustics = caustics;
   lt->camera = camera;
   lt->width = width;
@@ -221,8 +222,8 @@ static int land(const bbc__light_tracer *lt, bbc__caustics_thread *ct, const bbc
   /* Seen directly: nothing between the camera and x. */
   (*rays)++;
   bbc_vec3 target = v3_offset_origin(s->p, s->ng, v3_neg(to_x));
-  if (!bbc__media_clear(scene, lt->accel, cam->position, v3_sub(target, cam->position), 1.0 - 1e-6,
-                        lt->camera_medium, 0))
+  if (!bbc__media_clear(scene, lt->accel, lt->passable, cam->position,
+                        v3_sub(target, cam->position), 1.0 - 1e-6, lt->camera_medium, 0))
     return 0;
   double r2 = v3_dot(to_x, to_x), r = sqrt(r2);
   double cos_x = fabs(v3_dot(to_x, s->ng)) / r, cos_c = z / r;

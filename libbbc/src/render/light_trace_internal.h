@@ -27,6 +27,7 @@ typedef struct bbc__photon_source {
 typedef struct bbc__light_tracer {
   const bbc_scene *scene;
   const bbc_accel *accel;
+  int passable; /* bbc__media_passable */
   const bbc__caustics *caustics;
   const bbc_camera *camera;
   uint32_t width, height;

@@ -450,9 +450,21 @@ int bbc__media_refract(const bbc_scene *scene, uint32_t medium, uint32_t t, int 
   return 0;
 }
 
-int bbc__media_clear(const bbc_scene *scene, const bbc_accel *accel, bbc_vec3 origin, bbc_vec3 d,
-                     double tmax, uint32_t medium, int against) {
+int bbc__media_passable(const bbc_scene *scene) {
+  if (scene->media) return 1;
+  for (uint32_t i = 0; i < scene->mesh_count; i++) {
+    const bbc_material *m = &scene->materials[scene->meshes[i].material];
+    if (m->type == BBC_MATERIAL_DIELECTRIC &&
+        (!scene->meshes[i].closed || bbc_material_partial(scene, m)))
+      return 1;
+  }
+  return 0;
+}
+
+int bbc__media_clear(const bbc_scene *scene, const bbc_accel *accel, int passable, bbc_vec3 origin,
+                     bbc_vec3 d, double tmax, uint32_t medium, int against) {
   if (!bbc_accel_occluded(accel, origin, d, 0.0, tmax)) return 1;
+  if (!passable) return 0;
   double from = 0.0;
   for (int k = 0; k < 64; k++) {
     bbc_hit h;

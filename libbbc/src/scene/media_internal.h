@@ -88,9 +88,17 @@ int bbc__media_interface(const bbc_scene *scene, uint32_t medium, uint32_t t, in
  * its first vertex, between specular vertices, a camera ray as the path tracer's), or,
  * with `against`, opposite to d (a shadow ray from a lit point back to the light). The
  * caustic estimator, next-event estimation and light tracing's camera rays all ask this,
- * so that they agree with the tracers. */
-int bbc__media_clear(const bbc_scene *scene, const bbc_accel *accel, bbc_vec3 origin, bbc_vec3 d,
-                     double tmax, uint32_t medium, int against);
+ * so that they agree with the tracers. `passable`: bbc__media_passable(scene), computed
+ * once by the caller; 0 takes every surface as stopping the ray. */
+int bbc__media_clear(const bbc_scene *scene, const bbc_accel *accel, int passable, bbc_vec3 origin,
+                     bbc_vec3 d, double tmax, uint32_t medium, int against);
+
+/* Whether a ray can meet a surface it goes through (bbc__media_clear's `passable`): the
+ * scene has media of its own or a dielectric mesh that is open or has cut-outs. Where
+ * every dielectric mesh is a closed solid, light in air meets each from its front and
+ * light inside from behind, so every surface stops a shadow ray, and one any-hit query
+ * answers it. */
+int bbc__media_passable(const bbc_scene *scene);
 
 /* Snell's law: the refracted unit direction of unit dir at shading normal n (unit, on
  * the incident side), cos_i = -dir . n > 0 and cos_t = sqrt(1 - eta^2 (1 - cos_i^2)). */
