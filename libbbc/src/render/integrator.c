@@ -38,6 +38,9 @@
 #include "vec_internal.h"
 
 #define BBC_PI 3.14159265358979323846
+/* The most surfaces a camera path goes straight through (media_internal.h): they take no
+ * depth, so a bound keeps a ray between coincident surfaces from looping. */
+#define MAX_PASSES 64
 
 typedef struct render_ctx {
   const bbc_scene *scene;
@@ -353,6 +356,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
    * into the mesh met from its front, out to air when met from behind. */
   uint32_t medium = ctx->camera_medium;
   bbc_vec3 from = origin;
+  uint32_t passes = 0; /* surfaces gone straight through */
   for (uint32_t depth = 0; depth < ctx->max_depth; depth++) {
     bbc_hit hit;
     (*rays)++;
@@ -437,7 +441,10 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       bbc__scatter sc;
       int goes_on = bbc__scatter_specular(scene, &s, dir, medium, u, ctx->no_fresnel, &sc);
       if (goes_on == BBC__SCATTER_PASSES) {
+        /* No vertex: the segment goes on and still counts once toward max_depth. */
         origin = v3_offset_origin(s.p, s.ng, dir);
+        if (++passes > MAX_PASSES) break;
+        depth--;
         continue;
       }
       note_specular(&run, &s, sc.letter);

@@ -308,10 +308,9 @@ int bbc__light_trace_photon(const bbc__light_tracer *lt, bbc__caustics_thread *c
       return land(lt, ct, &s, dir, flux, made <= 2 ? chain_of((int)made, letters) : -1, out, rays);
     }
     /* Specular vertices on the casters only (the photons are aimed at them), while a
-     * path through one more would stay within the depth limit. */
-    if (scene->meshes[scene->triangle_mesh[s.triangle]].role != BBC_ROLE_CASTER ||
-        made + 3 > lt->max_depth)
-      return 0;
+     * path through one more would stay within the depth limit (a surface the photon
+     * passes straight through is no vertex and no segment of its own). */
+    if (scene->meshes[scene->triangle_mesh[s.triangle]].role != BBC_ROLE_CASTER) return 0;
     double uf = bbc_rng_next(&rng);
     bbc__scatter sc;
     const int scattered = bbc__scatter_specular(scene, &s, dir, medium, uf, lt->no_fresnel, &sc);
@@ -320,6 +319,7 @@ int bbc__light_trace_photon(const bbc__light_tracer *lt, bbc__caustics_thread *c
       origin = v3_offset_origin(s.p, s.ng, dir);
       continue;
     }
+    if (made + 3 > lt->max_depth) return 0;
     if (made < 2) letters[made] = sc.letter;
     made++;
     for (int c = 0; c < 3; c++) flux[c] *= sc.weight[c];
