@@ -145,6 +145,9 @@ if [ $report = 0 ]; then
 fi
 
 out=$root/bench/results/transport.md
+# Notes written by hand below the marker line of the results file are kept.
+: > "$work/hand-notes"
+[ -f "$out" ] && sed -n '/^<!-- by hand/,$p' "$out" > "$work/hand-notes"
 {
   echo "# Light through more than two specular surfaces (bench/transport.sh)"
   echo
@@ -191,31 +194,12 @@ out=$root/bench/results/transport.md
       awk -v s="$s" -v k="$povray_depth" '{ printf "| %s | POV-Ray, %.3g photons, radius %s, depth %s | - | - | %.1f | %.3g | %.4f |\n", s, $1, $2, k, $3, $4, $5 }' "$work/$s-pov.dat"
   done
   echo
-  echo "Reading (of the run of 2026-12-07; check against the table after a rerun): with light"
-  echo "tracing both caustics match the reference within 0.4 % lit mean, every chain length;"
-  echo "without it the hollow sphere's caustic is black (all of it needs four refractions, and"
-  echo "the 3 % of one- and two-vertex light is a Fresnel reflection off the outside, which"
-  echo "the cache does not hold) and the glass of water's lacks 23 % (the reference's part of"
-  echo "three or more vertices is 14 %; the other 9 %, within the one- and two-vertex part,"
-  echo "are presumably Fresnel reflections off the glass, not checked apart). On the hollow sphere"
-  echo "the long render's relMSE is 14.5x below the seeds' (converging); on the glass of"
-  echo "water only 3.2x: a floor near 2e-4 that one reference seed cannot split into the"
-  echo "reference's own noise (2e8 photons through up to 14 vertices) and a local bias."
-  echo
-  echo "Against POV-Ray, bbc loses here once its precompute is counted. POV-Ray's error stops"
-  echo "falling (3.0e-4 on the hollow sphere, 3.9e-3 on the glass of water, whatever the"
-  echo "photons: the gather radius's blur and the photons past depth 8), and its lit mean is"
-  echo "1.3-2.5 % low; bbc's renders go on converging (relMSE times render CPU-s about 8e-3 and"
-  echo "1e-2, lit mean within 0.4 %). Render alone, bbc reaches POV-Ray's best error in about"
-  echo "26 CPU-s on the hollow sphere (POV-Ray: 57, or 20 for 3.3e-4) and 3 on the glass of"
-  echo "water (POV-Ray: 9.6 for 4.0e-3); but its precompute, 116 and 49 CPU-s, is more than"
-  echo "that, and on the hollow sphere it is all waste: its 631 stored TT tuples (in and out"
-  echo "through the outer surface) end on the floor, but every one of their paths is blocked"
-  echo "by the inner sphere (the bounds do not know occlusion; the render without light"
-  echo "tracing is black), so the image is light tracing's alone, one splat per photon where"
-  echo "POV-Ray estimates a density. (Its 253 T candidates, light inside the glass landing"
-  echo "on the floor, which touches the ball at its pole only, are no longer searched: the"
-  echo "run before, with them, took 103 CPU-s; this machine's noise is larger than their"
-  echo "share.)"
+  if [ -s "$work/hand-notes" ]; then
+    echo
+    cat "$work/hand-notes"
+  else
+    echo
+    echo "<!-- by hand: the notes below this line are kept when bench/transport.sh rewrites this file -->"
+  fi
 } > "$out"
 cat "$out"
