@@ -306,8 +306,7 @@ static void follow(const tracer *tr, bbc_vec3 origin, uint32_t from, bbc_vec3 d,
  * colour. Mirrors reflect on either side, weighted by their base colour. None of this
  * asks the scene's own media (bbc_scene.media, the renderer's per-triangle fronts): the
  * parity gives the media, a triangle's orientation only whether it bounds them here.
- * Absorbing media are not
- * supported (refused in main). */
+ * Absorbing media are not supported (refused in main). */
 static double medium_ior(const bbc_scene *s, uint64_t parity) {
   double n = 1;
   for (uint32_t m = 0; m < s->material_count && m < 64; m++)

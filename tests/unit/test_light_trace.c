@@ -43,17 +43,22 @@ static char *slabs_gltf(int slabs, int point, int veils) {
   memset(mesh, 0, sizeof mesh);
   const double flo[3] = {-0.8, 0, -0.8}, fhi[3] = {0.8, 0, 0.8};
   add_face(&mesh[0], 1, 1, flo, fhi);
-  double lo[4][3] = {{-1, 0.5, -1}, {-1, 0.8, -1}, {-1, 1.2, -1}, {-1, 0.3, -1}},
-         hi[4][3] = {{1, 0.6, 1}, {1, 0.9, 1}, {1, 1.2, 1}, {1, 0.3, 1}};
-  for (int k = 0; k < slabs; k++)
+  const double lo[4][3] = {{-1, 0.5, -1}, {-1, 0.8, -1}, {-1, 1.2, -1}, {-1, 0.3, -1}},
+               hi[4][3] = {{1, 0.6, 1}, {1, 0.9, 1}, {1, 1.2, 1}, {1, 0.3, 1}};
+  const double *box_lo[5] = {flo}, *box_hi[5] = {fhi}; /* each mesh's bounds */
+  for (int k = 0; k < slabs; k++) {
     for (int a = 0; a < 3; a++)
       for (int s = -1; s <= 1; s += 2) add_face(&mesh[1 + k], a, s, lo[k], hi[k]);
+    box_lo[1 + k] = lo[k], box_hi[1 + k] = hi[k];
+  }
   for (int v = 0; v < veils; v++) {
     add_face(&mesh[1 + slabs + v], 1, -1, lo[2 + v], hi[2 + v]);
-    memmove(lo[slabs + v], lo[2 + v], sizeof lo[0]),
-        memmove(hi[slabs + v], hi[2 + v], sizeof hi[0]);
+    box_lo[1 + slabs + v] = lo[2 + v], box_hi[1 + slabs + v] = hi[2 + v];
   }
   const int meshes = 1 + slabs + veils;
+  char casters[32] = ""; /* the scene's nodes after the floor's: ",3,4..." */
+  for (int k = 1; k < meshes; k++)
+    snprintf(casters + strlen(casters), sizeof casters - strlen(casters), ",%d", 2 + k);
   unsigned char buf[5 * sizeof(box_mesh)];
   size_t view[15][2];
   const box_mesh *m[5] = {&mesh[0], &mesh[1], &mesh[2], &mesh[3], &mesh[4]};
@@ -66,16 +71,13 @@ static char *slabs_gltf(int slabs, int point, int veils) {
               "\"KHR_materials_transmission\",\"KHR_materials_ior\"],"
               "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"name\":\"sun\","
               "\"type\":\"%s\",\"color\":[1,1,1],\"intensity\":1}]}},"
-              "\"scene\":0,\"scenes\":[{\"nodes\":[0,1,2%s%s]}],\"nodes\":["
+              "\"scene\":0,\"scenes\":[{\"nodes\":[0,1,2%s]}],\"nodes\":["
               "{\"name\":\"sun\",%s,\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},"
               "{\"name\":\"camera\",\"camera\":0,\"translation\":[0,0.45,0],%s,"
               "\"extras\":{\"bbc\":{\"width\":%d,\"height\":%d}}},"
               "{\"name\":\"floor\",\"mesh\":0,\"extras\":{\"bbc\":{\"role\":\"receiver\"}}}",
-              point ? "point" : "directional", slabs == 2 ? ",3,4" : ",3",
-              veils == 2 ? (slabs == 2 ? ",5,6" : ",4,5")
-              : veils    ? (slabs == 2 ? ",5" : ",4")
-                         : "",
-              point ? "\"translation\":[0,3,0]" : turn, turn, FILM, FILM);
+              point ? "point" : "directional", casters, point ? "\"translation\":[0,3,0]" : turn,
+              turn, FILM, FILM);
   for (int k = 0; k < meshes - 1; k++)
     json_printf(&t,
                 ",{\"name\":\"glass%d\",\"mesh\":%d,\"extras\":{\"bbc\":{\"role\":\"caster\"}}}", k,
@@ -97,7 +99,7 @@ static char *slabs_gltf(int slabs, int point, int veils) {
                 k ? "," : "", 3 * k, 3 * k + 1, 3 * k + 2, k ? 1 : 0);
   json_printf(&t, "],\"accessors\":[");
   for (int k = 0; k < meshes; k++) {
-    const double *l = k ? lo[k - 1] : flo, *h = k ? hi[k - 1] : fhi;
+    const double *l = box_lo[k], *h = box_hi[k];
     int nv = 4 * mesh[k].faces;
     json_printf(&t,
                 "%s{\"bufferView\":%d,\"componentType\":5126,\"count\":%d,\"type\":\"VEC3\","

@@ -38,9 +38,6 @@
 #include "vec_internal.h"
 
 #define BBC_PI 3.14159265358979323846
-/* The most surfaces a camera path goes straight through (media_internal.h): they take no
- * depth, so a bound keeps a ray between coincident surfaces from looping. */
-#define MAX_PASSES 64
 
 typedef struct render_ctx {
   const bbc_scene *scene;
@@ -443,7 +440,7 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
       if (goes_on == BBC__SCATTER_PASSES) {
         /* No vertex: the segment goes on and still counts once toward max_depth. */
         origin = v3_offset_origin(s.p, s.ng, dir);
-        if (++passes > MAX_PASSES) break;
+        if (++passes > BBC__MEDIA_MAX_PASSES) break;
         depth--;
         continue;
       }

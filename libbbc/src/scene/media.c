@@ -466,7 +466,7 @@ int bbc__media_clear(const bbc_scene *scene, const bbc_accel *accel, int passabl
   if (!bbc_accel_occluded(accel, origin, d, 0.0, tmax)) return 1;
   if (!passable) return 0;
   double from = 0.0;
-  for (int k = 0; k < 64; k++) {
+  for (int k = 0; k < BBC__MEDIA_MAX_PASSES; k++) {
     bbc_hit h;
     if (!bbc_accel_intersect(accel, origin, d, from, tmax, &h)) return 1;
     if (bbc_scene_triangle_material(scene, h.triangle)->type != BBC_MATERIAL_DIELECTRIC) return 0;

@@ -90,6 +90,9 @@ int bbc__media_interface(const bbc_scene *scene, uint32_t medium, uint32_t t, in
  * caustic estimator, next-event estimation and light tracing's camera rays all ask this,
  * so that they agree with the tracers. `passable`: bbc__media_passable(scene), computed
  * once by the caller; 0 takes every surface as stopping the ray. */
+/* The most surfaces one ray goes straight through (bbc__media_clear, the path tracer's
+ * camera paths): a bound against coincident surfaces. */
+#define BBC__MEDIA_MAX_PASSES 64
 int bbc__media_clear(const bbc_scene *scene, const bbc_accel *accel, int passable, bbc_vec3 origin,
                      bbc_vec3 d, double tmax, uint32_t medium, int against);
 
