@@ -102,9 +102,15 @@ static const char help[] =
     "  --light-trace-cells B inf (default): cells with a tuple whose bound is infinite;\n"
     "                        a number: a bound at least B (per unit intensity, as\n"
     "                        bbc-inspect shows it); all: every cell; none: no cell\n"
-    "  --photons N           photons per sample (default: the image's pixel count, one\n"
-    "                        per pixel per sample, with --region too; a sixteenth\n"
-    "                        when only chains of 3+ mirrors can be light-traced)\n"
+    "  --photons N           photons per sample from the cones toward the casters\n"
+    "                        (default: the image's pixel count, one per pixel per\n"
+    "                        sample, with --region too; a sixteenth when only chains\n"
+    "                        of 3+ mirrors can be light-traced; after the first\n"
+    "                        sample, fewer when few of its photons reach a pixel)\n"
+    "  --aimed-photons N|off photons per sample aimed at the first specular triangles\n"
+    "                        of the tuples in the light-traced cells (default: as\n"
+    "                        --photons' default, for a cache with such cells); off:\n"
+    "                        none, the cones' photons take those paths too\n"
     "  --only PARTS          render only these parts, comma-separated: caustics (the\n"
     "                        caustic estimator and light tracing), seen-caustics (the\n"
     "                        caustics where the camera sees them directly, no specular\n"
@@ -530,6 +536,11 @@ int main(int argc, char **argv) {
         options.light_trace_bound = cli_parse_double(&a, "--light-trace-cells", value, 0, 1e300);
     } else if (cli_option(&a, "--photons", &value)) {
       options.photons_per_spp = (uint32_t)cli_parse_int(&a, "--photons", value, 1, 1u << 30);
+    } else if (cli_option(&a, "--aimed-photons", &value)) {
+      options.aimed_photons_per_spp =
+          strcmp(value, "off") == 0
+              ? BBC_AIMED_PHOTONS_OFF
+              : (uint32_t)cli_parse_int(&a, "--aimed-photons", value, 1, 1u << 30);
     } else if (cli_option(&a, "--only", &value)) {
       options.components = 0;
       char buffer[256];

@@ -472,6 +472,45 @@ static bbc_vec3 trace_path(const render_ctx *ctx, bbc__caustics_thread *ct, bbc_
 #define PHOTON_BATCH 4096
 #define PHOTON_BATCHES 64
 
+/* Traces photons [at, end) into traced, each batch's splats added in index order, so
+ * that the sum does not depend on the thread count or on how passes were cut; counts
+ * the photons that reached a pixel of the image by kind (from the cones, aimed) and
+ * those added to a rendered one. */
+static void trace_photons(const bbc__light_tracer *tracer, bbc__caustics_thread *thread_state,
+                          int threads, bbc__splat *splats, uint32_t *splat_count, uint64_t at,
+                          uint64_t end, double *traced, uint64_t reached[2], uint64_t *added,
+                          uint64_t *rays) {
+  uint64_t batch_rays = 0;
+  while (at < end) {
+    const uint64_t round_end = at + (uint64_t)PHOTON_BATCHES * PHOTON_BATCH < end
+                                   ? at + (uint64_t)PHOTON_BATCHES * PHOTON_BATCH
+                                   : end;
+    const int batches = (int)((round_end - at + PHOTON_BATCH - 1) / PHOTON_BATCH);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(+ : batch_rays)
+    for (int b = 0; b < batches; b++) {
+      bbc__caustics_thread *ct = &thread_state[omp_get_thread_num()];
+      const uint64_t lo = at + (uint64_t)b * PHOTON_BATCH;
+      const uint64_t hi = lo + PHOTON_BATCH < round_end ? lo + PHOTON_BATCH : round_end;
+      bbc__splat *out = splats + (size_t)b * PHOTON_BATCH;
+      uint32_t count = 0;
+      for (uint64_t i = lo; i < hi; i++)
+        count += (uint32_t)bbc__light_trace_photon(tracer, ct, i, &out[count], &batch_rays);
+      splat_count[b] = count;
+    }
+    for (int b = 0; b < batches; b++) {
+      const bbc__splat *out = splats + (size_t)b * PHOTON_BATCH;
+      for (uint32_t j = 0; j < splat_count[b]; j++) {
+        reached[out[j].aimed]++;
+        if (out[j].pixel == BBC__SPLAT_OUTSIDE) continue;
+        (*added)++;
+        for (int k = 0; k < 3; k++) traced[3 * (size_t)out[j].pixel + k] += out[j].rgb[k];
+      }
+    }
+    at = round_end;
+  }
+  *rays += batch_rays;
+}
+
 bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
                       const bbc_render_options *options, bbc_image *image,
                       bbc_render_stats *stats) {
@@ -587,7 +626,6 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
    * "Without a cache"). */
   const int light_trace = (ctx.caustics || opts.method == BBC_METHOD_PT) && opts.light_trace &&
                           (ctx.components & (BBC_COMPONENT_CAUSTICS | BBC_COMPONENT_SEEN_CAUSTICS));
-  uint64_t photons_per_spp = opts.photons_per_spp;
   bbc_result lt_ok = BBC_OK;
   if (sum && light_trace) {
     const uint32_t region[4] = {x0, y0, x1, y1};
@@ -597,9 +635,16 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     traced = calloc(pixels * 3, sizeof *traced);
     splats = malloc((size_t)PHOTON_BATCHES * PHOTON_BATCH * sizeof *splats);
     splat_count = calloc(PHOTON_BATCHES, sizeof *splat_count);
-    if (!photons_per_spp)
-      photons_per_spp =
-          bbc__light_tracer_default_photons(&tracer, thread_state[0].cursor, pixels);
+    const uint64_t defaults[2] = {
+        bbc__light_tracer_default_photons(&tracer, thread_state[0].cursor, pixels),
+        opts.photons_per_spp ? opts.photons_per_spp : pixels};
+    const uint64_t given[2] = {opts.photons_per_spp,
+                               opts.aimed_photons_per_spp == BBC_AIMED_PHOTONS_OFF
+                                   ? UINT64_MAX
+                                   : opts.aimed_photons_per_spp};
+    if (lt_ok == BBC_OK && ctx.caustics && given[1] != UINT64_MAX)
+      lt_ok = bbc__light_tracer_aim(&tracer, thread_state[0].cursor);
+    bbc__light_tracer_budget(&tracer, defaults, given);
   }
   if (!sum || lt_ok != BBC_OK || (light_trace && (!traced || !splats || !splat_count))) {
     free(sum);
@@ -609,7 +654,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     bbc__light_tracer_free(&tracer);
     for (int i = 0; i < threads; i++) bbc__caustics_thread_free(&thread_state[i]);
     free(thread_state);
-    return BBC_ERR_OUT_OF_MEMORY;
+    return lt_ok != BBC_OK ? lt_ok : BBC_ERR_OUT_OF_MEMORY; /* lt_ok: a damaged cell */
   }
   uint64_t photons = 0, photon_splats = 0;
 
@@ -658,36 +703,25 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
         damaged = 1;
       }
     }
-    /* The photons of samples first .. last - 1 (photons_per_spp each), in batches of
-     * consecutive photon indices; each batch's splats go to the image in index order, so
-     * that the sum does not depend on the thread count or on how passes were cut. */
+    /* The photons of samples first .. last - 1; after sample 0's, the counts of the
+     * others are set from how many of its photons reached a pixel. */
     if (light_trace && !damaged) {
-      const uint64_t end = (uint64_t)last * photons_per_spp;
-      for (uint64_t at = (uint64_t)first * photons_per_spp; at < end;) {
-        const uint64_t round_end = at + (uint64_t)PHOTON_BATCHES * PHOTON_BATCH < end
-                                       ? at + (uint64_t)PHOTON_BATCHES * PHOTON_BATCH
-                                       : end;
-        const int batches = (int)((round_end - at + PHOTON_BATCH - 1) / PHOTON_BATCH);
-#pragma omp parallel for schedule(dynamic, 1) num_threads(threads) reduction(+ : pass_rays)
-        for (int b = 0; b < batches; b++) {
-          bbc__caustics_thread *ct = &thread_state[omp_get_thread_num()];
-          const uint64_t lo = at + (uint64_t)b * PHOTON_BATCH;
-          const uint64_t hi = lo + PHOTON_BATCH < round_end ? lo + PHOTON_BATCH : round_end;
-          bbc__splat *out = splats + (size_t)b * PHOTON_BATCH;
-          uint32_t count = 0;
-          for (uint64_t i = lo; i < hi; i++)
-            count += (uint32_t)bbc__light_trace_photon(&tracer, ct, i, &out[count], &pass_rays);
-          splat_count[b] = count;
-        }
-        for (int b = 0; b < batches; b++) {
-          const bbc__splat *out = splats + (size_t)b * PHOTON_BATCH;
-          for (uint32_t j = 0; j < splat_count[b]; j++)
-            for (int k = 0; k < 3; k++) traced[3 * (size_t)out[j].pixel + k] += out[j].rgb[k];
-          photon_splats += splat_count[b];
-        }
-        photons += round_end - at;
-        at = round_end;
+      uint64_t reached[2] = {0, 0}, added = 0;
+      uint32_t from = first;
+      if (first == 0) {
+        trace_photons(&tracer, thread_state, threads, splats, splat_count, 0,
+                      bbc__light_tracer_first_photon(&tracer, 1), traced, reached, &added,
+                      &pass_rays);
+        bbc__light_tracer_adapt(&tracer, reached);
+        from = 1;
       }
+      if (from < last)
+        trace_photons(&tracer, thread_state, threads, splats, splat_count,
+                      bbc__light_tracer_first_photon(&tracer, from),
+                      bbc__light_tracer_first_photon(&tracer, last), traced, reached, &added,
+                      &pass_rays);
+      photons = bbc__light_tracer_first_photon(&tracer, last);
+      photon_splats += added;
       for (int i = 0; i < threads; i++)
         if (thread_state[i].damage != BBC_OK) damaged = 1;
     }
@@ -719,10 +753,9 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
 
   /* Nothing of a damaged cache reaches the image. */
   double scale = done && !damaged ? 1.0 / done : 0.0;
-  /* Each photon estimates the pixels' mean radiance; photons_per_spp x done of them. */
-  double traced_scale = photons_per_spp ? scale / (double)photons_per_spp : 0.0;
+  /* Each sample's splats estimate the pixels' mean radiance, as its camera paths do. */
   for (size_t i = 0; i < pixels * 3; i++)
-    image->rgb[i] = (float)(sum[i] * scale + (traced ? traced[i] * traced_scale : 0.0));
+    image->rgb[i] = (float)((sum[i] + (traced ? traced[i] : 0.0)) * scale);
   free(sum);
   free(traced);
   free(splats);

@@ -171,9 +171,145 @@ uint64_t bbc__light_tracer_default_photons(const bbc__light_tracer *lt, bbc_cach
   return pixels / 16 ? pixels / 16 : 1;
 }
 
+static void corners(const bbc_scene *scene, uint32_t t, bbc_vec3 p[3]) {
+  const uint32_t *idx = scene->indices + 3 * (size_t)t;
+  for (int k = 0; k < 3; k++) p[k] = v3_load(scene->positions + 3 * (size_t)idx[k]);
+}
+
+static int is_aimed(const bbc__light_tracer *lt, uint32_t source, uint32_t triangle) {
+  const uint64_t bit = (uint64_t)source * lt->scene->triangle_count + triangle;
+  return (lt->aimed[bit >> 6] >> (bit & 63)) & 1;
+}
+
+bbc_result bbc__light_tracer_aim(bbc__light_tracer *lt, bbc_cache_cursor *cursor) {
+  const bbc_scene *scene = lt->scene;
+  const bbc__caustics *c = lt->caustics;
+  lt->aim_count = 0;
+  if (!c || !c->light_trace || isnan(c->light_trace_bound) || lt->source_count == 0) return BBC_OK;
+  const uint64_t bits = (uint64_t)lt->source_count * scene->triangle_count;
+  if (bits > (uint64_t)64 << 23) return BBC_OK;
+  uint32_t *source_of = malloc(scene->point_light_count * sizeof *source_of);
+  lt->aimed = calloc((size_t)(bits + 63) / 64, sizeof *lt->aimed);
+  if (!source_of || !lt->aimed) {
+    free(source_of);
+    return BBC_ERR_OUT_OF_MEMORY;
+  }
+  for (uint32_t l = 0; l < scene->point_light_count; l++) source_of[l] = UINT32_MAX;
+  for (uint32_t k = 0; k < lt->source_count; k++) source_of[lt->sources[k].light] = k;
+  /* Mark the first triangles of the tuples of light-traced chain types in light-traced
+   * cells (a cell's chain types as bbc__light_traced_chains's, over all its triangles). */
+  bbc_cache_info info;
+  bbc_cache_get_info(c->cache, &info);
+  uint64_t marked = 0;
+  bbc_result r = BBC_OK;
+  for (uint64_t cell = 0; cell < info.cell_count && r == BBC_OK; cell++) {
+    const bbc_cache_entry *e = NULL;
+    uint32_t n = 0;
+    if ((r = bbc_cache_cell(cursor, cell, &e, &n)) != BBC_OK) break;
+    uint32_t mask = 0;
+    for (uint32_t i = 0; i < n; i++)
+      if (source_of[c->tuples[e[i].tuple].light] != UINT32_MAX &&
+          !(e[i].bound < c->light_trace_bound))
+        mask |= 1u << c->tuples[e[i].tuple].chain;
+    for (uint32_t i = 0; mask && i < n; i++) {
+      const bbc_tuple *t = &c->tuples[e[i].tuple];
+      const uint32_t s = source_of[t->light];
+      if (s == UINT32_MAX || !(mask & (1u << t->chain))) continue;
+      const uint64_t bit = (uint64_t)s * scene->triangle_count + t->specular[0];
+      if ((lt->aimed[bit >> 6] >> (bit & 63)) & 1) continue;
+      lt->aimed[bit >> 6] |= 1ull << (bit & 63);
+      marked++;
+    }
+  }
+  free(source_of);
+  if (r == BBC_OK && marked) {
+    lt->aims = malloc(marked * sizeof *lt->aims);
+    if (!lt->aims) r = BBC_ERR_OUT_OF_MEMORY;
+  }
+  if (r != BBC_OK || !marked) {
+    free(lt->aimed);
+    lt->aimed = NULL;
+    return r;
+  }
+  /* In mark order (source, then triangle), each weighted by the flux its light sends the
+   * triangle, as at its centroid (brightest channel; the cosine kept off 0, so that every
+   * pair can be picked). */
+  double total = 0;
+  for (uint32_t s = 0; s < lt->source_count; s++) {
+    const bbc__photon_source *src = &lt->sources[s];
+    const bbc_point_light *light = &scene->point_lights[src->light];
+    const double i = fmax(light->intensity[0], fmax(light->intensity[1], light->intensity[2]));
+    for (uint32_t t = 0; t < scene->triangle_count; t++) {
+      if (!is_aimed(lt, s, t)) continue;
+      bbc_vec3 p[3];
+      corners(scene, t, p);
+      const bbc_vec3 n = v3_cross(v3_sub(p[1], p[0]), v3_sub(p[2], p[0]));
+      const double area = 0.5 * v3_length(n);
+      const uint64_t bit = (uint64_t)s * scene->triangle_count + t;
+      if (!(area > 0)) { /* never hit: the other photons may keep it */
+        lt->aimed[bit >> 6] &= ~(1ull << (bit & 63));
+        continue;
+      }
+      const bbc_vec3 centroid = v3_scale(v3_add(p[0], v3_add(p[1], p[2])), 1.0 / 3);
+      const bbc_vec3 d = src->sun ? src->axis : v3_sub(centroid, src->origin);
+      const double r2 = src->sun ? 1 : fmax(v3_dot(d, d), area);
+      const double cosine = fabs(v3_dot(d, n)) / (2 * area * sqrt(v3_dot(d, d)));
+      const double w = i * area * (cosine + 0.1) / r2;
+      if (!(w > 0) || !isfinite(w)) {
+        lt->aimed[bit >> 6] &= ~(1ull << (bit & 63));
+        continue;
+      }
+      bbc__aim *a = &lt->aims[lt->aim_count++];
+      a->source = s;
+      a->triangle = t;
+      a->probability = w;
+      total += w;
+    }
+  }
+  double run = 0;
+  for (uint32_t k = 0; k < lt->aim_count; k++) {
+    lt->aims[k].probability /= total;
+    run += lt->aims[k].probability;
+    lt->aims[k].cdf = run;
+  }
+  if (lt->aim_count) lt->aims[lt->aim_count - 1].cdf = 1;
+  return BBC_OK;
+}
+
+void bbc__light_tracer_budget(bbc__light_tracer *lt, const uint64_t defaults[2],
+                              const uint64_t given[2]) {
+  for (int i = 0; i < 2; i++) {
+    lt->fixed[i] = given[i] != 0;
+    const uint64_t n = given[i] ? given[i] : defaults[i];
+    lt->pilot[i] = lt->rest[i] = n ? n : 1;
+  }
+  lt->aiming = lt->aim_count > 0 && given[1] != UINT64_MAX;
+  if (!lt->aiming) lt->pilot[1] = lt->rest[1] = 0;
+}
+
+/* A kind of photon is worth tracing in proportion to the share of its photons that
+ * reach a pixel (docs/light-tracing.md, "How many photons"): at a share of 1/32 or
+ * more, the pilot's count; below, fewer in proportion, down to a 64th. */
+void bbc__light_tracer_adapt(bbc__light_tracer *lt, const uint64_t splats[2]) {
+  for (int i = 0; i < 2; i++) {
+    if (lt->fixed[i] || lt->pilot[i] == 0) continue;
+    const double share = (double)splats[i] / lt->pilot[i];
+    const double factor = fmax(1.0 / 64, fmin(1.0, 32 * share));
+    const uint64_t n = (uint64_t)ceil(factor * lt->pilot[i]);
+    lt->rest[i] = n ? n : 1;
+  }
+}
+
+uint64_t bbc__light_tracer_first_photon(const bbc__light_tracer *lt, uint64_t k) {
+  if (k == 0) return 0;
+  return lt->pilot[0] + lt->pilot[1] + (k - 1) * (lt->rest[0] + lt->rest[1]);
+}
+
 void bbc__light_tracer_free(bbc__light_tracer *lt) {
   if (!lt) return;
   free(lt->sources);
+  free(lt->aims);
+  free(lt->aimed);
   memset(lt, 0, sizeof *lt);
 }
 
@@ -187,7 +323,8 @@ static int chain_of(int k, const int letters[2]) {
 /* The photon with `flux` lands at diffuse point s arriving along unit d, after k specular
  * vertices of chain type `chain` (-1: none cached); returns 1 and the splat if it counts. */
 static int land(const bbc__light_tracer *lt, bbc__caustics_thread *ct, const bbc__surface *s,
-                bbc_vec3 d, const double flux[3], int chain, bbc__splat *out, uint64_t *rays) {
+                bbc_vec3 d, const double flux[3], int chain, int pilot, bbc__splat *out,
+                uint64_t *rays) {
   const bbc_scene *scene = lt->scene;
   const bbc_camera *cam = lt->camera;
   bbc_vec3 to_x = v3_sub(s->p, cam->position);
@@ -199,8 +336,10 @@ static int land(const bbc__light_tracer *lt, bbc__caustics_thread *ct, const bbc
   double sx = v3_dot(to_x, cam->u) / z, sy = v3_dot(to_x, cam->v) / z;
   double px = (sx / (lt->tan_half * lt->aspect) + 1) * 0.5 * lt->width;
   double py = (1 - sy / lt->tan_half) * 0.5 * lt->height;
-  if (!(px >= lt->region[0] && px < lt->region[2] && py >= lt->region[1] && py < lt->region[3]))
-    return 0;
+  if (!(px >= 0 && px < lt->width && py >= 0 && py < lt->height)) return 0;
+  const int inside =
+      px >= lt->region[0] && px < lt->region[2] && py >= lt->region[1] && py < lt->region[3];
+  if (!inside && !pilot) return 0;
   /* The partition with the caustic estimator. */
   const bbc_mesh *mesh = &scene->meshes[scene->triangle_mesh[s->triangle]];
   const bbc__caustics *c = lt->caustics;
@@ -244,7 +383,7 @@ static int land(const bbc__light_tracer *lt, bbc__caustics_thread *ct, const bbc
   bbc__media_transmittance(scene, lt->camera_medium, r, tau);
   uint32_t x = (uint32_t)px, y = (uint32_t)py;
   if (x >= lt->width || y >= lt->height) return 0;
-  out->pixel = y * lt->width + x;
+  out->pixel = inside ? y * lt->width + x : BBC__SPLAT_OUTSIDE;
   for (int k = 0; k < 3; k++) out->rgb[k] = flux[k] * f[k] * jacobian * tau[k];
   return isfinite(out->rgb[0]) && isfinite(out->rgb[1]) && isfinite(out->rgb[2]);
 }
@@ -254,20 +393,66 @@ int bbc__light_trace_photon(const bbc__light_tracer *lt, bbc__caustics_thread *c
   if (lt->source_count == 0 || lt->max_depth < 3) return 0;
   const bbc_scene *scene = lt->scene;
   bbc_rng rng = {bbc__mix64(lt->key ^ bbc__mix64(index + 0x2545F4914F6CDD1Dull)), 0};
-  /* The light, by its share of the flux. */
+  /* Which kind of photon, and how many of its kind its sample has. */
+  const uint64_t first_rest = lt->pilot[0] + lt->pilot[1];
+  const uint64_t *count = index < first_rest ? lt->pilot : lt->rest;
+  const uint64_t j = index < first_rest ? index : (index - first_rest) % (count[0] + count[1]);
+  const bbc__aim *aim = NULL;
+  if (j >= count[0]) {
+    /* An aimed photon: a pair by its probability (bisection on the running sums). */
+    double u = bbc_rng_next(&rng);
+    uint32_t lo = 0, hi = lt->aim_count - 1;
+    while (lo < hi) {
+      uint32_t mid = lo + (hi - lo) / 2;
+      if (u < lt->aims[mid].cdf)
+        hi = mid;
+      else
+        lo = mid + 1;
+    }
+    aim = &lt->aims[lo];
+  }
+  /* The light, by its share of the flux (an aimed photon's is its pair's). */
   double u = bbc_rng_next(&rng);
   uint32_t k = 0;
-  while (k + 1 < lt->source_count && u >= lt->sources[k].probability) {
-    u -= lt->sources[k].probability;
-    k++;
+  if (aim) {
+    k = aim->source;
+  } else {
+    while (k + 1 < lt->source_count && u >= lt->sources[k].probability) {
+      u -= lt->sources[k].probability;
+      k++;
+    }
   }
   const bbc__photon_source *src = &lt->sources[k];
   const bbc_point_light *light = &scene->point_lights[src->light];
   double r1 = bbc_rng_next(&rng), r2 = bbc_rng_next(&rng);
   bbc_vec3 origin, dir;
   double flux[3];
-  double carried; /* intensity to flux: Omega falloff (A for a sun) over the pick's odds */
-  if (src->sun) {
+  double carried; /* intensity to flux over the photon's odds */
+  if (aim) {
+    /* A point y uniform on the triangle, density probability / area: the light's
+     * intensity times the solid angle of dA(y), cos_y / r^2 (a sun's irradiance times
+     * cos_y), over that density. */
+    bbc_vec3 p[3];
+    corners(scene, aim->triangle, p);
+    const double s1 = sqrt(r1);
+    const bbc_vec3 y = v3_add(v3_scale(p[0], 1 - s1),
+                              v3_add(v3_scale(p[1], s1 * (1 - r2)), v3_scale(p[2], s1 * r2)));
+    const bbc_vec3 n = v3_cross(v3_sub(p[1], p[0]), v3_sub(p[2], p[0])); /* 2 area */
+    if (src->sun) {
+      dir = src->axis;
+      origin = v3_madd(y, dir, -v3_dot(v3_sub(y, src->origin), dir));
+      carried = fabs(v3_dot(dir, n)) * 0.5 / aim->probability;
+    } else {
+      const bbc_vec3 d = v3_sub(y, src->origin);
+      const double dist2 = v3_dot(d, d);
+      dir = v3_scale(d, 1 / sqrt(dist2));
+      const double falloff = bbc_light_falloff(&light->model, dir);
+      if (!(falloff > 0)) return 0;
+      origin = src->origin;
+      carried = falloff * fabs(v3_dot(dir, n)) * 0.5 / (dist2 * aim->probability);
+    }
+    if (!(carried > 0) || !isfinite(carried)) return 0;
+  } else if (src->sun) {
     double rad = src->cos_max * sqrt(r1), phi = 2 * BBC_PI * r2;
     origin = v3_add(src->origin,
                     v3_add(v3_scale(src->b1, rad * cos(phi)), v3_scale(src->b2, rad * sin(phi))));
@@ -283,15 +468,25 @@ int bbc__light_trace_photon(const bbc__light_tracer *lt, bbc__caustics_thread *c
     origin = src->origin;
     carried = falloff * src->omega / src->probability;
   }
+  carried /= (double)count[aim != NULL];
   for (int c = 0; c < 3; c++) flux[c] = light->intensity[c] * carried;
   uint32_t medium = src->sun ? 0 : light->medium;
   bbc_vec3 from = origin;
   int letters[2] = {-1, -1};
   uint32_t made = 0; /* specular vertices so far */
+  int origin_is_light = 1;
   for (;;) {
     bbc_hit hit;
     (*rays)++;
     if (!bbc_accel_intersect(lt->accel, origin, dir, 0.0, DBL_MAX, &hit)) return 0;
+    /* The partition between aimed photons and the others, by the first surface met:
+     * an aimed photon counts only paths that start on its triangle, the others only
+     * those that start on no marked one. */
+    if (origin_is_light) {
+      origin_is_light = 0;
+      if (aim ? hit.triangle != aim->triangle : lt->aiming && is_aimed(lt, k, hit.triangle))
+        return 0;
+    }
     bbc__surface s = bbc__surface_at(scene, &hit);
     if (medium) {
       double t[3];
@@ -305,7 +500,9 @@ int bbc__light_trace_photon(const bbc__light_tracer *lt, bbc__caustics_thread *c
        * segments (to x and on to the camera); the depth limit was checked at the last
        * specular vertex. */
       if (made == 0) return 0;
-      return land(lt, ct, &s, dir, flux, made <= 2 ? chain_of((int)made, letters) : -1, out, rays);
+      out->aimed = aim != NULL;
+      return land(lt, ct, &s, dir, flux, made <= 2 ? chain_of((int)made, letters) : -1,
+                  index < first_rest, out, rays);
     }
     /* Specular vertices on the casters only (the photons are aimed at them), while a
      * path through one more would stay within the depth limit (a surface the photon

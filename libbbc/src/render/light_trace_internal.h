@@ -24,6 +24,15 @@ typedef struct bbc__photon_source {
   double cos_max, omega;
 } bbc__photon_source;
 
+/* A caster triangle that aimed photons start on (docs/light-tracing.md, "Aimed
+ * photons"): a pair of a source and a triangle, picked with `probability`. */
+typedef struct bbc__aim {
+  uint32_t source;   /* index into sources */
+  uint32_t triangle; /* a scene triangle of a caster */
+  double cdf;        /* the running sum of the probabilities, inclusive */
+  double probability;
+} bbc__aim;
+
 typedef struct bbc__light_tracer {
   const bbc_scene *scene;
   const bbc_accel *accel;
@@ -40,11 +49,25 @@ typedef struct bbc__light_tracer {
   uint64_t key; /* from the seed: the photons' random streams */
   uint32_t source_count;
   bbc__photon_source *sources;
+  /* Aimed photons: the pairs they start from, and a bit per (source, triangle) marking
+   * them, which the other photons leave alone (when aiming). */
+  uint32_t aim_count;
+  bbc__aim *aims;
+  uint64_t *aimed;
+  int aiming;
+  /* Photons per sample from the cones ([0]) and aimed ([1]): pilot[] for sample 0,
+   * rest[] for the others (bbc__light_tracer_adapt); fixed[] keeps a count as given. */
+  uint64_t pilot[2], rest[2];
+  int fixed[2];
 } bbc__light_tracer;
 
-/* A photon's contribution to one pixel. */
+/* A photon's contribution to one pixel. Photons of sample 0 that land on a pixel
+ * outside the region rendered are returned too, with no contribution, so that the
+ * counts of the other samples do not depend on the region (bbc__light_tracer_adapt). */
+#define BBC__SPLAT_OUTSIDE UINT32_MAX
 typedef struct bbc__splat {
-  uint32_t pixel; /* y * width + x */
+  uint32_t pixel; /* y * width + x; BBC__SPLAT_OUTSIDE: outside the region rendered */
+  int aimed;      /* from an aimed photon */
   double rgb[3];
 } bbc__splat;
 
@@ -66,11 +89,34 @@ void bbc__light_tracer_free(bbc__light_tracer *lt);
 uint64_t bbc__light_tracer_default_photons(const bbc__light_tracer *lt, bbc_cache_cursor *cursor,
                                            uint64_t pixels);
 
-/* Traces photon `index` (its random numbers a function of the seed and index alone).
- * Returns 1 and its contribution to one pixel's radiance in *out, the estimate of the
- * pixel's mean radiance from one photon (to be divided by the number of photons), when it
- * lands on a point the camera sees directly after one or more specular vertices and the
- * partition gives the path to light tracing; else 0. ct supplies the cache cursor. */
+/* Picks the pairs (source, caster triangle) aimed photons start from: the first specular
+ * triangle of every tuple of a light-traced chain type in each cell light tracing takes
+ * (read with cursor, every cell once), each picked in proportion to the flux its light
+ * sends it. Sets aim_count to 0 when there are none, or when their marks would take more
+ * than 64 MB. */
+bbc_result bbc__light_tracer_aim(bbc__light_tracer *lt, bbc_cache_cursor *cursor);
+
+/* Sets the photons per sample, from the cones ([0]) and aimed ([1]): given[i], or
+ * when it is 0 defaults[i], adapted after the first sample (at least 1 of each; no
+ * aimed ones when given[1] is UINT64_MAX or there is no pair to aim at). */
+void bbc__light_tracer_budget(bbc__light_tracer *lt, const uint64_t defaults[2],
+                              const uint64_t given[2]);
+
+/* After sample 0: sets the default counts of the other samples from the splats of
+ * sample 0's photons of each kind (docs/light-tracing.md, "How many photons"). */
+void bbc__light_tracer_adapt(bbc__light_tracer *lt, const uint64_t splats[2]);
+
+/* The index of the first photon of sample k (photons of sample k are those from
+ * bbc__light_tracer_first_photon(lt, k) to that of k + 1). */
+uint64_t bbc__light_tracer_first_photon(const bbc__light_tracer *lt, uint64_t k);
+
+/* Traces photon `index` (its random numbers a function of the seed and index alone):
+ * within its sample, the photons from the cones come first, then the aimed ones.
+ * Returns 1 and its contribution to one pixel's radiance in *out, divided by the
+ * number of photons of its kind in its sample (so that the splats of one sample sum to
+ * its estimate of the pixels' mean radiance), when it lands on a point the camera sees
+ * directly after one or more specular vertices and the partitions give the path to this
+ * photon; else 0. ct supplies the cache cursor. */
 int bbc__light_trace_photon(const bbc__light_tracer *lt, bbc__caustics_thread *ct, uint64_t index,
                             bbc__splat *out, uint64_t *rays);
 
