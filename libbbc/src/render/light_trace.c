@@ -340,12 +340,19 @@ static int land(const bbc__light_tracer *lt, bbc__caustics_thread *ct, const bbc
   const int inside =
       px >= lt->region[0] && px < lt->region[2] && py >= lt->region[1] && py < lt->region[3];
   if (!inside && !pilot) return 0;
+  if (lt->chains && !(chain >= 0 && (lt->chains & (1u << chain)))) return 0;
+  /* Seen directly: nothing between the camera and x (before the cache's lookup, which
+   * costs more than this ray). */
+  (*rays)++;
+  bbc_vec3 target = v3_offset_origin(s->p, s->ng, v3_neg(to_x));
+  if (!bbc__media_clear(scene, lt->accel, lt->passable, cam->position,
+                        v3_sub(target, cam->position), 1.0 - 1e-6, lt->camera_medium, 0))
+    return 0;
   /* The partition with the caustic estimator. */
   const bbc_mesh *mesh = &scene->meshes[scene->triangle_mesh[s->triangle]];
   const bbc__caustics *c = lt->caustics;
   const int cached =
       chain >= 0 && c && (c->cache_chains & (1u << chain)) && mesh->role == BBC_ROLE_RECEIVER;
-  if (lt->chains && !(chain >= 0 && (lt->chains & (1u << chain)))) return 0;
   if (cached) {
     if (ct->damage != BBC_OK) return 0;
     const bbc_cache_entry *entries = NULL;
@@ -358,12 +365,6 @@ static int land(const bbc__light_tracer *lt, bbc__caustics_thread *ct, const bbc
     }
     if (!(bbc__light_traced_chains(c, entries, n, s->triangle) & (1u << chain))) return 0;
   }
-  /* Seen directly: nothing between the camera and x. */
-  (*rays)++;
-  bbc_vec3 target = v3_offset_origin(s->p, s->ng, v3_neg(to_x));
-  if (!bbc__media_clear(scene, lt->accel, lt->passable, cam->position,
-                        v3_sub(target, cam->position), 1.0 - 1e-6, lt->camera_medium, 0))
-    return 0;
   double r2 = v3_dot(to_x, to_x), r = sqrt(r2);
   double cos_x = fabs(v3_dot(to_x, s->ng)) / r, cos_c = z / r;
   double pixels_per_film = lt->height / (2 * lt->tan_half);
