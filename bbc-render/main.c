@@ -76,7 +76,7 @@ static const char help[] =
     "                        as bbc, uniformly; one-sample: one tuple proportional to\n"
     "                        its bound (Eq. 23); pt: path tracing only (default without\n"
     "                        --cache; misses point-light caustics)\n"
-    "  --gamma G             P = min(G * bound, 1) per tuple (default 100)\n"
+    "  --gamma G             P = min(G * bound, 1) per tuple (default 300)\n"
     "  --expected-tuples W   instead, choose gamma per cell so that W tuples with a\n"
     "                        finite bound are expected (tuples whose bound is\n"
     "                        infinite are always taken)\n"

@@ -599,7 +599,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
     }
     if (!(reference > 0)) reference = 1;
     double value =
-        opts.gamma_value > 0 ? opts.gamma_value : (opts.gamma_mode == BBC_GAMMA_FIXED ? 100 : 4);
+        opts.gamma_value > 0 ? opts.gamma_value : (opts.gamma_mode == BBC_GAMMA_FIXED ? 300 : 4);
     if (opts.gamma_mode == BBC_GAMMA_FIXED) value /= reference;
     if (opts.gamma_mode == BBC_GAMMA_VARIANCE) value *= reference * reference;
     caustics.sampling.value = value;
