@@ -24,7 +24,7 @@ typedef enum bbc_method {
 /* How gamma of BBC_METHOD_BBC is chosen (Supp. 2.3); UNIFORM uses the expected count
  * the same choice gives. */
 typedef enum bbc_gamma_mode {
-  BBC_GAMMA_FIXED = 0,    /* gamma = gamma_value (default 300 when 0) */
+  BBC_GAMMA_FIXED = 0,    /* gamma = gamma_value (when 0: 300, 100 for two-vertex tuples) */
   BBC_GAMMA_EXPECTED = 1, /* per cell, gamma such that gamma_value (default 4) of the
                              tuples with a finite bound are expected; tuples with an
                              infinite bound are always taken on top */

@@ -508,8 +508,12 @@ bbc_vec3 bbc__caustics_estimate(const bbc__caustics *c, bbc__caustics_thread *t,
     if ((tuple->receiver == triangle || tuple->receiver == plane || tuple->receiver == beam) &&
         (c->chains & (1u << tuple->chain)) &&
         bbc_chain_length((bbc_chain)tuple->chain) <= max_vertices &&
-        !((traced & (1u << tuple->chain)) && bbc__light_traced_light(c->scene, tuple->light)))
-      t->candidates[m++] = entries[i];
+        !((traced & (1u << tuple->chain)) && bbc__light_traced_light(c->scene, tuple->light))) {
+      t->candidates[m] = entries[i];
+      if (tuple->specular[1] != BBC_NO_TRIANGLE && c->double_weight > 0)
+        t->candidates[m].bound *= c->double_weight;
+      m++;
+    }
   }
   t->candidate_count += m;
   /* Each chosen tuple is solved as it is drawn: no list, no limit on |S|. The clock is

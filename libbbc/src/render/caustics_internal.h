@@ -27,6 +27,9 @@ typedef struct bbc__caustics {
   const bbc_cache *cache;
   const bbc_tuple *tuples;
   bbc__sampling sampling;
+  /* Two-vertex tuples are drawn as if their bounds were this many times theirs (0: as
+   * they are; 1/3 for the default gamma, docs/render.md): their solves cost more. */
+  double double_weight;
   uint32_t chains; /* BBC_CHAIN_BIT mask */
   int no_fresnel;
   bbc_solver_method solver;   /* double scattering: deterministic or stochastic Newton */

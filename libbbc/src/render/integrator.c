@@ -598,8 +598,12 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
       for (int k = 0; k < 3; k++) reference = fmax(reference, le[k] * area);
     }
     if (!(reference > 0)) reference = 1;
+    /* The default gamma: 300 for tuples of one specular vertex, 100 for two, whose
+     * Newton solves cost several times a polynomial's (docs/render.md). */
+    const int default_gamma = opts.gamma_mode == BBC_GAMMA_FIXED && !(opts.gamma_value > 0);
     double value =
         opts.gamma_value > 0 ? opts.gamma_value : (opts.gamma_mode == BBC_GAMMA_FIXED ? 300 : 4);
+    caustics.double_weight = default_gamma ? 1.0 / 3 : 0;
     if (opts.gamma_mode == BBC_GAMMA_FIXED) value /= reference;
     if (opts.gamma_mode == BBC_GAMMA_VARIANCE) value *= reference * reference;
     caustics.sampling.value = value;
