@@ -449,6 +449,15 @@ static double point_slab_exact(const bbc_camera *camera, double pixels[FILM * FI
   return sum / (FILM * FILM);
 }
 
+/* The point light over the slab (TT), its exact image and mean, and a bound that splits
+ * its cells between the estimator and light tracing. */
+static int setup_split(fixture *f, double pixels[FILM * FILM], double *exact, double *split) {
+  if (!setup(f, 1, 1)) return 0;
+  *exact = point_slab_exact(&f->scene->camera, pixels);
+  *split = split_cell_bound(f);
+  return *split > 0 && isfinite(*split);
+}
+
 /* A point light over the slab, TT only, against the exact image. The cells split at the
  * median bound (the bounds fall with the distance from the light): some pixels from the
  * estimator, some from light tracing, the mean exact. The control, both strategies on
@@ -456,12 +465,9 @@ static double point_slab_exact(const bbc_camera *camera, double pixels[FILM * FI
  * and fails the same check. */
 TEST(partition_counts_each_path_once) {
   fixture f;
-  REQUIRE(setup(&f, 1, 1));
+  double pixels[FILM * FILM], exact, split;
+  REQUIRE(setup_split(&f, pixels, &exact, &split));
   const uint32_t tt = BBC_CHAIN_BIT(BBC_CHAIN_TT);
-  double pixels[FILM * FILM];
-  const double exact = point_slab_exact(&f.scene->camera, pixels);
-  const double split = split_cell_bound(&f);
-  REQUIRE(split > 0 && isfinite(split));
   bbc_image *estimator = fixture_render(&f, caustic_options(0, 0, tt, 1u << 18), FILM, FILM, NULL);
   bbc_image *traced = fixture_render(&f, caustic_options(1, -1, tt, 1u << 18), FILM, FILM, NULL);
   bbc_image *both = fixture_render(&f, caustic_options(1, split, tt, 1u << 18), FILM, FILM, NULL);
@@ -501,12 +507,9 @@ TEST(partition_counts_each_path_once) {
  * half of the image would read double (checked by letting them: 1.6x the exact mean). */
 TEST(aimed_photons_count_each_path_once) {
   fixture f;
-  REQUIRE(setup(&f, 1, 1));
+  double pixels[FILM * FILM], exact, split;
+  REQUIRE(setup_split(&f, pixels, &exact, &split));
   const uint32_t tt = BBC_CHAIN_BIT(BBC_CHAIN_TT);
-  double pixels[FILM * FILM];
-  const double exact = point_slab_exact(&f.scene->camera, pixels);
-  const double split = split_cell_bound(&f);
-  REQUIRE(split > 0 && isfinite(split));
   bbc_render_options o = caustic_options(1, split, tt, 1u << 16);
   o.aimed_photons_per_spp = 1u << 16;
   bbc_render_stats st;
