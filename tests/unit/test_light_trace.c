@@ -530,9 +530,9 @@ TEST(aimed_photons_count_each_path_once) {
   teardown(&f);
 }
 
-/* The photon counts after sample 0: a default count scaled by 32 times the share of its
- * photons that reached a pixel, within [1/64, 1]; a count given kept; the photon indices
- * of each sample in a row. */
+/* The photon counts after sample 0: the aimed photons' default scaled by 32 times the
+ * share of them that reached a pixel, within [1/8, 1]; the cones' and a count given
+ * kept; the photon indices of each sample in a row. */
 TEST(photon_counts_follow_the_pilots_share) {
   bbc__light_tracer lt;
   memset(&lt, 0, sizeof lt);
@@ -540,17 +540,17 @@ TEST(photon_counts_follow_the_pilots_share) {
   const uint64_t defaults[2] = {6400, 6400}, given[2] = {0, 0};
   bbc__light_tracer_budget(&lt, defaults, given);
   CHECK(lt.aiming && lt.pilot[0] == 6400 && lt.pilot[1] == 6400);
-  const uint64_t reached[2] = {400, 20}; /* shares 1/16 and 1/320 */
-  bbc__light_tracer_adapt(&lt, reached);
-  CHECK(lt.rest[0] == 6400 && lt.rest[1] == 640);
-  const uint64_t none[2] = {0, 0};
-  bbc__light_tracer_adapt(&lt, none);
-  CHECK(lt.rest[0] == 100 && lt.rest[1] == 100);
+  bbc__light_tracer_adapt(&lt, 400); /* a share of 1/16 */
+  CHECK(lt.rest[0] == 6400 && lt.rest[1] == 6400);
+  bbc__light_tracer_adapt(&lt, 40); /* 1/160 */
+  CHECK(lt.rest[0] == 6400 && lt.rest[1] == 1280);
+  bbc__light_tracer_adapt(&lt, 0);
+  CHECK(lt.rest[0] == 6400 && lt.rest[1] == 800);
   CHECK(bbc__light_tracer_first_photon(&lt, 0) == 0);
   CHECK(bbc__light_tracer_first_photon(&lt, 1) == 12800);
-  CHECK(bbc__light_tracer_first_photon(&lt, 3) == 12800 + 2 * 200);
+  CHECK(bbc__light_tracer_first_photon(&lt, 3) == 12800 + 2 * 7200);
   const uint64_t fixed[2] = {1000, UINT64_MAX}; /* --photons 1000 --aimed-photons off */
   bbc__light_tracer_budget(&lt, defaults, fixed);
-  bbc__light_tracer_adapt(&lt, none);
+  bbc__light_tracer_adapt(&lt, 0);
   CHECK(!lt.aiming && lt.rest[0] == 1000 && lt.rest[1] == 0);
 }

@@ -133,12 +133,11 @@ typedef struct bbc_render_options {
                                sixteenth of it
                                when there is a cache, no caster is a dielectric and
                                no cell is light-traced (only chains of 3+ mirrors
-                               remain); after the first sample, the default falls
-                               with the share of its photons that reach a pixel, to a
-                               sixteenth at least (docs/light-tracing.md) */
+                               remain) */
   /* Aimed photons per sample: photons that start on the first specular triangles of
-   * the tuples in the light-traced cells; 0 = the image's pixel count, adapted after the
-   * first sample as photons_per_spp's default; BBC_AIMED_PHOTONS_OFF: none. */
+   * the tuples in the light-traced cells; 0 = photons_per_spp if set, else the image's
+   * pixel count, then after the first sample down to an eighth of it when few of them
+   * reach a pixel (docs/light-tracing.md); BBC_AIMED_PHOTONS_OFF: none. */
   uint32_t aimed_photons_per_spp;
 } bbc_render_options;
 

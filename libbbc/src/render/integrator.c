@@ -716,7 +716,7 @@ bbc_result bbc_render(const bbc_scene *scene, const bbc_accel *accel,
         trace_photons(&tracer, thread_state, threads, splats, splat_count, 0,
                       bbc__light_tracer_first_photon(&tracer, 1), traced, reached, &added,
                       &pass_rays);
-        bbc__light_tracer_adapt(&tracer, reached);
+        bbc__light_tracer_adapt(&tracer, reached[1]);
         from = 1;
       }
       if (from < last)

@@ -287,17 +287,17 @@ void bbc__light_tracer_budget(bbc__light_tracer *lt, const uint64_t defaults[2],
   if (!lt->aiming) lt->pilot[1] = lt->rest[1] = 0;
 }
 
-/* A kind of photon is worth tracing in proportion to the share of its photons that
- * reach a pixel (docs/light-tracing.md, "How many photons"): at a share of 1/32 or
- * more, the pilot's count; below, fewer in proportion, down to a 64th. */
-void bbc__light_tracer_adapt(bbc__light_tracer *lt, const uint64_t splats[2]) {
-  for (int i = 0; i < 2; i++) {
-    if (lt->fixed[i] || lt->pilot[i] == 0) continue;
-    const double share = (double)splats[i] / lt->pilot[i];
-    const double factor = fmax(1.0 / 64, fmin(1.0, 32 * share));
-    const uint64_t n = (uint64_t)ceil(factor * lt->pilot[i]);
-    lt->rest[i] = n ? n : 1;
-  }
+/* Aimed photons are worth tracing in proportion to the share of them that reaches a
+ * pixel (docs/light-tracing.md, "How many photons"): at a share of 1/32 or more, the
+ * pilot's count; below, fewer in proportion, down to an eighth. The cones' photons keep
+ * their count: they alone find the paths no cache holds, and cut to a 64th where few of
+ * them landed, the few that did made fireflies. */
+void bbc__light_tracer_adapt(bbc__light_tracer *lt, uint64_t aimed_reached) {
+  if (lt->fixed[1] || lt->pilot[1] == 0) return;
+  const double share = (double)aimed_reached / lt->pilot[1];
+  const double factor = fmax(1.0 / 8, fmin(1.0, 32 * share));
+  const uint64_t n = (uint64_t)ceil(factor * lt->pilot[1]);
+  lt->rest[1] = n ? n : 1;
 }
 
 uint64_t bbc__light_tracer_first_photon(const bbc__light_tracer *lt, uint64_t k) {

@@ -97,14 +97,14 @@ uint64_t bbc__light_tracer_default_photons(const bbc__light_tracer *lt, bbc_cach
 bbc_result bbc__light_tracer_aim(bbc__light_tracer *lt, bbc_cache_cursor *cursor);
 
 /* Sets the photons per sample, from the cones ([0]) and aimed ([1]): given[i], or
- * when it is 0 defaults[i], adapted after the first sample (at least 1 of each; no
- * aimed ones when given[1] is UINT64_MAX or there is no pair to aim at). */
+ * when it is 0 defaults[i], the aimed ones' adapted after the first sample (at least 1
+ * of each; no aimed ones when given[1] is UINT64_MAX or there is no pair to aim at). */
 void bbc__light_tracer_budget(bbc__light_tracer *lt, const uint64_t defaults[2],
                               const uint64_t given[2]);
 
-/* After sample 0: sets the default counts of the other samples from the splats of
- * sample 0's photons of each kind (docs/light-tracing.md, "How many photons"). */
-void bbc__light_tracer_adapt(bbc__light_tracer *lt, const uint64_t splats[2]);
+/* After sample 0: sets the default count of aimed photons of the other samples from how
+ * many of sample 0's reached a pixel (docs/light-tracing.md, "How many photons"). */
+void bbc__light_tracer_adapt(bbc__light_tracer *lt, uint64_t aimed_reached);
 
 /* The index of the first photon of sample k (photons of sample k are those from
  * bbc__light_tracer_first_photon(lt, k) to that of k + 1). */
