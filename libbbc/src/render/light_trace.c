@@ -211,6 +211,7 @@ bbc_result bbc__light_tracer_aim(bbc__light_tracer *lt, bbc_cache_cursor *cursor
       if (source_of[c->tuples[e[i].tuple].light] != UINT32_MAX &&
           !(e[i].bound < c->light_trace_bound))
         mask |= 1u << c->tuples[e[i].tuple].chain;
+    mask &= c->chains; /* the chain types asked for */
     for (uint32_t i = 0; mask && i < n; i++) {
       const bbc_tuple *t = &c->tuples[e[i].tuple];
       const uint32_t s = source_of[t->light];
