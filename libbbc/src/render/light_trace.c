@@ -176,9 +176,17 @@ static void corners(const bbc_scene *scene, uint32_t t, bbc_vec3 p[3]) {
   for (int k = 0; k < 3; k++) p[k] = v3_load(scene->positions + 3 * (size_t)idx[k]);
 }
 
-static int is_aimed(const bbc__light_tracer *lt, uint32_t source, uint32_t triangle) {
+/* The mark of the pair (source, triangle): set to `on` when on >= 0; returns the old. */
+static int mark(const bbc__light_tracer *lt, uint32_t source, uint32_t triangle, int on) {
   const uint64_t bit = (uint64_t)source * lt->scene->triangle_count + triangle;
-  return (lt->aimed[bit >> 6] >> (bit & 63)) & 1;
+  uint64_t *word = &lt->aimed[bit >> 6];
+  const int was = (*word >> (bit & 63)) & 1;
+  if (on >= 0) *word = on ? *word | 1ull << (bit & 63) : *word & ~(1ull << (bit & 63));
+  return was;
+}
+
+static int is_aimed(const bbc__light_tracer *lt, uint32_t source, uint32_t triangle) {
+  return mark(lt, source, triangle, -1);
 }
 
 bbc_result bbc__light_tracer_aim(bbc__light_tracer *lt, bbc_cache_cursor *cursor) {
@@ -216,10 +224,7 @@ bbc_result bbc__light_tracer_aim(bbc__light_tracer *lt, bbc_cache_cursor *cursor
       const bbc_tuple *t = &c->tuples[e[i].tuple];
       const uint32_t s = source_of[t->light];
       if (s == UINT32_MAX || !(mask & (1u << t->chain))) continue;
-      const uint64_t bit = (uint64_t)s * scene->triangle_count + t->specular[0];
-      if ((lt->aimed[bit >> 6] >> (bit & 63)) & 1) continue;
-      lt->aimed[bit >> 6] |= 1ull << (bit & 63);
-      marked++;
+      marked += !mark(lt, s, t->specular[0], 1);
     }
   }
   free(source_of);
@@ -246,9 +251,8 @@ bbc_result bbc__light_tracer_aim(bbc__light_tracer *lt, bbc_cache_cursor *cursor
       corners(scene, t, p);
       const bbc_vec3 n = v3_cross(v3_sub(p[1], p[0]), v3_sub(p[2], p[0]));
       const double area = 0.5 * v3_length(n);
-      const uint64_t bit = (uint64_t)s * scene->triangle_count + t;
       if (!(area > 0)) { /* never hit: the other photons may keep it */
-        lt->aimed[bit >> 6] &= ~(1ull << (bit & 63));
+        mark(lt, s, t, 0);
         continue;
       }
       const bbc_vec3 centroid = v3_scale(v3_add(p[0], v3_add(p[1], p[2])), 1.0 / 3);
@@ -257,7 +261,7 @@ bbc_result bbc__light_tracer_aim(bbc__light_tracer *lt, bbc_cache_cursor *cursor
       const double cosine = fabs(v3_dot(d, n)) / (2 * area * sqrt(v3_dot(d, d)));
       const double w = i * area * (cosine + 0.1) / r2;
       if (!(w > 0) || !isfinite(w)) {
-        lt->aimed[bit >> 6] &= ~(1ull << (bit & 63));
+        mark(lt, s, t, 0);
         continue;
       }
       bbc__aim *a = &lt->aims[lt->aim_count++];
