@@ -59,6 +59,7 @@ int cmd_diff(const char *path_a, const char *path_b) {
     differ("params.chains: %s | %s", inspect_chains_text(a.params.chains, ta, sizeof ta),
            inspect_chains_text(b.params.chains, tb, sizeof tb));
   DIFF_U("params.max_level", a.params.max_level, b.params.max_level);
+  DIFF_U("params.max_level_double", a.params.max_level_double, b.params.max_level_double);
   DIFF_D("params.sigma", a.params.sigma, b.params.sigma);
   DIFF_D("params.alpha_single", a.params.alpha_single, b.params.alpha_single);
   DIFF_D("params.alpha_double", a.params.alpha_double, b.params.alpha_double);

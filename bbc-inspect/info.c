@@ -28,6 +28,8 @@ int cmd_info(const char *path) {
       "m %g, grid %u, remainder %s\n",
       inspect_chains_text(p->chains, chains, sizeof chains), p->max_level, p->sigma,
       p->alpha_single, p->alpha_double, p->m, p->grid_resolution, p->remainder ? "on" : "off");
+  if (p->max_level_double)
+    printf("two bounces  max_level %u (point, spot and sun lights)\n", p->max_level_double);
   if (p->area_lights)
     printf("area lights  on, double scattering %s, alpha %g%s\n", p->area_double ? "on" : "off",
            p->alpha_area > 0 ? p->alpha_area : p->alpha_double,

@@ -57,11 +57,15 @@ static const char help[] =
     "                        receivers (--receivers) all of them are left out. A type\n"
     "                        left out is light-traced where the camera sees its\n"
     "                        caustic directly, and missing in mirrors and through glass\n"
-    "  --max-level N         deepest subdivision level of a tuple's domain (default 10);\n"
-    "                        a two-bounce piece whose irradiance bound is unbounded\n"
+    "  --max-level N         deepest subdivision level of a tuple's domain (default 10,\n"
+    "                        and 3 for two-bounce tuples unless N is given: deeper\n"
+    "                        ones cost far more and render no better); a two-bounce\n"
+    "                        piece whose irradiance bound is unbounded\n"
     "                        may be split once more, and one whose position bound is\n"
     "                        still 4 --sigma or more in area down to four levels more\n"
     "                        for its position alone (point lights, spots and suns)\n"
+    "  --max-level2 N        the same for the two-bounce tuples of point lights, spots\n"
+    "                        and suns alone (1-30; default 3, or --max-level N)\n"
     "  --sigma S             stop subdividing when the position bound's area (receiver\n"
     "                        barycentric units) is below S (default 1e-4); not used\n"
     "                        for area lights\n"
@@ -464,7 +468,8 @@ int main(int argc, char **argv) {
   int progress = -1, stats = 0, allow_empty = 0, no_geometry = 0, alpha_area_given = 0;
   int dry_run = 0, ignore_estimate = 0, receivers_auto = 1;
   double memory_mb = 0; /* --memory; 0: the default */
-  int chains_given = 0;
+  int chains_given = 0, max_level_given = 0;
+  uint32_t level2 = 0;       /* --max-level2; 0: not given */
   double double_budget = 10; /* --double-budget, minutes of CPU */
   bbc_light_units light_units = BBC_LIGHT_UNITS_FILE;
 
@@ -496,6 +501,9 @@ int main(int argc, char **argv) {
       double_budget = cli_parse_double(&a, "--double-budget", value, 0, 1e9);
     } else if (cli_option(&a, "--max-level", &value)) {
       options.params.max_level = (uint32_t)cli_parse_int(&a, "--max-level", value, 0, 30);
+      max_level_given = 1;
+    } else if (cli_option(&a, "--max-level2", &value)) {
+      level2 = (uint32_t)cli_parse_int(&a, "--max-level2", value, 1, 30);
     } else if (cli_option(&a, "--sigma", &value)) {
       options.params.sigma = cli_parse_double(&a, "--sigma", value, 0, 1);
     } else if (cli_option(&a, "--alpha", &value)) {
@@ -561,6 +569,8 @@ int main(int argc, char **argv) {
     }
   }
   if (!scene_path) cli_usage_error(usage, "no scene given");
+  /* --max-level N alone sets every tuple's level (0: the same as max_level). */
+  if (level2 || max_level_given) options.params.max_level_double = level2;
   if (!output && !dry_run) cli_usage_error(usage, "no output given (-o OUT.bbc)");
   if (options.params.area_double && !options.params.area_lights)
     cli_usage_error(usage, "--area-double needs --area-lights");

@@ -43,9 +43,35 @@ test_receivers_auto_follows_the_curved_triangles() {
   [ "$(receivers "$TMP/pt.bbc")" = 0 ] || fail "--receivers per-triangle gave beams"
 }
 
+# Two-bounce tuples stop at level 3 unless told: --max-level2 sets their level alone,
+# --max-level N every tuple's. The bounder's piece counts show which level it used, and
+# bbc-inspect info the level stored.
+test_two_bounce_tuples_have_their_own_level() {
+  ball="$BBC_TEST_SCENES/ball80.gltf"
+  pieces() { name=$1; shift
+    expect_status 0 "$PRECOMPUTE" "$ball" -o "$TMP/$name.bbc" --chains TT --resolution 32 \
+      --stats --no-progress "$@"
+    grep "^pieces per tuple" "$TMP/err" > "$TMP/$name.pieces" ||
+      fail "no piece counts: $(cat "$TMP/err")"; }
+  two_bounce_line() { expect_status 0 "$BBC_BIN/bbc-inspect/bbc-inspect" info "$TMP/$1.bbc"
+    grep "^two bounces" "$TMP/out"; }
+  pieces default
+  pieces l3 --max-level 3
+  pieces d1 --max-level2 1
+  pieces l1 --max-level 1
+  cmp -s "$TMP/default.pieces" "$TMP/l3.pieces" || fail "default: not level 3"
+  cmp -s "$TMP/d1.pieces" "$TMP/l1.pieces" || fail "--max-level2 1: not level 1"
+  cmp -s "$TMP/d1.pieces" "$TMP/default.pieces" && fail "level 1 bounded as level 3"
+  [ "$(two_bounce_line default)" = "two bounces  max_level 3 (point, spot and sun lights)" ] ||
+    fail "info: $(cat "$TMP/out")"
+  [ "$(two_bounce_line d1)" = "two bounces  max_level 1 (point, spot and sun lights)" ] ||
+    fail "info: $(cat "$TMP/out")"
+  [ -z "$(two_bounce_line l3)" ] || fail "--max-level 3 stored a level of its own"
+}
+
 test_help_documents_every_flag() {
   expect_status 0 "$PRECOMPUTE" --help
-  for flag in --output --stats --json --chains --max-level --sigma --alpha --alpha2 --alpha-area --m --resolution \
+  for flag in --output --stats --json --chains --max-level --max-level2 --sigma --alpha --alpha2 --alpha-area --m --resolution \
               --no-remainder --jacobian --threads --memory --entry-memory --progress --no-progress \
               --version --help --allow-empty --light-units --dry-run --ignore-estimate \
               --receivers --double-budget; do
@@ -61,6 +87,7 @@ test_bad_usage_exits_2() {
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --alpha-area 50
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --sigma abc
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --max-level 99
+  expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --max-level2 0
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --resolution 0
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --frobnicate
   expect_status 2 "$PRECOMPUTE" "$MIRROR" -o "$TMP/x.bbc" --receivers beams

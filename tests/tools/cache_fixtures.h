@@ -553,6 +553,13 @@ static int fx_invalid_corpus(fx_case *cases) {
       memcpy(sec->data + 48, &a, 8);
     });
     FX_EDIT(BBC_ERR_CORRUPT, "unknown-chain-bit", "PARM", sec->data[0] = 0x7F);
+    /* R-PAR-1 (1.9): the two-bounce level is at most 64, and 0 without a two-bounce
+     * chain type. */
+    FX_EDIT(BBC_ERR_CORRUPT, "absurd-max-level-double", "PARM", fx_st32(sec->data + 60, 65));
+    FX_EDIT(BBC_ERR_CORRUPT, "max-level-double-without-two-bounce", "PARM", {
+      fx_st32(sec->data, 1u << BBC_CHAIN_R | 1u << BBC_CHAIN_T);
+      fx_st32(sec->data + 60, 3);
+    });
     FX_EDIT(BBC_ERR_CORRUPT, "nan-sigma", "PARM", memset(sec->data + 8, 0xFF, 8));
     FX_EDIT(BBC_ERR_CORRUPT, "absurd-grid-resolution", "PARM",
             fx_st32(sec->data + 40, 0x80000000u));

@@ -589,7 +589,8 @@ TEST(round_trip_file_and_memory) {
     bbc_cache_info info;
     bbc_cache_get_info(c, &info);
     CHECK_INT(info.version_major, 1);
-    CHECK_INT(info.version_minor, BBC__MINOR_PLANE); /* its floor is a receiver plane */
+    /* The default parameters' two-bounce level (its floor, a receiver plane, is 1.6). */
+    CHECK_INT(info.version_minor, BBC__MINOR_DOUBLE_LEVEL);
     CHECK_INT(info.tuple_count, tuples);
     CHECK_INT(info.entry_count, built_entries);
     CHECK(info.chunk_count > 10);
@@ -1296,6 +1297,19 @@ TEST(check_scene_rejects_another_scene_or_parameters) {
   q.max_level = 4;
   CHECK_INT(bbc_cache_check_params(c, &q), BBC_ERR_SCENE_MISMATCH);
   CHECK_STR_CONTAINS(m.last, "max_level 10, expected 4");
+  /* The two-bounce level (3 by default): its own, or max_level where it is 0. */
+  bbc_cache_info stored;
+  bbc_cache_get_info(c, &stored);
+  CHECK_INT((int)stored.params.max_level_double, 3);
+  CHECK_INT((int)stored.version_minor, 9); /* R-HDR-3: the field is a 1.9 feature */
+  q = p;
+  q.max_level_double = 0;
+  CHECK_INT(bbc_cache_check_params(c, &q), BBC_ERR_SCENE_MISMATCH);
+  CHECK_STR_CONTAINS(m.last, "max_level_double 3, expected 10");
+  q.max_level = 3;
+  q.max_level_double = 3;
+  CHECK_INT(bbc_cache_check_params(c, &q), BBC_ERR_SCENE_MISMATCH);
+  CHECK_STR_CONTAINS(m.last, "max_level 10, expected 3");
   q = p;
   q.sigma = 2e-4;
   CHECK_INT(bbc_cache_check_params(c, &q), BBC_ERR_SCENE_MISMATCH);
@@ -1600,7 +1614,8 @@ TEST(shard_section_is_read_back) {
   REQUIRE(bbc_cache_open_memory(&f, full, full_size, NULL) == BBC_OK);
   bbc_cache_info in;
   bbc_cache_get_info(c, &in);
-  CHECK_INT(in.version_minor, BBC__MINOR_PLANE); /* a receiver plane (1.1 without it) */
+  /* The default two-bounce level (a receiver plane alone: 1.6, 1.1 without it). */
+  CHECK_INT(in.version_minor, BBC__MINOR_DOUBLE_LEVEL);
   bbc_cache_shard sh;
   CHECK_INT(bbc_cache_get_shard(c, &sh), 1);
   CHECK_INT(sh.index, 2);
@@ -1620,7 +1635,7 @@ TEST(shard_section_is_read_back) {
   CHECK_INT(in.tuple_count, expect);
   /* A complete cache has no SHRD. */
   bbc_cache_get_info(f, &in);
-  CHECK_INT(in.version_minor, BBC__MINOR_PLANE);
+  CHECK_INT(in.version_minor, BBC__MINOR_DOUBLE_LEVEL);
   CHECK_INT(bbc_cache_get_shard(f, &sh), 0);
   CHECK(sh.candidates == NULL && sh.count == 0);
   CHECK_INT(bbc_cache_get_shard(f, NULL), 0);

@@ -58,10 +58,17 @@ typedef struct bbc_precompute_params {
    * default) lets it choose, L with 2^(L-1) >= grid_resolution / 8 for beam receivers,
    * else one level; 1 asks for one level; 2..17 for that many. */
   uint32_t cell_levels;
+  /* The deepest subdivision level of the two-bounce tuples (RR, RT, TR, TT) of point,
+   * spot and sun lights (format 1.9, PARM bytes 60-63; bbc-precompute --max-level2,
+   * default 3): 0 means max_level, what every cache before 1.9 used. Deeper levels cost
+   * far more and rendered no better (docs/double-scattering.md, "How deep"). A cache
+   * without a two-bounce chain type stores 0. */
+  uint32_t max_level_double;
 } bbc_precompute_params;
 
-/* The paper's defaults: all chains, level 10, sigma 1e-4, alpha 2 and 10, m 1, 512
- * cells, remainder variables on; alpha 100 for area lights (docs/lights.md). */
+/* The defaults: all chains, level 10 (3 for two-bounce tuples), sigma 1e-4, alpha 2 and
+ * 10, m 1, 512 cells, remainder variables on; alpha 100 for area lights
+ * (docs/lights.md). The paper's settings are those with max_level_double 0. */
 BBC_API void bbc_precompute_params_default(bbc_precompute_params *params);
 
 /* ------------------------------------------------------------------ fingerprint */

@@ -48,7 +48,7 @@ typedef void (*bbc_message_fn)(void *user, bbc_result code, const char *message)
 
 /* Versions: the library, and the .bbc format it reads and writes. */
 #define BBC_FORMAT_VERSION_MAJOR 1
-#define BBC_FORMAT_VERSION_MINOR 8
+#define BBC_FORMAT_VERSION_MINOR 9
 BBC_API const char *bbc_version_string(void);
 
 typedef struct bbc_vec3 {

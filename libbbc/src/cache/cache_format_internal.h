@@ -167,6 +167,9 @@ int bbc__params_valid(const bbc_precompute_params *p);
 /* The ratio the tuples of area lights are bounded to: alpha_area, or alpha_double where
  * it is 0 (caches before 1.5). */
 double bbc__params_alpha_area(const bbc_precompute_params *p);
+/* The deepest level of the two-bounce tuples of point, spot and sun lights:
+ * max_level_double, or max_level where it is 0 (caches before 1.9). */
+uint32_t bbc__params_max_level_double(const bbc_precompute_params *p);
 
 /* The compressor used for chunks, exposed for the layout measurements in the tests:
  * returns the compressed size, or 0 on failure. */

@@ -322,12 +322,14 @@ static bbc_result check_params_and_fingerprint(bbc_cache *c) {
   q->beam_receivers = (flags >> 3) & 1u;
   q->alpha_area = bbc__ldf64(p + 48);
   q->cell_levels = bbc__ld32(p + 56);
+  q->max_level_double = bbc__ld32(p + 60);
   if ((q->chains & ~BBC_CHAIN_MASK_ALL) != 0)
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "reserved chain bits 0x%x not zero (R-FILE-2)",
                 q->chains & ~BBC_CHAIN_MASK_ALL);
-  if ((flags & ~15u) != 0 || !all_zero(p + 60, 4))
+  if ((flags & ~15u) != 0)
     return fail(c, BBC_ERR_CORRUPT, "PARM", at + 44, "reserved bits not zero (R-FILE-2)");
-  if (!bbc__params_valid(q) || (!q->area_lights && q->alpha_area != 0) || q->cell_levels == 1)
+  if (!bbc__params_valid(q) || (!q->area_lights && q->alpha_area != 0) || q->cell_levels == 1 ||
+      (!(q->chains & BBC_CHAIN_MASK_DOUBLE) && q->max_level_double != 0))
     return fail(c, BBC_ERR_CORRUPT, "PARM", at, "parameter out of its range (R-PAR-1)");
 
   p = c->sec[K_FPRT];
@@ -869,6 +871,10 @@ bbc_result bbc_cache_check_params(const bbc_cache *c, const bbc_precompute_param
     snprintf(diff, sizeof diff, "chains 0x%x, expected 0x%x", q->chains, p->chains);
   else if (q->max_level != p->max_level)
     snprintf(diff, sizeof diff, "max_level %u, expected %u", q->max_level, p->max_level);
+  else if ((q->chains & BBC_CHAIN_MASK_DOUBLE) &&
+           bbc__params_max_level_double(q) != bbc__params_max_level_double(p))
+    snprintf(diff, sizeof diff, "max_level_double %u, expected %u", bbc__params_max_level_double(q),
+             bbc__params_max_level_double(p));
   else if (q->sigma != p->sigma)
     snprintf(diff, sizeof diff, "sigma %.17g, expected %.17g", q->sigma, p->sigma);
   else if (q->alpha_single != p->alpha_single)

@@ -28,6 +28,7 @@
 #define BBC__MINOR_PLANE 6u       /* receiver planes (RCVR parameterisation 3) */
 #define BBC__MINOR_BEAM 7u        /* beam receivers (PARM flags bit 3) */
 #define BBC__MINOR_LEVELS 8u      /* levels of cells (PARM bytes 56-59) */
+#define BBC__MINOR_DOUBLE_LEVEL 9u /* the two-bounce tuples' own level (PARM bytes 60-63) */
 
 /* XXH64 of a candidate list as TUPL records (the candidates_hash of SHRD). */
 uint64_t bbc__candidates_hash(const bbc_tuple *tuples, size_t count);

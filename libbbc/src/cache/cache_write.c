@@ -1093,7 +1093,9 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   int planes = 0;
   for (uint32_t i = 0; i < b->grid->receiver_count; i++)
     planes |= b->grid->receivers[i].parameterisation == BBC_PARAM_PLANE;
-  bbc__st16(header + 10, b->params.cell_levels      ? BBC__MINOR_LEVELS
+  const int level2 = (b->params.chains & BBC_CHAIN_MASK_DOUBLE) && b->params.max_level_double;
+  bbc__st16(header + 10, level2                     ? BBC__MINOR_DOUBLE_LEVEL
+                         : b->params.cell_levels    ? BBC__MINOR_LEVELS
                          : b->params.beam_receivers ? BBC__MINOR_BEAM
                          : planes                   ? BBC__MINOR_PLANE
                          : b->params.area_lights && b->params.alpha_area != 0

@@ -17,15 +17,20 @@ void bbc_precompute_params_default(bbc_precompute_params *p) {
   p->grid_resolution = 512;
   p->remainder = 1;
   p->alpha_area = 100.0;
+  p->max_level_double = 3;
+}
+
+uint32_t bbc__params_max_level_double(const bbc_precompute_params *p) {
+  return p->max_level_double ? p->max_level_double : p->max_level;
 }
 
 int bbc__params_valid(const bbc_precompute_params *p) {
   return p->chains != 0 && (p->chains & ~BBC_CHAIN_MASK_ALL) == 0 &&
-         p->max_level <= BBC__MAX_LEVEL && isfinite(p->sigma) && p->sigma >= 0 &&
-         isfinite(p->alpha_single) && p->alpha_single >= 1 && isfinite(p->alpha_double) &&
-         p->alpha_double >= 1 && isfinite(p->m) && p->m > 0 && p->grid_resolution >= 1 &&
-         p->grid_resolution <= BBC__MAX_RESOLUTION && p->remainder <= 1 && p->area_lights <= 1 &&
-         p->area_double <= 1 &&
+         p->max_level <= BBC__MAX_LEVEL && p->max_level_double <= BBC__MAX_LEVEL &&
+         isfinite(p->sigma) && p->sigma >= 0 && isfinite(p->alpha_single) && p->alpha_single >= 1 &&
+         isfinite(p->alpha_double) && p->alpha_double >= 1 && isfinite(p->m) && p->m > 0 &&
+         p->grid_resolution >= 1 && p->grid_resolution <= BBC__MAX_RESOLUTION &&
+         p->remainder <= 1 && p->area_lights <= 1 && p->area_double <= 1 &&
          (!p->area_double || (p->area_lights && (p->chains & BBC_CHAIN_MASK_DOUBLE))) &&
          (p->alpha_area == 0 || (isfinite(p->alpha_area) && p->alpha_area >= 1)) &&
          p->beam_receivers <= 1 && p->cell_levels <= BBC__MAX_CELL_LEVELS;
@@ -50,4 +55,6 @@ void bbc__params_encode(const bbc_precompute_params *p, uint8_t out[BBC__PARM_SI
    * a value nothing used. */
   bbc__stf64(out + 48, p->area_lights ? p->alpha_area : 0.0);
   bbc__st32(out + 56, p->cell_levels >= 2 ? p->cell_levels : 0);
+  /* 0 without a two-bounce chain type, for the same reason. */
+  bbc__st32(out + 60, p->chains & BBC_CHAIN_MASK_DOUBLE ? p->max_level_double : 0);
 }

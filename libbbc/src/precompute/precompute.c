@@ -1169,8 +1169,10 @@ static bbc_result precompute(bbc_cache_builder **out, const bbc_scene *scene,
   bound.alpha = params->alpha_single;
   bound.no_remainder = !params->remainder;
   bound.jacobian = options->jacobian;
-  bbc_bound_params bound2 = bound; /* two bounces: their own alpha */
+  bbc_bound_params bound2 = bound; /* two bounces: their own alpha and level */
   bound2.alpha = params->alpha_double;
+  const uint32_t level2 = bbc__params_max_level_double(params);
+  bound2.max_level = level2 ? (int)level2 : -1;
   bbc_bound_params bound_area = bound; /* every tuple of an area light: its own alpha */
   bound_area.alpha = bbc__params_alpha_area(params);
 
