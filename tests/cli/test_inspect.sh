@@ -107,8 +107,8 @@ PY
 test_info_and_validate() {
   make_cache
   expect_status 0 "$INSPECT" info "$TMP/c.bbc"
-  for word in "format       1.6" "CDAT" "CHNK" "GEOM  optional" "crc32 0x" "chains R,T,RR,RT,TR,TT" \
-              "fingerprint" "tuples       " "plane, 32 x 32 cells" "ratio"; do
+  for word in "format       1.9" "CDAT" "CHNK" "GEOM  optional" "crc32 0x" "chains R,T,RR,RT,TR,TT" \
+              "two bounces  max_level 3" "fingerprint" "tuples       " "plane, 32 x 32 cells" "ratio"; do
     grep -q -- "$word" "$TMP/out" || fail "info does not show '$word': $(cat "$TMP/out")"
   done
   [ -s "$TMP/err" ] && fail "info wrote to stderr"
