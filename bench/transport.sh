@@ -112,7 +112,7 @@ if [ $report = 0 ]; then
     set -- $("$bin/bench/image_error" "$work/$s-ref2-w$width.exr" "$ref")
     echo "$s ref2 - $(cut -d' ' -f1 "$work/$s-ref2-w$width.exr.cpu") $2 $4" | tee -a "$dat"
     for run in $seeds long; do
-      for mode in on off; do
+      for mode in on off alone; do
         seed=$run
         n=$spp
         if [ $run = long ]; then
@@ -120,9 +120,13 @@ if [ $report = 0 ]; then
           seed=1001
           n=$((16 * spp))
         fi
-        c=$(cpu "$work/render.log" "$bin/bbc-render/bbc-render" "$gltf" --cache "$cache" \
+        # alone: light tracing without a cache, which needs no precompute.
+        with="--cache $cache --light-trace $mode"
+        [ $mode = alone ] && with="--light-trace on"
+        # shellcheck disable=SC2086
+        c=$(cpu "$work/render.log" "$bin/bbc-render/bbc-render" "$gltf" $with \
           --only seen-caustics --max-depth $depth --width "$width" --threads "$threads" \
-          --spp "$n" --seed "$seed" --light-trace "$mode" --no-progress -o "$work/r.exr")
+          --spp "$n" --seed "$seed" --no-progress -o "$work/r.exr")
         cp "$work/r.exr" "$work/$s-$mode-$seed.exr"
         set -- $("$bin/bench/image_error" "$work/r.exr" "$ref")
         echo "$s $mode $seed $c $2 $4 $n" | tee -a "$dat"
@@ -174,7 +178,8 @@ out=$root/bench/results/transport.md
   echo "is a glass-water interface (1.5 / 1.33)."
   echo "\"1-2 specular vertices only\": the same tracer with --any-chain 2, a quarter of the"
   echo "photons; the most a cache of one- and two-vertex chains could hold. \"off\" renders the"
-  echo "cache alone, without the Fresnel reflections off glass either."
+  echo "cache alone, without the Fresnel reflections off glass either; \"alone\" is light"
+  echo "tracing without a cache (\`bbc-render SCENE --light-trace on\`, no precompute)."
   echo
   for s in hollow water; do
     [ -f "$work/$s.dat" ] || continue
@@ -189,6 +194,7 @@ out=$root/bench/results/transport.md
   for s in hollow water; do
     [ -f "$work/$s.dat" ] || continue
     awk '{ if ($2 == "ref2") printf "| %s | reference, paths of 1-2 specular vertices only | - | - | %s (ref.) | %.3g | %.4f |\n", $1, $4, $5, $6;
+           else if ($2 == "alone") printf "| %s | light tracing alone, no cache | %s | %s | %.1f | %.3g | %.4f |\n", $1, $7, $3, $4, $5, $6;
            else printf "| %s | --light-trace %s | %s | %s | %.1f | %.3g | %.4f |\n", $1, $2, $7, $3, $4, $5, $6 }' "$work/$s.dat"
     [ -s "$work/$s-pov.dat" ] &&
       awk -v s="$s" -v k="$povray_depth" '{ printf "| %s | POV-Ray, %.3g photons, radius %s, depth %s | - | - | %.1f | %.3g | %.4f |\n", s, $1, $2, k, $3, $4, $5 }' "$work/$s-pov.dat"
