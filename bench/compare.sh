@@ -499,6 +499,14 @@ case $part in all | scenes) scenes_part ;; esac
 
 # ------------------------------------------------------------------------------------
 # The report and the rows of README.md and docs/numbers.md (from whichever parts have been run).
+# The flat mirror not run here and without its work files keeps what the results hold.
+if [ ! -f "$flat_md" ] && [ -f "$out/compare.md" ]; then
+  mkdir -p "$work/flat"
+  sed -n '/^## Flat mirror/,/^## /p' "$out/compare.md" | sed '$d' > "$flat_md"
+  [ -s "$flat_md" ] || rm -f "$flat_md"
+  grep '^| flat mirror (vs exact)' "$root/README.md" > "$work/flat/readme-row.md" ||
+    rm -f "$work/flat/readme-row.md"
+fi
 {
   echo "# Caustic quality against CPU time"
   echo
