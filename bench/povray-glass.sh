@@ -1,8 +1,9 @@
 #!/bin/sh
 # bbc against POV-Ray 3.7 photon mapping on glass (issue 38): the caustic alone of ball320
 # (TT, --max-level 3 as bench/firefly.sh), pool4k (T) and `bbc-scenegen glass-sphere --size
-# 5120` (TT, --max-level 3 too: the default level 10 costs some 180 CPU-s of precompute
-# there, more than POV-Ray's best run), 320x240, 2 threads, against a light-traced reference
+# 5120` (TT, --max-level 3 too: the two-bounce default since format 1.9; level 10, the
+# default before, cost 355 CPU-s of precompute there, bench/results/max-level2.md),
+# 320x240, 2 threads, against a light-traced reference
 # (bench/light_trace, 10^9 photons unless --photons; checked by a second one of another
 # seed, --check-photons).
 # POV-Ray renders the scene translated by bench/povray_scene (dielectrics: ior, Fresnel
