@@ -79,8 +79,8 @@ out=$root/bench/results/firefly.md
   echo "only, $spp spp, $threads threads; reference: bench/light_trace, $photons photons"
   echo "($(cat "$ref.cpu") CPU-s). Machine: $machine. CPU-s: user + sys of each render."
   echo "\"off\": \`bbc-render --light-trace off\` (the caustic estimator alone); \"on\": the"
-  echo "default (light tracing with the cells of unbounded tuples, one photon per pixel"
-  echo "per sample)."
+  echo "default (light tracing with the cells of unbounded tuples; per sample one photon per"
+  echo "pixel from the cones and, after the first sample's pilot, up to as many aimed ones)."
   echo
   echo "| seed | off relMSE | off lit-mean | off CPU-s | on relMSE | on lit-mean | on CPU-s |"
   echo "|---|---|---|---|---|---|---|"
