@@ -170,6 +170,9 @@ double bbc__params_alpha_area(const bbc_precompute_params *p);
 /* The deepest level of the two-bounce tuples of point, spot and sun lights:
  * max_level_double, or max_level where it is 0 (caches before 1.9). */
 uint32_t bbc__params_max_level_double(const bbc_precompute_params *p);
+/* The max_level_double a file stores (PARM bytes 60-63): 0 without a two-bounce chain
+ * type, so that the parameters' hash does not depend on a value nothing used. */
+uint32_t bbc__params_stored_level_double(const bbc_precompute_params *p);
 
 /* The compressor used for chunks, exposed for the layout measurements in the tests:
  * returns the compressed size, or 0 on failure. */

@@ -1093,8 +1093,7 @@ static bbc_result write_cache(bbc_cache_builder *b, sink *s, const bbc_cache_wri
   int planes = 0;
   for (uint32_t i = 0; i < b->grid->receiver_count; i++)
     planes |= b->grid->receivers[i].parameterisation == BBC_PARAM_PLANE;
-  const int level2 = (b->params.chains & BBC_CHAIN_MASK_DOUBLE) && b->params.max_level_double;
-  bbc__st16(header + 10, level2                     ? BBC__MINOR_DOUBLE_LEVEL
+  bbc__st16(header + 10, bbc__params_stored_level_double(&b->params) ? BBC__MINOR_DOUBLE_LEVEL
                          : b->params.cell_levels    ? BBC__MINOR_LEVELS
                          : b->params.beam_receivers ? BBC__MINOR_BEAM
                          : planes                   ? BBC__MINOR_PLANE

@@ -24,6 +24,10 @@ uint32_t bbc__params_max_level_double(const bbc_precompute_params *p) {
   return p->max_level_double ? p->max_level_double : p->max_level;
 }
 
+uint32_t bbc__params_stored_level_double(const bbc_precompute_params *p) {
+  return p->chains & BBC_CHAIN_MASK_DOUBLE ? p->max_level_double : 0;
+}
+
 int bbc__params_valid(const bbc_precompute_params *p) {
   return p->chains != 0 && (p->chains & ~BBC_CHAIN_MASK_ALL) == 0 &&
          p->max_level <= BBC__MAX_LEVEL && p->max_level_double <= BBC__MAX_LEVEL &&
@@ -55,6 +59,5 @@ void bbc__params_encode(const bbc_precompute_params *p, uint8_t out[BBC__PARM_SI
    * a value nothing used. */
   bbc__stf64(out + 48, p->area_lights ? p->alpha_area : 0.0);
   bbc__st32(out + 56, p->cell_levels >= 2 ? p->cell_levels : 0);
-  /* 0 without a two-bounce chain type, for the same reason. */
-  bbc__st32(out + 60, p->chains & BBC_CHAIN_MASK_DOUBLE ? p->max_level_double : 0);
+  bbc__st32(out + 60, bbc__params_stored_level_double(p));
 }
